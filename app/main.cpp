@@ -1,0 +1,289 @@
+// obscura: the command-line front end (render, integrators, info).
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <optional>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/gltf_loader.h"
+#include "core/image_io.h"
+#include "core/integrator.h"
+#include "core/progress.h"
+#include "core/render.h"
+
+using namespace obscura;
+
+namespace {
+
+std::atomic<bool> gCancel{false};
+extern "C" void onSignal(int) { gCancel.store(true); }
+
+struct RenderArgs {
+  std::string scene = OBSCURA_DEFAULT_SCENE;
+  std::string output;
+  std::string integrator = "ao";
+  std::vector<std::string> params;
+  int spp = 16;
+  std::string res = "960x540";
+  std::string camera;
+  int threads = 0;
+  long long seed = 0;
+  std::string sky = "1,1,1";
+  std::string preview;
+  std::string filter = "box";
+  int tileSize = 16;
+  bool half = false;
+  bool noAovs = false;
+  bool quiet = false;
+};
+
+void parseResolution(const std::string& s, int& w, int& h) {
+  const size_t x = s.find('x');
+  const auto num = [&](const std::string& t) -> int {
+    if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos) return -1;
+    return std::atoi(t.c_str());
+  };
+  w = x == std::string::npos ? -1 : num(s.substr(0, x));
+  h = x == std::string::npos ? -1 : num(s.substr(x + 1));
+  if (w < 1 || h < 1 || w > 65536 || h > 65536)
+    throw Error("--res: expected WIDTHxHEIGHT with each in [1, 65536], got '" + s + "'");
+}
+
+Vec3 parseSky(const std::string& s) {
+  std::vector<float> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const float f = std::strtof(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(f) || f < 0)
+      throw Error("--sky: expected R,G,B (finite, non-negative), got '" + s + "'");
+    v.push_back(f);
+  }
+  if (v.size() == 1) v = {v[0], v[0], v[0]};
+  if (v.size() != 3) throw Error("--sky: expected R,G,B (finite, non-negative), got '" + s + "'");
+  return {v[0], v[1], v[2]};
+}
+
+Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
+  if (want.empty()) return scene.cameras.empty() ? makeAutoCamera(scene.bounds(), aspect) : scene.cameras[0];
+  if (want == "auto") return makeAutoCamera(scene.bounds(), aspect);
+  std::string names;
+  for (const auto& c : scene.cameras) {
+    if (c.name == want) return c;
+    names += (names.empty() ? "" : ", ") + c.name;
+  }
+  if (want.find_first_not_of("0123456789") == std::string::npos && want.size() < 9) {
+    const size_t i = size_t(std::stoul(want));
+    if (i < scene.cameras.size()) return scene.cameras[i];
+    throw Error("--camera: index " + want + " is out of range (the scene has " + std::to_string(scene.cameras.size()) +
+                " camera" + (scene.cameras.size() == 1 ? "" : "s") + ")");
+  }
+  throw Error("--camera: no camera named '" + want + "' (cameras: " + (names.empty() ? "none" : names) +
+              "; or 'auto')");
+}
+
+// EXR/OpenImageIO matrices are row-vector form (p' = p M): the transpose of
+// the column-vector matrices used in the code.
+std::vector<float> worldToCameraMatrix(const Camera& c) {
+  const Affine& a = c.toWorld;
+  std::vector<float> m(16, 0.0f);
+  const Vec3 t = c.position();
+  for (int r = 0; r < 3; ++r) {
+    const Vec3 axis(a.m[0][r], a.m[1][r], a.m[2][r]);  // camera axis r in world
+    for (int k = 0; k < 3; ++k) m[size_t(k * 4 + r)] = axis[k];  // row-vector form: column r
+    m[size_t(12 + r)] = -dot(axis, t);
+  }
+  m[15] = 1.0f;
+  return m;
+}
+
+int runRender(const RenderArgs& a) {
+  const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(a.integrator);
+  ParamSet params(desc.params, desc.name);
+  for (const auto& p : a.params) params.setAssignment(p);
+  RenderSettings s;
+  parseResolution(a.res, s.width, s.height);
+  if (a.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(a.spp));
+  if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
+  if (a.tileSize < 1 || a.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(a.tileSize));
+  if (a.seed < 0 || a.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
+  if (a.filter == "box") s.filter = PixelFilter::Box;
+  else if (a.filter == "gaussian") s.filter = PixelFilter::Gaussian;
+  else throw Error("--filter: expected box or gaussian, got '" + a.filter + "'");
+  s.spp = a.spp;
+  s.seed = uint32_t(a.seed);
+  s.threads = a.threads;
+  s.tileSize = a.tileSize;
+  s.sky = parseSky(a.sky);
+  s.aovs = !a.noAovs;
+  s.progress = !a.quiet;
+  if (a.output.empty()) throw Error("-o: an output .exr path is required");
+
+  std::optional<tbb::global_control> limit;
+  if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
+
+  auto integrator = desc.create(params);
+  const IntegratorNeeds needs = desc.needs(params);
+  std::unique_ptr<Scene> scene = loadGltf(a.scene);
+  const Camera camera = selectCamera(*scene, a.camera, float(s.width) / float(s.height));
+
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  RenderStats stats;
+  Film film = render(*scene, camera, *integrator, needs, s, stats, &gCancel);
+  if (gCancel.load()) {
+    std::fprintf(stderr, "obscura: interrupted; %s was not written\n", a.output.c_str());
+    return 130;
+  }
+
+  ExrOptions exr;
+  exr.half = a.half;
+  const auto str = [&](const std::string& k, const std::string& v) { exr.attributes.push_back({k, v}); };
+  str("Software", std::string("Obscura ") + OBSCURA_VERSION);
+  str("obscura:version", OBSCURA_VERSION);
+  str("obscura:scene", std::filesystem::absolute(a.scene).lexically_normal().string());
+  str("obscura:camera", camera.name);
+  str("obscura:integrator", desc.name);
+  std::string all;
+  for (const auto& [k, v] : params.values()) {
+    str("obscura:param:" + k, v);
+    all += (all.empty() ? "" : ",") + k + "=" + v;
+  }
+  str("obscura:params", all);
+  exr.attributes.push_back({"obscura:spp", s.spp});
+  exr.attributes.push_back({"obscura:seed", int(s.seed)});  // stored bit pattern; see README
+  str("obscura:seedText", std::to_string(s.seed));
+  str("obscura:resolution", std::to_string(s.width) + "x" + std::to_string(s.height));
+  str("obscura:filter", a.filter);
+  str("obscura:sky", formatFloat(s.sky.x) + "," + formatFloat(s.sky.y) + "," + formatFloat(s.sky.z));
+  exr.attributes.push_back({"obscura:threads", s.threads > 0 ? s.threads : int(tbb::this_task_arena::max_concurrency())});
+  exr.attributes.push_back({"obscura:renderTime", float(stats.seconds)});
+  exr.attributes.push_back({"obscura:bvhBuildTime", float(scene->buildSeconds())});
+  str("obscura:rays:camera", std::to_string(stats.rays.camera));
+  str("obscura:rays:occlusion", std::to_string(stats.rays.occlusion));
+  str("obscura:rays:closest", std::to_string(stats.rays.closest));
+  str("obscura:rays:total", std::to_string(stats.rays.camera + stats.rays.occlusion + stats.rays.closest));
+  exr.attributes.push_back({"worldToCamera", worldToCameraMatrix(camera)});
+  writeExr(a.output, film, exr);
+  if (!a.preview.empty()) writePreviewPng(a.preview, film);
+
+  if (!a.quiet) {
+    const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
+    std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
+                 s.width, s.height, s.spp, desc.name.c_str(), stats.seconds, total / stats.seconds * 1e-6,
+                 scene->buildSeconds());
+  }
+  return 0;
+}
+
+int runIntegrators() {
+  for (const auto& d : IntegratorRegistry::instance().all()) {
+    std::printf("%s\n    %s\n", d.name.c_str(), d.doc.c_str());
+    for (const auto& p : d.params)
+      std::printf("    -p %-10s %-6s %-16s default %-6s %s\n", (p.name + "=").c_str(), p.typeName().c_str(),
+                  p.rangeText().c_str(), p.defaultValue.c_str(), p.doc.c_str());
+    std::printf("\n");
+  }
+  return 0;
+}
+
+int runInfo(const std::string& path) {
+  std::unique_ptr<Scene> scene = loadGltf(path);
+  const SceneStats st = scene->stats();
+  const Bounds3& b = scene->bounds();
+  std::printf("scene      %s\n", path.c_str());
+  std::printf("meshes     %zu (%zu baked into world space, %zu instanced)\n", st.meshes, scene->flattenedMeshes,
+              scene->instancedMeshes().size());
+  std::printf("primitives %zu\n", st.primitives);
+  std::printf("triangles  %zu unique, %zu rendered\n", st.uniqueTriangles, st.renderedTriangles);
+  std::printf("instances  %zu\n", st.instances);
+  for (const auto& inst : scene->instances())
+    std::printf("           %s -> mesh '%s'\n", inst.node.c_str(), scene->instancedMeshes()[size_t(inst.mesh)].name.c_str());
+  std::printf("cameras    %zu\n", scene->cameras.size());
+  for (size_t i = 0; i < scene->cameras.size(); ++i) {
+    const Camera& c = scene->cameras[i];
+    const Vec3 p = c.position();
+    std::printf("           [%zu] %s  yfov %.4g rad  at (%g, %g, %g)\n", i, c.name.c_str(), c.yfov, p.x, p.y, p.z);
+  }
+  std::printf("materials  %zu\n", scene->materials.size());
+  for (size_t i = 0; i < scene->materials.size(); ++i) {
+    const Material& m = scene->materials[i];
+    std::printf("           [%zu] %s  baseColorFactor (%g, %g, %g)%s\n", i, m.name.c_str(), m.baseColorFactor.x,
+                m.baseColorFactor.y, m.baseColorFactor.z, m.texture >= 0 ? "  x texture" : "");
+  }
+  std::printf("textures   %zu\n", scene->textures.size());
+  if (b.empty())
+    std::printf("bounds     empty\n");
+  else
+    std::printf("bounds     (%g, %g, %g) - (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
+  std::printf("bvh build  %.3f s\n", scene->buildSeconds());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Obscura: film-style ambient passes (AO, obscurance, ambient transfer, GI) as linear EXR."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("obscura ") + OBSCURA_VERSION);
+
+  RenderArgs r;
+  CLI::App* render = app.add_subcommand("render", "Render a glTF scene to a multi-channel EXR pass");
+  render->add_option("scene", r.scene, "glTF 2.0 scene (.gltf or .glb); default: the bundled scene");
+  render->add_option("-o,--output", r.output, "Output EXR path (written atomically)")->required();
+  render->add_option("-i,--integrator", r.integrator, "Integrator (see 'obscura integrators')");
+  render->add_option("-p,--param", r.params, "Integrator parameter key=value (repeatable)");
+  render->add_option("--spp", r.spp, "Camera samples per pixel");
+  render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT");
+  render->add_option("--camera", r.camera, "Camera name or index in the file, or 'auto' (default: the first camera, else auto)");
+  render->add_option("--threads", r.threads, "Worker threads (0 = all cores)");
+  render->add_option("--seed", r.seed, "Sampling seed (the image is a pure function of it)");
+  render->add_option("--sky", r.sky, "Sky radiance R,G,B (scales the shaded.* AOV)");
+  render->add_option("--preview", r.preview, "Also write an sRGB PNG preview of the pass");
+  render->add_option("--filter", r.filter, "Pixel filter: box or gaussian (sigma 0.5 px, radius 1.5 px)");
+  render->add_option("--tile", r.tileSize, "Tile size in pixels (does not change the image)");
+  render->add_flag("--half", r.half, "Write 16-bit half floats instead of 32-bit floats");
+  render->add_flag("--no-aovs", r.noAovs, "Write only R,G,B,A (skips albedo, N, Z, shaded)");
+  render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
+
+  app.add_subcommand("integrators", "List integrators with their parameters");
+  std::string infoPath;
+  CLI::App* info = app.add_subcommand("info", "Describe a scene: meshes, triangles, instances, cameras, materials, bounds");
+  info->add_option("scene", infoPath, "glTF 2.0 scene")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "obscura: error: %s (see 'obscura --help')\n", e.what());
+    return 2;
+  }
+
+  try {
+    if (render->parsed()) return runRender(r);
+    if (info->parsed()) return runInfo(infoPath);
+    return runIntegrators();
+  } catch (const Error& e) {
+    std::fprintf(stderr, "obscura: error: %s\n", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "obscura: error: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "obscura: error: %s\n", e.what());
+    return 1;
+  }
+}

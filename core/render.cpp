@@ -1,0 +1,187 @@
+#include "core/render.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <chrono>
+
+#include "core/error.h"
+#include "core/progress.h"
+#include "core/sampler.h"
+
+namespace obscura {
+namespace {
+
+// Camera samples per chunk: 16 packets. Large enough that per-chunk overhead
+// vanishes, small enough that the batch and its hits stay in L1/L2.
+constexpr size_t kChunk = 256;
+
+struct PixelSums {
+  Vec3 W, albedo, shaded, N;
+  double Z;
+  uint32_t hits;
+};
+
+struct ThreadScratch {
+  explicit ThreadScratch(const Tracer& tracer) : ctx(tracer) {
+    camera.reserve(kChunk);
+    hits.reserve(kChunk);
+  }
+  IntegratorContext ctx;
+  IntersectBatch camera;
+  std::vector<SurfaceHit> hits;
+  uint32_t lanePixel[kChunk];   // pixel (within tile) of each lane
+  int32_t laneHit[kChunk];      // index into hits, or -1
+  Vec3 W[kChunk];
+  std::vector<PixelSums> sums;
+  RayCounters cameraCounters;
+};
+
+}  // namespace
+
+Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
+            const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
+  if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
+  if (s.spp <= 0) throw Error("--spp must be at least 1");
+  if (s.tileSize <= 0) throw Error("tile size must be at least 1");
+  const bool wantAlbedo = needs.albedo || s.aovs;
+  if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
+    for (const auto& t : scene.textures) t->decode();
+
+  Film film(s.width, s.height, s.aovs);
+  const Tracer tracer(scene.rtcScene());
+  const RasterCamera raster(camera, s.width, s.height);
+  const Sampler sampler(s.seed);
+  const GaussianFilterSampler& gauss = GaussianFilterSampler::instance();
+  const int tilesX = (s.width + s.tileSize - 1) / s.tileSize, tilesY = (s.height + s.tileSize - 1) / s.tileSize;
+  const float invSpp = 1.0f / float(s.spp);
+  const float tnear = camera.znear;
+  const float tfar = camera.zfar;
+
+  tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
+  Progress progress("render", uint64_t(s.width) * s.height, s.progress);
+  const auto t0 = std::chrono::steady_clock::now();
+
+  auto renderTile = [&](int tile) {
+    if (cancel && cancel->load(std::memory_order_relaxed)) return;
+    std::unique_ptr<ThreadScratch>& slot = scratch.local();
+    if (!slot) slot = std::make_unique<ThreadScratch>(tracer);
+    ThreadScratch& ts = *slot;
+    const int x0 = (tile % tilesX) * s.tileSize, y0 = (tile / tilesX) * s.tileSize;
+    const int tw = std::min(s.tileSize, s.width - x0), th = std::min(s.tileSize, s.height - y0);
+    const size_t pixels = size_t(tw) * th;
+    ts.sums.assign(pixels, PixelSums{});
+    const uint64_t total = uint64_t(pixels) * uint64_t(s.spp);
+
+    // Linear sample index L = pixel * spp + sample: pixel-major, so each
+    // pixel's samples are summed in sample order whatever the chunking.
+    for (uint64_t begin = 0; begin < total; begin += kChunk) {
+      const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
+      IntersectBatch& cam = ts.camera;
+      cam.clear();
+      uint32_t keyPixel = UINT32_MAX, key = 0;
+      for (size_t l = 0; l < n; ++l) {
+        const uint64_t L = begin + l;
+        const uint32_t pix = uint32_t(L / uint64_t(s.spp)), si = uint32_t(L % uint64_t(s.spp));
+        const int px = x0 + int(pix % uint32_t(tw)), py = y0 + int(pix / uint32_t(tw));
+        if (pix != keyPixel) key = sampler.pixelKey(uint32_t(px), uint32_t(py)), keyPixel = pix;
+        const Sample2 f = Sampler::get2D(key, si, kDimPixelFilter);
+        float ox, oy;
+        if (s.filter == PixelFilter::Box) {
+          ox = f.u;
+          oy = f.v;
+        } else {
+          ox = 0.5f + gauss.sample(f.u);
+          oy = 0.5f + gauss.sample(f.v);
+        }
+        cam.push(raster.org, raster.direction(float(px) + ox, float(py) + oy), tnear, tfar);
+        ts.lanePixel[l] = pix;
+      }
+      tracer.intersect(cam, RayCoherence::Coherent);
+      ts.cameraCounters.camera += n;
+
+      ts.hits.clear();
+      for (size_t l = 0; l < n; ++l) {
+        if (!cam.hit(l)) {
+          ts.laneHit[l] = -1;
+          continue;
+        }
+        ts.laneHit[l] = int32_t(ts.hits.size());
+        SurfaceHit& h = ts.hits.emplace_back();
+        computeSurfaceHit(scene, cam.geomID(l), cam.primID(l), cam.instID(l), cam.u(l), cam.v(l), cam.t(l),
+                          cam.dir(l), wantAlbedo, h);
+        const uint64_t L = begin + l;
+        const uint32_t pix = ts.lanePixel[l];
+        const int px = x0 + int(pix % uint32_t(tw)), py = y0 + int(pix / uint32_t(tw));
+        h.pixelKey = sampler.pixelKey(uint32_t(px), uint32_t(py));
+        h.sampleIndex = uint32_t(L % uint64_t(s.spp));
+      }
+      if (!ts.hits.empty()) integrator.estimate(ts.hits, ts.ctx, ts.W);
+
+      for (size_t l = 0; l < n; ++l) {
+        const int32_t hi = ts.laneHit[l];
+        if (hi < 0) continue;
+        const SurfaceHit& h = ts.hits[size_t(hi)];
+        PixelSums& p = ts.sums[ts.lanePixel[l]];
+        const Vec3 w = ts.W[hi];
+        p.W += w;
+        p.hits += 1;
+        if (s.aovs) {
+          p.albedo += h.albedo;
+          p.shaded += h.albedo * w * s.sky;
+          p.N += h.ns;
+          p.Z += double(h.t);
+        }
+      }
+    }
+
+    // Resolve: each pixel belongs to exactly one tile, so no locking.
+    for (int y = 0; y < th; ++y) {
+      for (int x = 0; x < tw; ++x) {
+        const PixelSums& p = ts.sums[size_t(y) * tw + x];
+        const int fx = x0 + x, fy = y0 + y;
+        film.at(kR, fx, fy) = p.W.x * invSpp;
+        film.at(kG, fx, fy) = p.W.y * invSpp;
+        film.at(kB, fx, fy) = p.W.z * invSpp;
+        film.at(kA, fx, fy) = float(p.hits) * invSpp;
+        if (!s.aovs) continue;
+        film.at(kAlbedoR, fx, fy) = p.albedo.x * invSpp;
+        film.at(kAlbedoG, fx, fy) = p.albedo.y * invSpp;
+        film.at(kAlbedoB, fx, fy) = p.albedo.z * invSpp;
+        film.at(kShadedR, fx, fy) = p.shaded.x * invSpp;
+        film.at(kShadedG, fx, fy) = p.shaded.y * invSpp;
+        film.at(kShadedB, fx, fy) = p.shaded.z * invSpp;
+        const float nl = length(p.N);
+        const Vec3 n = nl > 0.0f ? p.N * (1.0f / nl) : Vec3(0, 0, 0);
+        film.at(kNX, fx, fy) = n.x;
+        film.at(kNY, fx, fy) = n.y;
+        film.at(kNZ, fx, fy) = n.z;
+        film.at(kZ, fx, fy) = p.hits ? float(p.Z / double(p.hits)) : kInfinity;
+      }
+    }
+    progress.advance(pixels);
+  };
+
+  const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
+      for (int t = r.begin(); t != r.end(); ++t) renderTile(t);
+    });
+  });
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  progress.finish();
+  stats.rays = {};
+  for (const auto& slot : scratch) {
+    if (!slot) continue;
+    const ThreadScratch& ts = *slot;
+    stats.rays.camera += ts.cameraCounters.camera;
+    stats.rays.occlusion += ts.ctx.counters.occlusion;
+    stats.rays.closest += ts.ctx.counters.closest;
+  }
+  if (cancel && cancel->load()) stats.seconds = -1;
+  return film;
+}
+
+}  // namespace obscura

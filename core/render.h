@@ -1,0 +1,41 @@
+// The render loop: image tiles in parallel (TBB); inside a tile, camera
+// samples in chunks traced as packets, handed to the integrator as a batch
+// of surface hits, and accumulated per pixel in sample order.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+
+#include "core/camera.h"
+#include "core/film.h"
+#include "core/integrator.h"
+#include "core/scene.h"
+#include "core/warp.h"
+
+namespace obscura {
+
+struct RenderSettings {
+  int width = 960, height = 540;
+  int spp = 16;            // camera samples per pixel
+  uint32_t seed = 0;
+  int threads = 0;         // 0 = all hardware threads
+  int tileSize = 16;       // pixels per tile side; does not change the image
+  PixelFilter filter = PixelFilter::Box;
+  Vec3 sky{1, 1, 1};       // La of MATH.md section 1 (only scales shaded.*)
+  bool aovs = true;        // write albedo/N/Z/shaded channels
+  bool progress = false;   // progress bar on stderr
+};
+
+struct RenderStats {
+  double seconds = 0;  // wall time of the render loop
+  RayCounters rays;
+};
+
+// Renders and returns the film. Throws obscura::Error on bad settings.
+// If `cancel` becomes true the render stops early and returns an
+// incomplete film with `stats.seconds` < 0.
+Film render(const Scene& scene, const Camera& camera, const Integrator& integrator,
+            const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
+            const std::atomic<bool>* cancel = nullptr);
+
+}  // namespace obscura

@@ -1,0 +1,111 @@
+// Deterministic sample generation.
+//
+// Every random number is a pure function of (pixel, sample index, dimension,
+// seed): no generator state exists, so the image is bit-identical for any
+// thread count and tile size (ARCHITECTURE.md, "Determinism").
+//
+// Each 2D dimension pair uses the first two Sobol' dimensions, Owen-scrambled
+// with a hash-based nested uniform scramble and with the sample index itself
+// shuffled by an independent scramble (Burley 2020, "Practical Hash-based Owen
+// Scrambling", JCGT 9(4)). Padding dimension pairs this way keeps every pair
+// a (0,2)-sequence in base 2 - stratified in 2D for any power-of-two prefix -
+// while pairs stay mutually decorrelated through their seeds.
+#pragma once
+
+#include <cstdint>
+
+namespace obscura {
+
+// 32-bit integer hash with good avalanche (a "lowbias32" style mix).
+inline uint32_t mixBits32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return x;
+}
+
+inline uint32_t hashCombine(uint32_t seed, uint32_t v) {
+  return mixBits32(seed ^ (v + 0x9e3779b9U + (seed << 6) + (seed >> 2)));
+}
+
+inline uint32_t reverseBits32(uint32_t x) {
+  x = ((x >> 1) & 0x55555555U) | ((x & 0x55555555U) << 1);
+  x = ((x >> 2) & 0x33333333U) | ((x & 0x33333333U) << 2);
+  x = ((x >> 4) & 0x0f0f0f0fU) | ((x & 0x0f0f0f0fU) << 4);
+  x = ((x >> 8) & 0x00ff00ffU) | ((x & 0x00ff00ffU) << 8);
+  return (x >> 16) | (x << 16);
+}
+
+// Laine-Karras style permutation: each bit is flipped depending only on the
+// bits below it, i.e. an Owen scramble when applied to bit-reversed values.
+inline uint32_t laineKarrasPermutation(uint32_t x, uint32_t seed) {
+  x += seed;
+  x ^= x * 0x6c50b47cU;
+  x ^= x * 0xb82f1e52U;
+  x ^= x * 0xc7afe638U;
+  x ^= x * 0x8d22f6e6U;
+  return x;
+}
+
+inline uint32_t nestedUniformScramble(uint32_t x, uint32_t seed) {
+  return reverseBits32(laineKarrasPermutation(reverseBits32(x), seed));
+}
+
+// Sobol' dimension 0 is the van der Corput sequence: bit reversal.
+inline uint32_t sobol0(uint32_t i) { return reverseBits32(i); }
+
+// Sobol' dimension 1: its generator matrix is the upper-triangular Pascal
+// matrix mod 2, generated column by column with v ^= v >> 1.
+inline uint32_t sobol1(uint32_t i) {
+  uint32_t r = 0;
+  for (uint32_t v = 1U << 31; i; i >>= 1, v ^= v >> 1)
+    if (i & 1U) r ^= v;
+  return r;
+}
+
+// Map 32 random bits to [0,1): 24 high bits, exact in float, never 1.
+inline float bitsToUnitFloat(uint32_t x) { return float(x >> 8) * 0x1p-24f; }
+
+struct Sample2 {
+  float u, v;
+};
+
+// The sampler used by the renderer and every integrator. Cheap to copy.
+class Sampler {
+ public:
+  explicit Sampler(uint32_t seed = 0) : seed_(mixBits32(seed ^ 0x5bd1e995U)) {}
+
+  // Seed of one pixel: all of that pixel's samples share it.
+  uint32_t pixelKey(uint32_t px, uint32_t py) const {
+    return hashCombine(hashCombine(seed_, px), py);
+  }
+
+  // The 2D sample `index` of dimension pair `dim` of the pixel with `key`.
+  static Sample2 get2D(uint32_t key, uint32_t index, uint32_t dim) {
+    const uint32_t s = hashCombine(key, dim);
+    const uint32_t i = nestedUniformScramble(index, s);
+    const uint32_t x = nestedUniformScramble(sobol0(i), hashCombine(s, 0xa511e9b3U));
+    const uint32_t y = nestedUniformScramble(sobol1(i), hashCombine(s, 0x63d83595U));
+    return {bitsToUnitFloat(x), bitsToUnitFloat(y)};
+  }
+
+  static float get1D(uint32_t key, uint32_t index, uint32_t dim) {
+    const uint32_t s = hashCombine(key, dim ^ 0x80000000U);
+    const uint32_t i = nestedUniformScramble(index, s);
+    return bitsToUnitFloat(nestedUniformScramble(sobol0(i), hashCombine(s, 0x2c1b3c6dU)));
+  }
+
+ private:
+  uint32_t seed_;
+};
+
+// Fixed dimension assignments of the core. Integrators use dimensions from
+// kFirstIntegratorDim upward, so core and integrator streams never collide.
+enum : uint32_t {
+  kDimPixelFilter = 0,
+  kFirstIntegratorDim = 8,
+};
+
+}  // namespace obscura

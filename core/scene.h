@@ -1,0 +1,136 @@
+// The scene: triangle geometry in Embree, the attributes shading needs, the
+// materials and the cameras.
+//
+// A glTF mesh referenced by one node is baked into world space as plain
+// triangle geometries of the top-level Embree scene (no instance traversal
+// cost); a mesh referenced by several nodes is built once as its own Embree
+// scene and placed by instance geometries. Attributes stay where Embree keeps
+// the vertices, so nothing is stored twice.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/math.h"
+#include "core/texture.h"
+
+namespace obscura {
+
+struct Material {
+  std::string name;
+  Vec3 baseColorFactor{1, 1, 1};
+  int texture = -1;  // index into Scene::textures, -1 = none
+  WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+};
+
+// One triangle list (a glTF primitive). Positions live in Embree's buffer.
+struct Primitive {
+  RTCGeometry geometry = nullptr;     // owned by the Embree scene it is attached to
+  const float* positions = nullptr;  // xyz, stride 3 floats, in Embree's vertex buffer
+  const uint32_t* indices = nullptr;  // 3 per triangle, in Embree's index buffer
+  uint32_t vertexCount = 0, triangleCount = 0;
+  std::vector<Vec3> normals;  // per vertex, empty if the file has none
+  std::vector<float> uvs;     // 2 per vertex, empty if none
+  int material = -1;          // -1 = default material (albedo 1)
+};
+
+// A mesh placed more than once: its own Embree scene, shared by instances.
+struct InstancedMesh {
+  std::string name;
+  RTCScene rtcScene = nullptr;
+  std::vector<Primitive> primitives;  // indexed by Embree geomID in rtcScene
+  Bounds3 objectBounds;
+};
+
+struct Instance {
+  int mesh = -1;  // index into Scene::instancedMeshes
+  Affine toWorld;
+  std::string node;
+};
+
+// What the top-level Embree geomID refers to.
+struct TopLevelGeometry {
+  int primitive = -1;  // index into Scene::worldPrimitives, or -1
+  int instance = -1;   // index into Scene::instances, or -1
+};
+
+// Counts for `obscura info` and the EXR header.
+struct SceneStats {
+  size_t meshes = 0, primitives = 0, uniqueTriangles = 0, renderedTriangles = 0,
+         instances = 0, flattenedMeshes = 0;
+};
+
+class Scene {
+ public:
+  Scene();
+  ~Scene();
+  Scene(const Scene&) = delete;
+  Scene& operator=(const Scene&) = delete;
+
+  RTCDevice device() const { return device_; }
+  RTCScene rtcScene() const { return top_; }
+
+  // Builds the BVHs. Called once by the loader after all geometry is added.
+  void commit();
+  double buildSeconds() const { return buildSeconds_; }
+
+  // Geometry construction (used by the glTF loader and by tests).
+  // Adds a world-space triangle list to the top-level scene.
+  int addWorldPrimitive(const std::vector<Vec3>& positions, const std::vector<uint32_t>& indices,
+                        std::vector<Vec3> normals, std::vector<float> uvs, int material);
+  // Adds an instanced mesh (object space) and returns its index.
+  int addInstancedMesh(std::string name);
+  void addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions,
+                          const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
+                          std::vector<float> uvs, int material);
+  void addInstance(int mesh, const Affine& toWorld, std::string node);
+
+  std::vector<Material> materials;
+  std::vector<std::unique_ptr<Texture>> textures;
+  std::vector<Camera> cameras;
+  std::string sourcePath;
+  size_t sourceMeshes = 0;     // meshes in the source file (glTF meshes)
+  size_t flattenedMeshes = 0;  // meshes used once and baked into world space
+
+  const Bounds3& bounds() const { return bounds_; }
+  SceneStats stats() const;
+
+  // Hit lookup: the primitive a hit refers to and, for instances, its
+  // object-to-world transform (nullptr for world-space primitives).
+  const Primitive& primitiveOf(unsigned geomID, unsigned instID, const Affine** toWorld) const {
+    if (instID == RTC_INVALID_GEOMETRY_ID) {
+      *toWorld = nullptr;
+      return worldPrimitives_[topLevel_[geomID].primitive];
+    }
+    const Instance& inst = instances_[topLevel_[instID].instance];
+    *toWorld = &inst.toWorld;
+    return meshes_[inst.mesh].primitives[geomID];
+  }
+  const Material* materialOf(const Primitive& p) const {
+    return p.material >= 0 ? &materials[p.material] : nullptr;
+  }
+  bool anyTextures() const { return !textures.empty(); }
+  const std::vector<Instance>& instances() const { return instances_; }
+  const std::vector<InstancedMesh>& instancedMeshes() const { return meshes_; }
+
+ private:
+  Primitive makePrimitive(RTCScene target, const std::vector<Vec3>& positions,
+                          const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
+                          std::vector<float> uvs, int material, unsigned* geomID);
+  RTCDevice device_ = nullptr;
+  RTCScene top_ = nullptr;
+  std::vector<Primitive> worldPrimitives_;
+  std::vector<InstancedMesh> meshes_;
+  std::vector<Instance> instances_;
+  std::vector<TopLevelGeometry> topLevel_;  // indexed by top-level geomID
+  Bounds3 bounds_;
+  double buildSeconds_ = 0;
+  bool committed_ = false;
+};
+
+}  // namespace obscura

@@ -1,0 +1,48 @@
+// The surface point a camera ray (or any closest-hit ray) found, with what
+// integrators need to continue from it.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <cstdint>
+
+#include "core/math.h"
+#include "core/scene.h"
+
+namespace obscura {
+
+struct SurfaceHit {
+  Vec3 p;        // world-space position, from barycentrics (not o + t*d)
+  Vec3 ng;       // unit geometric normal, facing the side the ray came from
+  Vec3 ns;       // unit shading normal, in the same hemisphere as ng
+  Vec3 albedo;   // diffuse albedo; only filled when requested
+  float eps;     // robust offset distance for rays leaving p (see spawnOrigin)
+  float t;       // distance along the incoming ray
+  uint32_t pixelKey;     // Sampler key of the pixel
+  uint32_t sampleIndex;  // the camera sample's index within its pixel
+};
+
+// Fills `out` (all but pixelKey/sampleIndex) from an Embree hit.
+//   dir     : the incoming ray's direction (any length)
+//   u, v    : Embree barycentrics, p = (1-u-v) v0 + u v1 + v v2
+//   albedo  : also evaluate the material (decodes textures on first use)
+void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID,
+                       float u, float v, float t, Vec3 dir, bool albedo, SurfaceHit& out);
+
+// Relative offset: 2^-16 of the largest coordinate magnitude involved in the
+// hit, i.e. about 128 float ulps of it. Embree's triangle test and our
+// barycentric reconstruction both err by a few ulps of the vertex and point
+// magnitudes, so this clears self-intersection at every scene scale without
+// an absolute epsilon (in the spirit of Waechter & Binder, "A Fast and Robust
+// Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6, with the
+// scale taken from the triangle itself instead of a fixed origin threshold).
+constexpr float kRayOffsetRelative = 0x1p-16f;
+
+// Origin for a ray leaving the hit in direction d: pushed off the surface to
+// the side d points to.
+inline Vec3 spawnOrigin(const SurfaceHit& h, Vec3 d) {
+  const float s = dot(d, h.ng) >= 0.0f ? h.eps : -h.eps;
+  return h.p + h.ng * s;
+}
+
+}  // namespace obscura

@@ -1,0 +1,46 @@
+// Albedo textures: encoded bytes kept from the scene file, decoded on first
+// use (so a render that never reads albedo never pays for decoding), then
+// sampled bilinearly in linear RGB with the glTF sampler's wrap modes.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+
+namespace obscura {
+
+enum class WrapMode { Repeat, ClampToEdge, MirroredRepeat };
+
+class Texture {
+ public:
+  // `encoded` holds a PNG/JPEG/... file's bytes; `source` names it in errors.
+  Texture(std::vector<unsigned char> encoded, std::string source, bool srgb);
+
+  // Decodes if not done yet. Thread-safe; throws obscura::Error on bad data.
+  void decode() const;
+  // Bilinear lookup at (u,v) in linear RGB. decode() must have succeeded.
+  Vec3 sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const;
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  const std::string& source() const { return source_; }
+
+ private:
+  Vec3 texel(int x, int y) const { return texels_[size_t(y) * size_t(width_) + size_t(x)]; }
+  mutable std::vector<unsigned char> encoded_;  // released after decoding
+  std::string source_;
+  bool srgb_;
+  mutable std::once_flag once_;
+  mutable std::vector<Vec3> texels_;
+  mutable int width_ = 0, height_ = 0;
+  mutable std::string decodeError_;
+};
+
+float srgbToLinear(float c);
+float linearToSrgb(float c);
+
+}  // namespace obscura

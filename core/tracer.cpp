@@ -1,0 +1,42 @@
+#include "core/tracer.h"
+
+namespace obscura {
+namespace {
+// Lane masks for a full packet and for the tail packet of n % 16 rays.
+struct ValidMasks {
+  alignas(64) int full[16];
+  alignas(64) int tail[17][16];
+  ValidMasks() {
+    for (int i = 0; i < 16; ++i) full[i] = -1;
+    for (int n = 0; n <= 16; ++n)
+      for (int i = 0; i < 16; ++i) tail[n][i] = i < n ? -1 : 0;
+  }
+};
+const ValidMasks kMasks;
+
+inline void initContext(RTCIntersectContext& ctx, RayCoherence c) {
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = c == RayCoherence::Coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+                                          : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+}
+}  // namespace
+
+void Tracer::occluded(OcclusionBatch& batch, RayCoherence c) const {
+  RTCIntersectContext ctx;
+  initContext(ctx, c);
+  const size_t n = batch.size(), full = n / 16, rest = n % 16;
+  RTCRay16* p = batch.packets();
+  for (size_t k = 0; k < full; ++k) rtcOccluded16(kMasks.full, scene_, &ctx, &p[k]);
+  if (rest) rtcOccluded16(kMasks.tail[rest], scene_, &ctx, &p[full]);
+}
+
+void Tracer::intersect(IntersectBatch& batch, RayCoherence c) const {
+  RTCIntersectContext ctx;
+  initContext(ctx, c);
+  const size_t n = batch.size(), full = n / 16, rest = n % 16;
+  RTCRayHit16* p = batch.packets();
+  for (size_t k = 0; k < full; ++k) rtcIntersect16(kMasks.full, scene_, &ctx, &p[k]);
+  if (rest) rtcIntersect16(kMasks.tail[rest], scene_, &ctx, &p[full]);
+}
+
+}  // namespace obscura

@@ -1,0 +1,85 @@
+// Warps from the unit square to the distributions the renderer samples.
+#pragma once
+
+#include <array>
+#include <cmath>
+
+#include "core/math.h"
+
+namespace obscura {
+
+// Shirley-Chiu concentric map of [0,1)^2 to the unit disk: area preserving
+// and low-distortion, so stratification of (u,v) survives the warp.
+inline void squareToConcentricDisk(float u, float v, float& dx, float& dy) {
+  const float a = 2.0f * u - 1.0f, b = 2.0f * v - 1.0f;
+  if (a == 0.0f && b == 0.0f) {
+    dx = dy = 0.0f;
+    return;
+  }
+  float r, phi;
+  if (std::abs(a) > std::abs(b)) {
+    r = a;
+    phi = (kPi / 4.0f) * (b / a);
+  } else {
+    r = b;
+    phi = (kPi / 2.0f) - (kPi / 4.0f) * (a / b);
+  }
+  dx = r * std::cos(phi);
+  dy = r * std::sin(phi);
+}
+
+// Direction with density cos(theta)/pi about +z (Malley's method: project the
+// uniform disk up to the hemisphere). MATH.md section 1: with this density
+// the estimator of W = (1/pi) int V cos dw is the plain mean of V.
+inline Vec3 squareToCosineHemisphere(float u, float v) {
+  float x, y;
+  squareToConcentricDisk(u, v, x, y);
+  const float z = std::sqrt(std::max(0.0f, 1.0f - x * x - y * y));
+  return {x, y, z};
+}
+
+// Pixel reconstruction by filter importance sampling: each camera sample is
+// offset from the pixel centre with a density equal to the normalised filter,
+// and weighted 1. A sample therefore belongs to exactly one pixel, which
+// keeps tiles independent and the result bit-identical for any tiling.
+enum class PixelFilter { Box, Gaussian };
+
+// Truncated Gaussian, standard deviation 0.5 px, radius 1.5 px (3 sigma),
+// sampled by a tabulated inverse CDF computed once from std::erf.
+class GaussianFilterSampler {
+ public:
+  static constexpr float kSigma = 0.5f;
+  static constexpr float kRadius = 1.5f;
+  static const GaussianFilterSampler& instance() {
+    static const GaussianFilterSampler s;
+    return s;
+  }
+  // u in [0,1) -> offset in [-kRadius, kRadius] pixels.
+  float sample(float u) const {
+    const float x = u * float(kTable - 1);
+    const int i = std::min(int(x), kTable - 2);
+    const float t = x - float(i);
+    return inv_[i] + t * (inv_[i + 1] - inv_[i]);
+  }
+
+ private:
+  static constexpr int kTable = 1025;
+  GaussianFilterSampler() {
+    // CDF of the truncated normal, inverted by bisection at each table node.
+    const double s = kSigma * std::sqrt(2.0), lo = std::erf(-kRadius / s),
+                 hi = std::erf(kRadius / s);
+    for (int k = 0; k < kTable; ++k) {
+      const double target = double(k) / double(kTable - 1);
+      double a = -kRadius, b = kRadius;
+      for (int it = 0; it < 60; ++it) {
+        const double m = 0.5 * (a + b);
+        const double cdf = (std::erf(m / s) - lo) / (hi - lo);
+        (cdf < target ? a : b) = m;
+      }
+      inv_[k] = float(0.5 * (a + b));
+    }
+  }
+  std::array<float, kTable> inv_{};
+};
+
+}  // namespace obscura

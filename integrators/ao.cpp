@@ -1,0 +1,71 @@
+// Classical ambient occlusion (MATH.md sections 1 and 3, step membership).
+//
+//   AO(x) = (1/pi) Int_Omega V_R(x, w) cos+(theta) dw
+//
+// with V_R = 1 when nothing is hit within distance R. Directions are drawn
+// with density cos(theta)/pi about the shading normal, so the estimator is
+// the plain mean of the visibility: AO ~ (1/n) Sum_i V_R(x, w_i). Only
+// any-hit rays are traced: AO never needs the occluder itself.
+#include <cmath>
+
+#include "core/integrator.h"
+#include "core/warp.h"
+
+namespace obscura {
+namespace {
+
+class AmbientOcclusion final : public Integrator {
+ public:
+  AmbientOcclusion(float distance, int rays) : distance_(distance), rays_(uint32_t(rays)) {}
+
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, Vec3* W) const override {
+    OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
+    for (const SurfaceHit& h : hits) {
+      const Frame frame = Frame::fromNormal(h.ns);
+      for (uint32_t k = 0; k < rays_; ++k) {
+        // The pixel's (sample, ray) pairs index one sequence, so all of a
+        // pixel's AO rays are jointly stratified.
+        const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
+        const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+        batch.push(spawnOrigin(h, w), w, 0.0f, distance_);
+      }
+    }
+    ctx.trace(batch);
+    const float inv = 1.0f / float(rays_);
+    size_t r = 0;
+    for (size_t i = 0; i < hits.size(); ++i) {
+      uint32_t visible = 0;
+      for (uint32_t k = 0; k < rays_; ++k, ++r) visible += batch.occluded(r) ? 0U : 1U;
+      const float ao = float(visible) * inv;
+      W[i] = Vec3(ao, ao, ao);
+    }
+  }
+
+ private:
+  float distance_;
+  uint32_t rays_;
+};
+
+IntegratorDescriptor aoDescriptor() {
+  IntegratorDescriptor d;
+  d.name = "ao";
+  d.doc = "Classical ambient occlusion: fraction of cosine-weighted rays unoccluded within distance R.";
+  d.params = {
+      {.name = "distance", .type = ParamType::Float, .defaultValue = "inf", .min = 0.0, .max = 1e308,
+       .allowInfinity = true, .doc = "R: occluders farther than this (scene units) do not count; inf = any hit occludes"},
+      {.name = "rays", .type = ParamType::Int, .defaultValue = "1", .min = 1, .max = 65536,
+       .doc = "AO rays per camera sample"},
+  };
+  d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
+    const double R = p.getFloat("distance");
+    // A finite R beyond float range is infinity for Embree.
+    const float r = R > double(std::numeric_limits<float>::max()) ? kInfinity : float(R);
+    return std::make_unique<AmbientOcclusion>(r, p.getInt("rays"));
+  };
+  return d;
+}
+
+}  // namespace
+OBSCURA_REGISTER_INTEGRATOR(aoDescriptor)
+}  // namespace obscura
