@@ -42,6 +42,7 @@ struct RenderArgs {
   bool half = false;
   bool noAovs = false;
   bool quiet = false;
+  bool robust = false;
 };
 
 void parseResolution(const std::string& s, int& w, int& h) {
@@ -81,10 +82,11 @@ Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
     names += (names.empty() ? "" : ", ") + c.name;
   }
   if (want.find_first_not_of("0123456789") == std::string::npos && want.size() < 9) {
-    const size_t i = size_t(std::stoul(want));
-    if (i < scene.cameras.size()) return scene.cameras[i];
-    throw Error("--camera: index " + want + " is out of range (the scene has " + std::to_string(scene.cameras.size()) +
-                " camera" + (scene.cameras.size() == 1 ? "" : "s") + ")");
+    const int i = std::stoi(want);
+    for (const auto& c : scene.cameras)
+      if (c.fileIndex == i) return c;
+    throw Error("--camera: no perspective camera with index " + want + " (the scene has " +
+                std::to_string(scene.cameras.size()) + " usable camera" + (scene.cameras.size() == 1 ? "" : "s") + ")");
   }
   throw Error("--camera: no camera named '" + want + "' (cameras: " + (names.empty() ? "none" : names) +
               "; or 'auto')");
@@ -130,9 +132,19 @@ int runRender(const RenderArgs& a) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
+  // Fail before a long render, not after it.
+  const std::filesystem::path outDir = std::filesystem::path(a.output).parent_path();
+  if (!outDir.empty() && !std::filesystem::is_directory(outDir))
+    throw Error(a.output + ": cannot write: directory '" + outDir.string() + "' does not exist");
+  if (!a.preview.empty()) {
+    const std::filesystem::path pd = std::filesystem::path(a.preview).parent_path();
+    if (!pd.empty() && !std::filesystem::is_directory(pd))
+      throw Error(a.preview + ": cannot write: directory '" + pd.string() + "' does not exist");
+  }
+
   auto integrator = desc.create(params);
   const IntegratorNeeds needs = desc.needs(params);
-  std::unique_ptr<Scene> scene = loadGltf(a.scene);
+  std::unique_ptr<Scene> scene = loadGltf(a.scene, LoadOptions{.robust = a.robust});
   const Camera camera = selectCamera(*scene, a.camera, float(s.width) / float(s.height));
 
   std::signal(SIGINT, onSignal);
@@ -163,6 +175,7 @@ int runRender(const RenderArgs& a) {
   str("obscura:seedText", std::to_string(s.seed));
   str("obscura:resolution", std::to_string(s.width) + "x" + std::to_string(s.height));
   str("obscura:filter", a.filter);
+  exr.attributes.push_back({"obscura:robust", int(a.robust)});
   str("obscura:sky", formatFloat(s.sky.x) + "," + formatFloat(s.sky.y) + "," + formatFloat(s.sky.z));
   exr.attributes.push_back({"obscura:threads", s.threads > 0 ? s.threads : int(tbb::this_task_arena::max_concurrency())});
   exr.attributes.push_back({"obscura:renderTime", float(stats.seconds)});
@@ -253,6 +266,7 @@ int main(int argc, char** argv) {
   render->add_flag("--half", r.half, "Write 16-bit half floats instead of 32-bit floats");
   render->add_flag("--no-aovs", r.noAovs, "Write only R,G,B,A (skips albedo, N, Z, shaded)");
   render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
+  render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
 
   app.add_subcommand("integrators", "List integrators with their parameters");
   std::string infoPath;

@@ -13,6 +13,7 @@ class Scene;
 
 struct Camera {
   std::string name;
+  int fileIndex = -1;    // index in the file's cameras[], -1 if made up
   Affine toWorld;       // camera-to-world, rigid (scale is removed on load)
   float yfov = 0.8f;    // radians
   float znear = 0.0f;   // rays start here (along the ray, not depth)

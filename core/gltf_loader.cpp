@@ -2,6 +2,7 @@
 
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstring>
@@ -53,7 +54,7 @@ bool keepImageBytes(tinygltf::Image* image, const int index, std::string*, std::
 
 class Loader {
  public:
-  explicit Loader(std::string path) : path_(std::move(path)) {}
+  Loader(std::string path, LoadOptions options) : path_(std::move(path)), options_(options) {}
 
   std::unique_ptr<Scene> load() {
     readModel();
@@ -64,6 +65,7 @@ class Loader {
     loadMaterials();
     collectNodes();
     buildGeometry();
+    scene_->setRobust(options_.robust);
     scene_->commit();
     return std::move(scene_);
   }
@@ -200,6 +202,10 @@ class Loader {
     if (index < 0 || size_t(index) >= model_.nodes.size()) fail(field, "node does not exist");
     for (int s : stack)
       if (s == index) fail(field, "cycle in the node hierarchy");
+    // glTF requires a tree: a node reached twice has two parents (and a file
+    // that lists nodes twice per level would otherwise explode as 2^depth).
+    if (visited_[size_t(index)]) fail(field, "node has more than one parent (the hierarchy must be a tree)");
+    visited_[size_t(index)] = 1;
     if (stack.size() > 1000) fail(field, "node hierarchy deeper than 1000");
     const tinygltf::Node& n = model_.nodes[size_t(index)];
     const Matrix4d world = mul(parent, localMatrix(n, field));
@@ -215,6 +221,7 @@ class Loader {
   }
 
   void collectNodes() {
+    visited_.assign(model_.nodes.size(), 0);
     std::vector<int> roots;
     if (!model_.scenes.empty()) {
       int s = model_.defaultScene >= 0 ? model_.defaultScene : 0;
@@ -231,6 +238,13 @@ class Loader {
     }
     std::vector<int> stack;
     for (int r : roots) visit(r, identity4(), stack);
+    if (model_.scenes.empty())  // every node is reachable from a root unless it sits on a cycle
+      for (size_t i = 0; i < model_.nodes.size(); ++i)
+        if (!visited_[i]) fail("nodes[" + std::to_string(i) + "]", "cycle in the node hierarchy");
+    // `--camera INDEX` means the index in the file's cameras[], whatever the
+    // order nodes were visited in.
+    std::stable_sort(scene_->cameras.begin(), scene_->cameras.end(),
+                     [](const Camera& a, const Camera& b) { return a.fileIndex < b.fileIndex; });
   }
 
   void addCamera(const tinygltf::Node& node, int index, const Matrix4d& world, const std::string& field) {
@@ -242,6 +256,7 @@ class Loader {
       return;
     }
     Camera c;
+    c.fileIndex = index;
     c.name = !gc.name.empty() ? gc.name : !node.name.empty() ? node.name : cfield;
     c.yfov = float(gc.perspective.yfov);
     if (!(c.yfov > 0.0f && c.yfov < kPi)) fail(cfield + ".perspective.yfov", "must be in (0, pi)");
@@ -468,14 +483,18 @@ class Loader {
   }
 
   std::string path_;
+  LoadOptions options_;
   tinygltf::Model model_;
   ImageBytes images_;
   std::unique_ptr<Scene> scene_;
   std::vector<MeshUse> uses_;
+  std::vector<char> visited_;
 };
 
 }  // namespace
 
-std::unique_ptr<Scene> loadGltf(const std::string& path) { return Loader(path).load(); }
+std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options) {
+  return Loader(path, options).load();
+}
 
 }  // namespace obscura

@@ -16,6 +16,10 @@
 
 namespace obscura {
 
-std::unique_ptr<Scene> loadGltf(const std::string& path);
+struct LoadOptions {
+  bool robust = false;  // Scene::setRobust
+};
+
+std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options = {});
 
 }  // namespace obscura

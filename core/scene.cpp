@@ -112,7 +112,12 @@ void Scene::addInstance(int mesh, const Affine& toWorld, std::string node) {
 void Scene::commit() {
   if (committed_) return;
   const auto t0 = std::chrono::steady_clock::now();
-  for (auto& m : meshes_) rtcCommitScene(m.rtcScene);
+  const RTCSceneFlags flags = robust_ ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
+  rtcSetSceneFlags(top_, flags);
+  for (auto& m : meshes_) {
+    rtcSetSceneFlags(m.rtcScene, flags);
+    rtcCommitScene(m.rtcScene);
+  }
   rtcCommitScene(top_);
   buildSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const RTCError err = rtcGetDeviceError(device_);

@@ -75,7 +75,13 @@ class Scene {
   RTCDevice device() const { return device_; }
   RTCScene rtcScene() const { return top_; }
 
-  // Builds the BVHs. Called once by the loader after all geometry is added.
+  // Watertight traversal (RTC_SCENE_FLAG_ROBUST): no ray slips between
+  // triangles sharing an edge or a vertex, at some cost in speed. Set before
+  // commit().
+  void setRobust(bool robust) { robust_ = robust; }
+  bool robust() const { return robust_; }
+
+  // Builds the BVHs. Called once after all geometry is added.
   void commit();
   double buildSeconds() const { return buildSeconds_; }
 
@@ -131,6 +137,7 @@ class Scene {
   Bounds3 bounds_;
   double buildSeconds_ = 0;
   bool committed_ = false;
+  bool robust_ = false;
 };
 
 }  // namespace obscura

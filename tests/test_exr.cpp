@@ -1,0 +1,168 @@
+// The EXR pass: channel names and layout, values, header metadata, half
+// output, atomic replacement, and the CLI's output for the default scene.
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "tests/support.h"
+
+namespace obscura::test {
+namespace {
+
+struct ReadBack {
+  OIIO::ImageSpec spec;
+  std::map<std::string, std::vector<float>> planes;  // by channel name
+};
+
+ReadBack readExr(const std::string& path) {
+  ReadBack r;
+  auto in = OIIO::ImageInput::open(path);
+  EXPECT_TRUE(in) << OIIO::geterror();
+  if (!in) return r;
+  r.spec = in->spec();
+  std::vector<float> px(size_t(r.spec.width) * r.spec.height * r.spec.nchannels);
+  EXPECT_TRUE(in->read_image(0, 0, 0, r.spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()));
+  // OpenEXR stores channels sorted by name and OIIO may reorder them: look
+  // every channel up by name (DEPENDENCIES.md).
+  for (int c = 0; c < r.spec.nchannels; ++c) {
+    auto& plane = r.planes[r.spec.channelnames[size_t(c)]];
+    plane.resize(size_t(r.spec.width) * r.spec.height);
+    for (size_t i = 0; i < plane.size(); ++i) plane[i] = px[i * size_t(r.spec.nchannels) + size_t(c)];
+  }
+  return r;
+}
+
+Film sampleFilm() {
+  Film f(5, 3, true);
+  for (int c : f.channels())
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 5; ++x) f.at(c, x, y) = float(c) + 0.125f * float(x) - 0.0625f * float(y) + 1e-3f;
+  f.at(kZ, 4, 2) = kInfinity;  // background depth
+  return f;
+}
+
+TEST(Exr, FloatChannelsAndHeaderRoundTrip) {
+  const std::string dir = tempDir("exr_float");
+  const Film film = sampleFilm();
+  ExrOptions o;
+  o.attributes = {{"obscura:integrator", std::string("ao")}, {"obscura:spp", 16}, {"obscura:renderTime", 1.5f}};
+  writeExr(dir + "/a.exr", film, o);
+  const ReadBack r = readExr(dir + "/a.exr");
+  ASSERT_EQ(r.spec.nchannels, int(kChannelCount));
+  EXPECT_EQ(r.spec.format, OIIO::TypeDesc::FLOAT);
+  for (int c = 0; c < kChannelCount; ++c) {
+    ASSERT_TRUE(r.planes.count(channelName(c))) << channelName(c);
+    const auto& p = r.planes.at(channelName(c));
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 5; ++x) EXPECT_EQ(p[size_t(y) * 5 + x], film.at(c, x, y)) << channelName(c);
+  }
+  EXPECT_EQ(r.spec.get_string_attribute("obscura:integrator"), "ao");
+  EXPECT_EQ(r.spec.get_int_attribute("obscura:spp"), 16);
+  EXPECT_EQ(r.spec.get_float_attribute("obscura:renderTime"), 1.5f);
+  EXPECT_EQ(r.spec.alpha_channel >= 0 ? r.spec.channelnames[size_t(r.spec.alpha_channel)] : "", "A");
+}
+
+TEST(Exr, HalfOutputIsWithinHalfPrecision) {
+  const std::string dir = tempDir("exr_half");
+  const Film film = sampleFilm();
+  ExrOptions o;
+  o.half = true;
+  writeExr(dir + "/h.exr", film, o);
+  const ReadBack r = readExr(dir + "/h.exr");
+  EXPECT_EQ(r.spec.format, OIIO::TypeDesc::HALF);
+  for (int c = 0; c < kChannelCount; ++c) {
+    const auto& p = r.planes.at(channelName(c));
+    for (int y = 0; y < 3; ++y)
+      for (int x = 0; x < 5; ++x) {
+        const float v = film.at(c, x, y);
+        if (std::isinf(v)) {
+          EXPECT_TRUE(std::isinf(p[size_t(y) * 5 + x]));
+          continue;
+        }
+        // Half has an 11-bit significand: relative rounding error <= 2^-11.
+        EXPECT_NEAR(p[size_t(y) * 5 + x], v, std::abs(v) * 0x1p-11f) << channelName(c);
+      }
+  }
+}
+
+TEST(Exr, FailedWriteLeavesNoFileAndReplacementIsWhole) {
+  const std::string dir = tempDir("exr_atomic");
+  const Film film = sampleFilm();
+  EXPECT_THROW(writeExr(dir + "/missing_dir/x.exr", film, {}), Error);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/missing_dir"));
+  // Replacing a file goes through a temporary sibling: afterwards only the
+  // destination exists, complete.
+  writeExr(dir + "/x.exr", film, {});
+  Film other(2, 2, false);
+  writeExr(dir + "/x.exr", other, {});
+  size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();
+  EXPECT_EQ(files, 1u);
+  EXPECT_EQ(readExr(dir + "/x.exr").spec.width, 2);
+}
+
+int runCli(const std::string& args, std::string* err) {
+  const std::string errFile = tempDir("cli_stderr") + "/stderr.txt";
+  const int status = std::system((std::string(OBSCURA_BINARY) + " " + args + " 2>" + errFile).c_str());
+  std::ifstream in(errFile);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (err) *err = ss.str();
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// The default scene through the CLI: every channel and the metadata the
+// README documents; alpha-premultiplied pass within [0, A].
+TEST(Exr, CliRendersDefaultSceneWithChannelsAndMetadata) {
+  const std::string dir = tempDir("cli_default");
+  std::string err;
+  ASSERT_EQ(runCli("render -o " + dir + "/ao.exr --res 64x36 --spp 4 --seed 9 -p rays=2 --preview " + dir +
+                       "/ao.png --quiet",
+                   &err),
+            0)
+      << err;
+  EXPECT_TRUE(std::filesystem::exists(dir + "/ao.png"));
+  const ReadBack r = readExr(dir + "/ao.exr");
+  EXPECT_EQ(r.spec.width, 64);
+  EXPECT_EQ(r.spec.height, 36);
+  for (const char* c : {"R", "G", "B", "A", "albedo.R", "albedo.G", "albedo.B", "N.X", "N.Y", "N.Z", "Z", "shaded.R",
+                        "shaded.G", "shaded.B"})
+    EXPECT_TRUE(r.planes.count(c)) << c;
+  EXPECT_EQ(r.spec.get_string_attribute("obscura:integrator"), "ao");
+  EXPECT_EQ(r.spec.get_string_attribute("obscura:param:distance"), "inf");
+  EXPECT_EQ(r.spec.get_string_attribute("obscura:param:rays"), "2");
+  EXPECT_EQ(r.spec.get_int_attribute("obscura:spp"), 4);
+  EXPECT_EQ(r.spec.get_int_attribute("obscura:seed"), 9);
+  EXPECT_EQ(r.spec.get_string_attribute("obscura:resolution"), "64x36");
+  EXPECT_EQ(r.spec.get_string_attribute("obscura:camera"), "main");
+  EXPECT_GT(r.spec.get_float_attribute("obscura:renderTime", -1.0f), 0.0f);
+  // Ray counts: one camera ray per sample, `rays` AO rays per camera hit.
+  const long long cam = std::stoll(r.spec.get_string_attribute("obscura:rays:camera"));
+  const long long occ = std::stoll(r.spec.get_string_attribute("obscura:rays:occlusion"));
+  EXPECT_EQ(cam, 64LL * 36 * 4);
+  double hits = 0;
+  for (float a : r.planes.at("A")) hits += double(a) * 4.0;
+  EXPECT_EQ(occ, 2LL * std::llround(hits));
+  for (size_t i = 0; i < r.planes.at("A").size(); ++i) {
+    const float a = r.planes.at("A")[i];
+    ASSERT_GE(a, 0.0f);
+    ASSERT_LE(a, 1.0f);
+    for (const char* c : {"R", "G", "B"}) {
+      const float v = r.planes.at(c)[i];
+      ASSERT_TRUE(std::isfinite(v));
+      ASSERT_GE(v, 0.0f);
+      ASSERT_LE(v, a);  // premultiplied: W in [0,1] times coverage
+    }
+    if (a == 0.0f) EXPECT_TRUE(std::isinf(r.planes.at("Z")[i]));
+  }
+}
+
+}  // namespace
+}  // namespace obscura::test
