@@ -250,6 +250,7 @@ int main(int argc, char** argv) {
 
   RenderArgs r;
   CLI::App* render = app.add_subcommand("render", "Render a glTF scene to a multi-channel EXR pass");
+  render->option_defaults()->always_capture_default();
   render->add_option("scene", r.scene, "glTF 2.0 scene (.gltf or .glb); default: the bundled scene");
   render->add_option("-o,--output", r.output, "Output EXR path (written atomically)")->required();
   render->add_option("-i,--integrator", r.integrator, "Integrator (see 'obscura integrators')");

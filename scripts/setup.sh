@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# Obscura set-up on Debian 12: installs what is missing, builds, then either
+# renders the bundled scene (`demo`) or runs the whole test suite (`test`).
+#
+#   scripts/setup.sh demo   # install + Release build + render scenes/default.gltf to out/
+#   scripts/setup.sh test   # install + Release build + tests, then the tests under ASan/UBSan
+#
+# Environment: BUILD_DIR (default build), JOBS (default nproc),
+# OBSCURA_SKIP_SANITIZE=1 to skip the ASan/UBSan pass of `test`.
+set -euo pipefail
+
+mode="${1:-}"
+if [[ "$mode" != demo && "$mode" != test ]]; then
+  echo "usage: $0 demo|test" >&2
+  exit 2
+fi
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+build="${BUILD_DIR:-build}"
+jobs="${JOBS:-$(nproc)}"
+
+# --- 1. Debian packages (only the missing ones) -------------------------------
+packages=(build-essential cmake ninja-build pkg-config libembree-dev libopenimageio-dev
+  openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev
+  libstb-dev libgtest-dev libcli11-dev)
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+if ((${#missing[@]})); then
+  echo "== installing: ${missing[*]}"
+  sudo=""
+  if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+# --- 2. Build ------------------------------------------------------------------
+configure() {  # dir, extra cmake args...
+  local dir="$1"; shift
+  cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+}
+
+if [[ "$mode" == demo ]]; then
+  configure "$build" -DOBSCURA_BUILD_TESTS=OFF -DOBSCURA_BUILD_BENCH=OFF
+  cmake --build "$build" -j "$jobs" --target obscura
+  mkdir -p out
+  "$build/obscura" render scenes/default.gltf -o out/default_ao.exr --preview out/default_ao.png \
+    --res 1280x720 --spp 64 -p distance=2
+  echo "== wrote out/default_ao.exr and out/default_ao.png"
+  exit 0
+fi
+
+configure "$build" -DOBSCURA_BUILD_TESTS=ON -DOBSCURA_BUILD_BENCH=ON
+cmake --build "$build" -j "$jobs"
+echo "== tests (Release)"
+ctest --test-dir "$build" --output-on-failure -j "$jobs"
+
+if [[ "${OBSCURA_SKIP_SANITIZE:-0}" != 1 ]]; then
+  echo "== tests under AddressSanitizer + UndefinedBehaviorSanitizer"
+  configure "$build-asan" -DOBSCURA_SANITIZE=ON -DOBSCURA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
+  cmake --build "$build-asan" -j "$jobs"
+  ASAN_OPTIONS=abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    ctest --test-dir "$build-asan" --output-on-failure -j "$jobs"
+fi
