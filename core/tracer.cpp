@@ -21,22 +21,25 @@ inline void initContext(RTCIntersectContext& ctx, RayCoherence c) {
 }
 }  // namespace
 
+// Whole packets with the full mask, then the tail packet with a partial one.
+template <class Batch, class Fn>
+inline void tracePackets(Batch& batch, Fn&& fn) {
+  const size_t n = batch.size(), full = n / 16, rest = n % 16;
+  auto* p = batch.packets();
+  for (size_t k = 0; k < full; ++k) fn(kMasks.full, &p[k]);
+  if (rest) fn(kMasks.tail[rest], &p[full]);
+}
+
 void Tracer::occluded(OcclusionBatch& batch, RayCoherence c) const {
   RTCIntersectContext ctx;
   initContext(ctx, c);
-  const size_t n = batch.size(), full = n / 16, rest = n % 16;
-  RTCRay16* p = batch.packets();
-  for (size_t k = 0; k < full; ++k) rtcOccluded16(kMasks.full, scene_, &ctx, &p[k]);
-  if (rest) rtcOccluded16(kMasks.tail[rest], scene_, &ctx, &p[full]);
+  tracePackets(batch, [&](const int* valid, RTCRay16* p) { rtcOccluded16(valid, scene_, &ctx, p); });
 }
 
 void Tracer::intersect(IntersectBatch& batch, RayCoherence c) const {
   RTCIntersectContext ctx;
   initContext(ctx, c);
-  const size_t n = batch.size(), full = n / 16, rest = n % 16;
-  RTCRayHit16* p = batch.packets();
-  for (size_t k = 0; k < full; ++k) rtcIntersect16(kMasks.full, scene_, &ctx, &p[k]);
-  if (rest) rtcIntersect16(kMasks.tail[rest], scene_, &ctx, &p[full]);
+  tracePackets(batch, [&](const int* valid, RTCRayHit16* p) { rtcIntersect16(valid, scene_, &ctx, p); });
 }
 
 }  // namespace obscura

@@ -11,6 +11,9 @@
 #include <embree3/rtcore.h>
 
 #include <cstdint>
+#include <cstdlib>
+#include <new>
+#include <type_traits>
 #include <vector>
 
 #include "core/math.h"
@@ -39,8 +42,10 @@ class PacketBuffer {
   size_t capacity_ = 0;
 };
 
-// A batch of any-hit (occlusion) rays.
-class OcclusionBatch {
+// A batch of rays in 16-wide packets: RTCRay16 (any-hit) or RTCRayHit16
+// (closest hit). Lane i of the batch is lane i%16 of packet i/16.
+template <class Packet>
+class PacketBatch {
  public:
   void clear() { size_ = 0; }
   void reserve(size_t rays) { packets_.reserve((rays + 15) / 16); capacity_ = (rays + 15) / 16 * 16; }
@@ -50,63 +55,61 @@ class OcclusionBatch {
   // Appends a ray from org along unit dir over (tnear, tfar). Returns its index.
   size_t push(Vec3 org, Vec3 dir, float tnear, float tfar) {
     const size_t i = size_++;
-    RTCRay16& p = packets_.data()[i >> 4];
+    Packet& packet = packets_.data()[i >> 4];
+    RTCRay16& p = ray(packet);
     const size_t l = i & 15;
     p.org_x[l] = org.x; p.org_y[l] = org.y; p.org_z[l] = org.z; p.tnear[l] = tnear;
     p.dir_x[l] = dir.x; p.dir_y[l] = dir.y; p.dir_z[l] = dir.z; p.time[l] = 0.0f;
     p.tfar[l] = tfar; p.mask[l] = 0xffffffffU; p.id[l] = unsigned(i); p.flags[l] = 0;
+    if constexpr (std::is_same_v<Packet, RTCRayHit16>) {
+      packet.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
+      packet.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
+    }
     return i;
   }
-  // After trace(): was ray i blocked? (Embree sets tfar to -inf on a hit.)
-  bool occluded(size_t i) const { return packets_.data()[i >> 4].tfar[i & 15] < 0.0f; }
+  Vec3 org(size_t i) const {
+    const RTCRay16& p = ray(packets_.data()[i >> 4]);
+    return {p.org_x[i & 15], p.org_y[i & 15], p.org_z[i & 15]};
+  }
+  Vec3 dir(size_t i) const {
+    const RTCRay16& p = ray(packets_.data()[i >> 4]);
+    return {p.dir_x[i & 15], p.dir_y[i & 15], p.dir_z[i & 15]};
+  }
+  // tfar after tracing: the hit distance (closest hit), -inf if blocked (any-hit).
+  float tfar(size_t i) const { return ray(packets_.data()[i >> 4]).tfar[i & 15]; }
+  Packet* packets() const { return packets_.data(); }
 
-  RTCRay16* packets() const { return packets_.data(); }
-
- private:
-  PacketBuffer<RTCRay16> packets_;
+ protected:
+  static RTCRay16& ray(Packet& p) {
+    if constexpr (std::is_same_v<Packet, RTCRayHit16>) return p.ray; else return p;
+  }
+  static const RTCRay16& ray(const Packet& p) {
+    if constexpr (std::is_same_v<Packet, RTCRayHit16>) return p.ray; else return p;
+  }
+  PacketBuffer<Packet> packets_;
   size_t size_ = 0, capacity_ = 0;
 };
 
-// A batch of closest-hit rays.
-class IntersectBatch {
+// Any-hit (occlusion) rays.
+class OcclusionBatch : public PacketBatch<RTCRay16> {
  public:
-  void clear() { size_ = 0; }
-  void reserve(size_t rays) { packets_.reserve((rays + 15) / 16); capacity_ = (rays + 15) / 16 * 16; }
-  size_t size() const { return size_; }
-  size_t capacity() const { return capacity_; }
+  // After tracing: was ray i blocked? (Embree sets tfar to -inf on a hit.)
+  bool occluded(size_t i) const { return tfar(i) < 0.0f; }
+};
 
-  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar) {
-    const size_t i = size_++;
-    RTCRayHit16& p = packets_.data()[i >> 4];
-    const size_t l = i & 15;
-    p.ray.org_x[l] = org.x; p.ray.org_y[l] = org.y; p.ray.org_z[l] = org.z; p.ray.tnear[l] = tnear;
-    p.ray.dir_x[l] = dir.x; p.ray.dir_y[l] = dir.y; p.ray.dir_z[l] = dir.z; p.ray.time[l] = 0.0f;
-    p.ray.tfar[l] = tfar; p.ray.mask[l] = 0xffffffffU; p.ray.id[l] = unsigned(i); p.ray.flags[l] = 0;
-    p.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
-    p.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
-    return i;
-  }
-  bool hit(size_t i) const { return packets_.data()[i >> 4].hit.geomID[i & 15] != RTC_INVALID_GEOMETRY_ID; }
-  unsigned geomID(size_t i) const { return packets_.data()[i >> 4].hit.geomID[i & 15]; }
-  unsigned primID(size_t i) const { return packets_.data()[i >> 4].hit.primID[i & 15]; }
-  unsigned instID(size_t i) const { return packets_.data()[i >> 4].hit.instID[0][i & 15]; }
-  float u(size_t i) const { return packets_.data()[i >> 4].hit.u[i & 15]; }
-  float v(size_t i) const { return packets_.data()[i >> 4].hit.v[i & 15]; }
-  float t(size_t i) const { return packets_.data()[i >> 4].ray.tfar[i & 15]; }
-  Vec3 org(size_t i) const {
-    const auto& p = packets_.data()[i >> 4];
-    return {p.ray.org_x[i & 15], p.ray.org_y[i & 15], p.ray.org_z[i & 15]};
-  }
-  Vec3 dir(size_t i) const {
-    const auto& p = packets_.data()[i >> 4];
-    return {p.ray.dir_x[i & 15], p.ray.dir_y[i & 15], p.ray.dir_z[i & 15]};
-  }
-
-  RTCRayHit16* packets() const { return packets_.data(); }
+// Closest-hit rays.
+class IntersectBatch : public PacketBatch<RTCRayHit16> {
+ public:
+  bool hit(size_t i) const { return hitOf(i).geomID[i & 15] != RTC_INVALID_GEOMETRY_ID; }
+  unsigned geomID(size_t i) const { return hitOf(i).geomID[i & 15]; }
+  unsigned primID(size_t i) const { return hitOf(i).primID[i & 15]; }
+  unsigned instID(size_t i) const { return hitOf(i).instID[0][i & 15]; }
+  float u(size_t i) const { return hitOf(i).u[i & 15]; }
+  float v(size_t i) const { return hitOf(i).v[i & 15]; }
+  float t(size_t i) const { return tfar(i); }
 
  private:
-  PacketBuffer<RTCRayHit16> packets_;
-  size_t size_ = 0, capacity_ = 0;
+  const RTCHit16& hitOf(size_t i) const { return packets_.data()[i >> 4].hit; }
 };
 
 enum class RayCoherence { Coherent, Incoherent };
