@@ -1,6 +1,21 @@
 #include "tests/support.h"
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <thread>
+
+#include "core/error.h"
+
+extern char** environ;
 
 namespace obscura::test {
 
@@ -63,6 +78,117 @@ double meanCovered(const Film& film, int channel, size_t* count) {
       }
   if (count) *count = n;
   return n ? sum / double(n) : NAN;
+}
+
+// --- files ------------------------------------------------------------------
+
+std::vector<unsigned char> readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void writeBytes(const std::string& path, const void* data, size_t n) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(static_cast<const char*>(data), std::streamsize(n));
+  ASSERT_TRUE(out.good()) << path;
+}
+
+void writeText(const std::string& path, const std::string& text) { writeBytes(path, text.data(), text.size()); }
+
+ReadBack readExr(const std::string& path) {
+  ReadBack r;
+  auto in = OIIO::ImageInput::open(path);
+  EXPECT_TRUE(in) << OIIO::geterror();
+  if (!in) return r;
+  r.spec = in->spec();
+  std::vector<float> px(size_t(r.spec.width) * r.spec.height * r.spec.nchannels);
+  r.ok = in->read_image(0, 0, 0, r.spec.nchannels, OIIO::TypeDesc::FLOAT, px.data());
+  EXPECT_TRUE(r.ok);
+  for (int c = 0; c < r.spec.nchannels; ++c) {
+    auto& plane = r.planes[r.spec.channelnames[size_t(c)]];
+    plane.resize(size_t(r.spec.width) * r.spec.height);
+    for (size_t i = 0; i < plane.size(); ++i) plane[i] = px[i * size_t(r.spec.nchannels) + size_t(c)];
+  }
+  return r;
+}
+
+// --- warnings -----------------------------------------------------------------
+
+WarningCapture::WarningCapture() {
+  Log::resetOnce();
+  Log::setWarningSink([this](const std::string& m) { messages.push_back(m); });
+}
+
+WarningCapture::~WarningCapture() { Log::setWarningSink(nullptr); }
+
+size_t WarningCapture::count(const std::string& needle) const {
+  size_t n = 0;
+  for (const auto& m : messages) n += m.find(needle) != std::string::npos ? 1 : 0;
+  return n;
+}
+
+std::string WarningCapture::all() const {
+  std::string s;
+  for (const auto& m : messages) s += "  [" + m + "]\n";
+  return s;
+}
+
+// --- the CLI ------------------------------------------------------------------
+
+namespace {
+
+// Starts the binary; returns its pid, or -1 with the reason in r.stderrText.
+pid_t startCli(const std::vector<std::string>& args, const std::string& stderrPath, CliResult& r) {
+  std::vector<std::string> all = {OBSCURA_BINARY};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&fa, 2, stderrPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, OBSCURA_BINARY, &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) {
+    r.stderrText = "posix_spawn failed: " + std::string(std::strerror(rc));
+    return -1;
+  }
+  return pid;
+}
+
+// Waits for a started process; fills in how it ended and what it wrote.
+void finishCli(pid_t pid, const std::string& stderrPath, CliResult& r) {
+  if (pid < 0) return;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status)) r.exitCode = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  const auto bytes = readBytes(stderrPath);
+  r.stderrText.assign(bytes.begin(), bytes.end());
+}
+
+}  // namespace
+
+CliResult runCli(const std::vector<std::string>& args, const std::string& stderrPath) {
+  CliResult r;
+  finishCli(startCli(args, stderrPath, r), stderrPath, r);
+  return r;
+}
+
+std::vector<CliResult> runClis(const std::vector<std::vector<std::string>>& argLists, const std::string& dir) {
+  std::vector<CliResult> results(argLists.size());
+  std::vector<pid_t> pids(argLists.size(), -1);
+  const auto errPath = [&](size_t i) { return dir + "/stderr" + std::to_string(i) + ".txt"; };
+  const size_t width = std::max(2u, std::thread::hardware_concurrency());
+  for (size_t begin = 0; begin < argLists.size(); begin += width) {
+    const size_t end = std::min(argLists.size(), begin + width);
+    for (size_t i = begin; i < end; ++i) pids[i] = startCli(argLists[i], errPath(i), results[i]);
+    for (size_t i = begin; i < end; ++i) finishCli(pids[i], errPath(i), results[i]);
+  }
+  return results;
 }
 
 }  // namespace obscura::test

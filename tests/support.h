@@ -1,10 +1,13 @@
 // Shared helpers for the test suite: scenes built in code, renders in
-// process, and statistics for tolerances derived from sample counts.
+// process, statistics for tolerances derived from sample counts, files and
+// images on disk, captured warnings, and the CLI run as a child process.
 #pragma once
 
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -39,5 +42,55 @@ double meanCovered(const Film& film, int channel, size_t* count = nullptr);
 
 // Standard error of the mean of n Bernoulli(p) draws.
 inline double bernoulliStdErr(double p, double n) { return std::sqrt(std::max(p * (1 - p), 1e-12) / n); }
+
+// --- files ------------------------------------------------------------------
+
+// The whole file (empty if it cannot be read).
+std::vector<unsigned char> readBytes(const std::string& path);
+// Creates or replaces the file; a failed write is a test failure.
+void writeBytes(const std::string& path, const void* data, size_t n);
+void writeText(const std::string& path, const std::string& text);
+
+// An image read back with OpenImageIO: the header, and every channel as a
+// float plane looked up by name (OpenEXR stores channels sorted by name and
+// OIIO may reorder them: DEPENDENCIES.md). Failing to open or read the file
+// is a test failure; `ok` says both worked.
+struct ReadBack {
+  bool ok = false;
+  OIIO::ImageSpec spec;
+  std::map<std::string, std::vector<float>> planes;  // by channel name
+};
+ReadBack readExr(const std::string& path);
+
+// --- warnings -----------------------------------------------------------------
+
+// Collects (and so silences) warnings for the lifetime of the object.
+struct WarningCapture {
+  std::vector<std::string> messages;
+  WarningCapture();
+  ~WarningCapture();
+  WarningCapture(const WarningCapture&) = delete;
+  WarningCapture& operator=(const WarningCapture&) = delete;
+  // How many messages contain `needle`.
+  size_t count(const std::string& needle) const;
+  // Every message, one a line, for failure output.
+  std::string all() const;
+};
+
+// --- the CLI ------------------------------------------------------------------
+
+struct CliResult {
+  int exitCode = -1;  // -1 if killed by a signal or never started
+  int signal = 0;
+  std::string stderrText;
+};
+
+// Runs the obscura binary with `args`, stdout to /dev/null and stderr to
+// the file stderrPath, and waits for it.
+CliResult runCli(const std::vector<std::string>& args, const std::string& stderrPath);
+
+// Runs one process per argument list, a few at a time (each start costs
+// ~0.4 s); the i-th one's stderr goes to dir/stderr<i>.txt.
+std::vector<CliResult> runClis(const std::vector<std::vector<std::string>>& argLists, const std::string& dir);
 
 }  // namespace obscura::test

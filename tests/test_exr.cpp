@@ -3,11 +3,7 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
-#include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <map>
-#include <sstream>
 
 #include "core/error.h"
 #include "core/image_io.h"
@@ -15,29 +11,6 @@
 
 namespace obscura::test {
 namespace {
-
-struct ReadBack {
-  OIIO::ImageSpec spec;
-  std::map<std::string, std::vector<float>> planes;  // by channel name
-};
-
-ReadBack readExr(const std::string& path) {
-  ReadBack r;
-  auto in = OIIO::ImageInput::open(path);
-  EXPECT_TRUE(in) << OIIO::geterror();
-  if (!in) return r;
-  r.spec = in->spec();
-  std::vector<float> px(size_t(r.spec.width) * r.spec.height * r.spec.nchannels);
-  EXPECT_TRUE(in->read_image(0, 0, 0, r.spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()));
-  // OpenEXR stores channels sorted by name and OIIO may reorder them: look
-  // every channel up by name (DEPENDENCIES.md).
-  for (int c = 0; c < r.spec.nchannels; ++c) {
-    auto& plane = r.planes[r.spec.channelnames[size_t(c)]];
-    plane.resize(size_t(r.spec.width) * r.spec.height);
-    for (size_t i = 0; i < plane.size(); ++i) plane[i] = px[i * size_t(r.spec.nchannels) + size_t(c)];
-  }
-  return r;
-}
 
 Film sampleFilm() {
   Film f(5, 3, true);
@@ -108,26 +81,14 @@ TEST(Exr, FailedWriteLeavesNoFileAndReplacementIsWhole) {
   EXPECT_EQ(readExr(dir + "/x.exr").spec.width, 2);
 }
 
-int runCli(const std::string& args, std::string* err) {
-  const std::string errFile = tempDir("cli_stderr") + "/stderr.txt";
-  const int status = std::system((std::string(OBSCURA_BINARY) + " " + args + " 2>" + errFile).c_str());
-  std::ifstream in(errFile);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  if (err) *err = ss.str();
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 // The default scene through the CLI: every channel and the metadata the
 // README documents; alpha-premultiplied pass within [0, A].
 TEST(Exr, CliRendersDefaultSceneWithChannelsAndMetadata) {
   const std::string dir = tempDir("cli_default");
-  std::string err;
-  ASSERT_EQ(runCli("render -o " + dir + "/ao.exr --res 64x36 --spp 4 --seed 9 -p rays=2 --preview " + dir +
-                       "/ao.png --quiet",
-                   &err),
-            0)
-      << err;
+  const CliResult cli = runCli({"render", "-o", dir + "/ao.exr", "--res", "64x36", "--spp", "4", "--seed", "9", "-p",
+                                "rays=2", "--preview", dir + "/ao.png", "--quiet"},
+                               dir + "/stderr.txt");
+  ASSERT_EQ(cli.exitCode, 0) << cli.stderrText;
   EXPECT_TRUE(std::filesystem::exists(dir + "/ao.png"));
   const ReadBack r = readExr(dir + "/ao.exr");
   EXPECT_EQ(r.spec.width, 64);

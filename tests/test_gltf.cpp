@@ -4,22 +4,15 @@
 // index types, cameras (also through the CLI), materials and textures, the
 // bundled third-party scenes, and warnings for unsupported features.
 #include <embree3/rtcore.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
@@ -29,15 +22,13 @@
 #include "core/scene.h"
 #include "core/surface.h"
 #include "core/texture.h"
+#include "tests/gltf_builder.h"
 #include "tests/support.h"
-
-extern char** environ;
 
 namespace obscura::test {
 namespace {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
 
 // --- double-precision reference math ---------------------------------------
 
@@ -122,17 +113,6 @@ double srgbToLinearRef(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c
 
 // --- files ---------------------------------------------------------------
 
-std::vector<unsigned char> readBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-void writeBytes(const std::string& path, const void* data, size_t n) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(static_cast<const char*>(data), std::streamsize(n));
-  ASSERT_TRUE(out.good()) << path;
-}
-void writeText(const std::string& path, const std::string& s) { writeBytes(path, s.data(), s.size()); }
-
 // An RGB8 PNG written by OpenImageIO; returns the file's bytes.
 std::vector<unsigned char> writePng(const std::string& path, int w, int h, const std::vector<unsigned char>& rgb) {
   auto out = OIIO::ImageOutput::create(path);
@@ -144,138 +124,6 @@ std::vector<unsigned char> writePng(const std::string& path, int w, int h, const
   out->close();
   return readBytes(path);
 }
-
-constexpr int kFloat = 5126, kUByte = 5121, kUShort = 5123, kUInt = 5125;
-constexpr int kLines = 1, kStrip = 5, kFan = 6;
-
-// Builds a glTF document and its binary buffer, written as .gltf + .bin or
-// as a .glb container.
-class GltfBuilder {
- public:
-  GltfBuilder() { doc["asset"] = {{"version", "2.0"}}; }
-  json doc;
-  std::vector<unsigned char> bin;
-
-  int push(const char* array, json obj) {
-    json& a = doc[array];
-    if (!a.is_array()) a = json::array();
-    a.push_back(std::move(obj));
-    return int(a.size()) - 1;
-  }
-  int bufferView(const void* data, size_t bytes) {
-    while (bin.size() % 4) bin.push_back(0);
-    const size_t offset = bin.size();
-    const auto* p = static_cast<const unsigned char*>(data);
-    bin.insert(bin.end(), p, p + bytes);
-    return push("bufferViews", {{"buffer", 0}, {"byteOffset", offset}, {"byteLength", bytes}});
-  }
-  int accessor(int view, int componentType, size_t count, const char* type) {
-    return push("accessors", {{"bufferView", view}, {"componentType", componentType}, {"count", count}, {"type", type}});
-  }
-  int positions(const std::vector<Vec3>& p) {
-    const int a = accessor(bufferView(p.data(), p.size() * sizeof(Vec3)), kFloat, p.size(), "VEC3");
-    Bounds3 b;
-    bool finite = true;
-    for (const Vec3& v : p) b.extend(v), finite = finite && isFinite(v);
-    if (finite && !p.empty()) {
-      doc["accessors"][size_t(a)]["min"] = {b.lo.x, b.lo.y, b.lo.z};
-      doc["accessors"][size_t(a)]["max"] = {b.hi.x, b.hi.y, b.hi.z};
-    }
-    return a;
-  }
-  int vec3(const std::vector<Vec3>& v) { return accessor(bufferView(v.data(), v.size() * sizeof(Vec3)), kFloat, v.size(), "VEC3"); }
-  int vec2(const std::vector<std::array<float, 2>>& v) {
-    return accessor(bufferView(v.data(), v.size() * 8), kFloat, v.size(), "VEC2");
-  }
-  int vec4(const std::vector<std::array<float, 4>>& v) {
-    return accessor(bufferView(v.data(), v.size() * 16), kFloat, v.size(), "VEC4");
-  }
-  template <class T>
-  int indices(const std::vector<T>& idx) {
-    const int type = sizeof(T) == 1 ? kUByte : sizeof(T) == 2 ? kUShort : kUInt;
-    return accessor(bufferView(idx.data(), idx.size() * sizeof(T)), type, idx.size(), "SCALAR");
-  }
-  // A square [-h,h]^2 in the plane z = 0 with uvs (0,0)..(1,1), as a mesh.
-  int quadMesh(float h, int material = -1, bool withUv = false) {
-    json prim = {{"attributes", {{"POSITION", positions({{-h, -h, 0}, {h, -h, 0}, {h, h, 0}, {-h, h, 0}})}}},
-                 {"indices", indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3})}};
-    if (withUv) prim["attributes"]["TEXCOORD_0"] = vec2({{0, 1}, {1, 1}, {1, 0}, {0, 0}});
-    if (material >= 0) prim["material"] = material;
-    return push("meshes", {{"primitives", json::array({prim})}});
-  }
-  int node(json n) { return push("nodes", std::move(n)); }
-  void scene(std::vector<int> roots) {
-    doc["scenes"] = json::array({{{"nodes", roots}}});
-    doc["scene"] = 0;
-  }
-
-  // Writes dir/name.gltf (+ dir/name.bin); returns the .gltf path.
-  std::string writeGltf(const std::string& dir, const std::string& name) {
-    json d = doc;
-    if (!bin.empty()) {
-      d["buffers"] = json::array({{{"uri", name + ".bin"}, {"byteLength", bin.size()}}});
-      writeBytes(dir + "/" + name + ".bin", bin.data(), bin.size());
-    }
-    const std::string path = dir + "/" + name + ".gltf";
-    writeText(path, d.dump(1));
-    return path;
-  }
-  // Writes dir/name.glb (JSON chunk + BIN chunk); returns its path.
-  std::string writeGlb(const std::string& dir, const std::string& name) {
-    json d = doc;
-    std::vector<unsigned char> b = bin;
-    while (b.size() % 4) b.push_back(0);
-    if (!b.empty()) d["buffers"] = json::array({{{"byteLength", bin.size()}}});
-    std::string text = d.dump();
-    while (text.size() % 4) text.push_back(' ');
-    std::vector<unsigned char> out;
-    const auto u32 = [&](uint32_t v) {
-      for (int i = 0; i < 4; ++i) out.push_back((unsigned char)(v >> (8 * i)));
-    };
-    const uint32_t total = uint32_t(12 + 8 + text.size() + (b.empty() ? 0 : 8 + b.size()));
-    out.insert(out.end(), {'g', 'l', 'T', 'F'});
-    u32(2);
-    u32(total);
-    u32(uint32_t(text.size()));
-    u32(0x4E4F534A);  // JSON
-    out.insert(out.end(), text.begin(), text.end());
-    if (!b.empty()) {
-      u32(uint32_t(b.size()));
-      u32(0x004E4942);  // BIN
-      out.insert(out.end(), b.begin(), b.end());
-    }
-    const std::string path = dir + "/" + name + ".glb";
-    writeBytes(path, out.data(), out.size());
-    return path;
-  }
-};
-
-json perspective(const std::string& name, double yfov, double znear, double zfar = 0) {
-  json c = {{"type", "perspective"}, {"perspective", {{"yfov", yfov}, {"znear", znear}}}};
-  if (zfar > 0) c["perspective"]["zfar"] = zfar;
-  if (!name.empty()) c["name"] = name;
-  return c;
-}
-
-// Collects warnings for the lifetime of the object.
-struct WarningCapture {
-  std::vector<std::string> messages;
-  WarningCapture() {
-    Log::resetOnce();
-    Log::setWarningSink([this](const std::string& m) { messages.push_back(m); });
-  }
-  ~WarningCapture() { Log::setWarningSink(nullptr); }
-  size_t count(const std::string& needle) const {
-    size_t n = 0;
-    for (const auto& m : messages) n += m.find(needle) != std::string::npos ? 1 : 0;
-    return n;
-  }
-  std::string all() const {
-    std::string s;
-    for (const auto& m : messages) s += "  [" + m + "]\n";
-    return s;
-  }
-};
 
 // --- Embree queries -----------------------------------------------------
 
@@ -308,50 +156,6 @@ void expectNear3(D3 got, D3 want, double tol, const std::string& what) {
   for (int i = 0; i < 3; ++i)
     EXPECT_NEAR(got[size_t(i)], want[size_t(i)], tol * (1 + std::abs(want[size_t(i)])))
         << what << " component " << i;
-}
-
-// --- the CLI ------------------------------------------------------------
-
-struct CliResult {
-  int exitCode = -1;  // -1 if killed by a signal
-  int signal = 0;
-  std::string stderrText;
-};
-
-CliResult runCli(const std::vector<std::string>& args, const std::string& stderrPath) {
-  std::vector<std::string> all = {OBSCURA_BINARY};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&fa, 2, stderrPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  pid_t pid = -1;
-  CliResult r;
-  const int rc = posix_spawn(&pid, OBSCURA_BINARY, &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc != 0) {
-    r.stderrText = "posix_spawn failed: " + std::string(std::strerror(rc));
-    return r;
-  }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (WIFEXITED(status)) r.exitCode = WEXITSTATUS(status);
-  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
-  const auto bytes = readBytes(stderrPath);
-  r.stderrText.assign(bytes.begin(), bytes.end());
-  return r;
-}
-
-std::string exrStringAttribute(const std::string& path, const std::string& name) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) return "<cannot open " + path + ">";
-  const std::string s = in->spec().get_string_attribute(name, "<missing>");
-  in->close();
-  return s;
 }
 
 // --- node hierarchy and transforms ------------------------------------------
@@ -644,7 +448,7 @@ TEST(GltfCameras, CliSelectsCameraByNameAndIndex) {
     SCOPED_TRACE(c.select.empty() ? "(default)" : c.select[1]);
     ASSERT_EQ(r.exitCode, 0) << r.stderrText;
     EXPECT_EQ(r.stderrText, "");
-    EXPECT_EQ(exrStringAttribute(out, "obscura:camera"), c.expect);
+    EXPECT_EQ(readExr(out).spec.get_string_attribute("obscura:camera", "<missing>"), c.expect);
   }
 }
 
@@ -667,7 +471,7 @@ TEST(GltfCameras, CameraIndexIsTheIndexInTheFile) {
     const CliResult r = runCli(args, dir + "/stderr.txt");
     SCOPED_TRACE(select.empty() ? "(default)" : select[1]);
     ASSERT_EQ(r.exitCode, 0) << r.stderrText;
-    EXPECT_EQ(exrStringAttribute(out, "obscura:camera"), expect);
+    EXPECT_EQ(readExr(out).spec.get_string_attribute("obscura:camera", "<missing>"), expect);
   }
 }
 
@@ -739,9 +543,9 @@ TEST(GltfCameras, NoCameraInFileRendersWithAutoCameraFramingEverything) {
   const std::string out = dir + "/auto.exr";
   const CliResult r = runCli({"render", path, "-o", out, "--res", "16x8", "--spp", "1", "-q"}, dir + "/stderr.txt");
   ASSERT_EQ(r.exitCode, 0) << r.stderrText;
-  auto in = OIIO::ImageInput::open(out);
-  ASSERT_TRUE(in) << OIIO::geterror();
-  const OIIO::ImageSpec spec = in->spec();
+  const ReadBack image = readExr(out);
+  ASSERT_TRUE(image.ok);
+  const OIIO::ImageSpec& spec = image.spec;
   EXPECT_EQ(spec.get_string_attribute("obscura:camera"), "auto");
   const OIIO::ParamValue* w2c = spec.find_attribute("worldToCamera", OIIO::TypeMatrix44);
   ASSERT_NE(w2c, nullptr);
@@ -751,12 +555,9 @@ TEST(GltfCameras, NoCameraInFileRendersWithAutoCameraFramingEverything) {
   for (int i = 0; i < 16; ++i) EXPECT_NEAR(m[i], expected[size_t(i)], 1e-4 * (1 + std::abs(expected[size_t(i)]))) << i;
   expectBoundsInView(m, cam.yfov, 2.0, b);
   // And the render saw geometry.
-  std::vector<float> px(size_t(spec.width) * spec.height * spec.nchannels);
-  ASSERT_TRUE(in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, px.data()));
-  const int a = spec.channelindex("A");
-  ASSERT_GE(a, 0);
+  ASSERT_TRUE(image.planes.count("A"));
   double coverage = 0;
-  for (size_t i = 0; i < size_t(spec.width) * spec.height; ++i) coverage += px[i * size_t(spec.nchannels) + size_t(a)];
+  for (float a : image.planes.at("A")) coverage += a;
   EXPECT_GT(coverage, 0.0);
 }
 
