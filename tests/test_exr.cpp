@@ -121,7 +121,9 @@ TEST(Exr, CliRendersDefaultSceneWithChannelsAndMetadata) {
       ASSERT_GE(v, 0.0f);
       ASSERT_LE(v, a);  // premultiplied: W in [0,1] times coverage
     }
-    if (a == 0.0f) EXPECT_TRUE(std::isinf(r.planes.at("Z")[i]));
+    if (a == 0.0f) {
+      EXPECT_TRUE(std::isinf(r.planes.at("Z")[i]));
+    }
   }
 }
 
