@@ -5,7 +5,8 @@
 // An integrator estimates, for a batch of camera hits, the normalized ambient
 // irradiance W of MATH.md section 1 (an RGB factor). It is called once per
 // batch (a few hundred hits), never per ray: it fills ray batches through
-// its IntegratorContext and the core traces them as 16-wide packets.
+// its IntegratorContext and the core traces each batch with one Embree
+// stream call.
 #pragma once
 
 #include <cstdint>

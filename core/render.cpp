@@ -13,7 +13,7 @@
 namespace obscura {
 namespace {
 
-// Camera samples per chunk: 16 packets. Large enough that per-chunk overhead
+// Camera samples per chunk. Large enough that per-chunk overhead
 // vanishes, small enough that the batch and its hits stay in L1/L2.
 constexpr size_t kChunk = 256;
 
@@ -33,6 +33,8 @@ struct ThreadScratch {
   std::vector<SurfaceHit> hits;
   uint32_t lanePixel[kChunk];   // pixel (within tile) of each lane
   int32_t laneHit[kChunk];      // index into hits, or -1
+  uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
+  uint32_t laneSample[kChunk];  // sample index within the pixel
   Vec3 W[kChunk];
   std::vector<PixelSums> sums;
   RayCounters cameraCounters;
@@ -76,16 +78,17 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
 
     // Linear sample index L = pixel * spp + sample: pixel-major, so each
     // pixel's samples are summed in sample order whatever the chunking.
+    // Pixel-major, sample-minor order: each pixel's samples are summed in
+    // sample order whatever the chunking. (pix, si) walk that order; the
+    // pixel's sampler key is hashed once per pixel.
+    uint32_t pix = 0, si = 0;
+    uint32_t key = sampler.pixelKey(uint32_t(x0), uint32_t(y0));
+    int px = x0, py = y0;
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
       IntersectBatch& cam = ts.camera;
       cam.clear();
-      uint32_t keyPixel = UINT32_MAX, key = 0;
       for (size_t l = 0; l < n; ++l) {
-        const uint64_t L = begin + l;
-        const uint32_t pix = uint32_t(L / uint64_t(s.spp)), si = uint32_t(L % uint64_t(s.spp));
-        const int px = x0 + int(pix % uint32_t(tw)), py = y0 + int(pix / uint32_t(tw));
-        if (pix != keyPixel) key = sampler.pixelKey(uint32_t(px), uint32_t(py)), keyPixel = pix;
         const Sample2 f = Sampler::get2D(key, si, kDimPixelFilter);
         float ox, oy;
         if (s.filter == PixelFilter::Box) {
@@ -97,6 +100,14 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
         }
         cam.push(raster.org, raster.direction(float(px) + ox, float(py) + oy), tnear, tfar);
         ts.lanePixel[l] = pix;
+        ts.laneKey[l] = key;
+        ts.laneSample[l] = si;
+        if (++si == uint32_t(s.spp)) {  // next pixel
+          si = 0;
+          ++pix;
+          if (++px == x0 + tw) px = x0, ++py;
+          key = sampler.pixelKey(uint32_t(px), uint32_t(py));
+        }
       }
       tracer.intersect(cam, RayCoherence::Coherent);
       ts.cameraCounters.camera += n;
@@ -111,11 +122,8 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
         SurfaceHit& h = ts.hits.emplace_back();
         computeSurfaceHit(scene, cam.geomID(l), cam.primID(l), cam.instID(l), cam.u(l), cam.v(l), cam.t(l),
                           cam.dir(l), wantAlbedo, h);
-        const uint64_t L = begin + l;
-        const uint32_t pix = ts.lanePixel[l];
-        const int px = x0 + int(pix % uint32_t(tw)), py = y0 + int(pix / uint32_t(tw));
-        h.pixelKey = sampler.pixelKey(uint32_t(px), uint32_t(py));
-        h.sampleIndex = uint32_t(L % uint64_t(s.spp));
+        h.pixelKey = ts.laneKey[l];
+        h.sampleIndex = ts.laneSample[l];
       }
       if (!ts.hits.empty()) integrator.estimate(ts.hits, ts.ctx, ts.W);
 

@@ -1,5 +1,5 @@
 // The render loop: image tiles in parallel (TBB); inside a tile, camera
-// samples in chunks traced as packets, handed to the integrator as a batch
+// samples in chunks traced as one ray stream, handed to the integrator as a batch
 // of surface hits, and accumulated per pixel in sample order.
 #pragma once
 

@@ -57,12 +57,32 @@ inline uint32_t nestedUniformScramble(uint32_t x, uint32_t seed) {
 inline uint32_t sobol0(uint32_t i) { return reverseBits32(i); }
 
 // Sobol' dimension 1: its generator matrix is the upper-triangular Pascal
-// matrix mod 2, generated column by column with v ^= v >> 1.
+// matrix mod 2, whose column j is v_j with v_0 = 2^31, v_(j+1) = v_j ^ (v_j >> 1).
+// The index is scrambled to a full 32-bit value, so instead of a loop over
+// its bits the product is taken a byte at a time from four 256-entry tables
+// of XORed columns (built at compile time).
+namespace detail {
+struct Sobol1Tables {
+  uint32_t t[4][256];
+  constexpr Sobol1Tables() : t{} {
+    uint32_t col[32] = {};
+    uint32_t v = 1U << 31;
+    for (int j = 0; j < 32; ++j, v ^= v >> 1) col[j] = v;
+    for (int b = 0; b < 4; ++b)
+      for (int x = 0; x < 256; ++x) {
+        uint32_t r = 0;
+        for (int k = 0; k < 8; ++k)
+          if (x & (1 << k)) r ^= col[8 * b + k];
+        t[b][x] = r;
+      }
+  }
+};
+inline constexpr Sobol1Tables kSobol1{};
+}  // namespace detail
+
 inline uint32_t sobol1(uint32_t i) {
-  uint32_t r = 0;
-  for (uint32_t v = 1U << 31; i; i >>= 1, v ^= v >> 1)
-    if (i & 1U) r ^= v;
-  return r;
+  return detail::kSobol1.t[0][i & 0xff] ^ detail::kSobol1.t[1][(i >> 8) & 0xff] ^
+         detail::kSobol1.t[2][(i >> 16) & 0xff] ^ detail::kSobol1.t[3][i >> 24];
 }
 
 // Map 32 random bits to [0,1): 24 high bits, exact in float, never 1.

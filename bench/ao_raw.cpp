@@ -1,0 +1,328 @@
+#include "bench/ao_raw.h"
+
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <new>
+
+#include "core/error.h"
+#include "core/sampler.h"
+#include "core/surface.h"
+#include "core/warp.h"
+
+namespace obscura::bench {
+
+const char* rawApiName(RawApi api) {
+  switch (api) {
+    case RawApi::Single: return "raw rtcIntersect1/Occluded1";
+    case RawApi::Packet16: return "raw rtcIntersect16/Occluded16";
+    case RawApi::Stream1M: return "raw rtcIntersect1M/Occluded1M";
+  }
+  return "?";
+}
+
+namespace {
+
+constexpr unsigned kInvalid = RTC_INVALID_GEOMETRY_ID;
+
+// Valid-lane masks for 16-wide calls: masks[n] enables lanes 0..n-1.
+struct LaneMasks {
+  alignas(64) int masks[17][16];
+  LaneMasks() {
+    for (int n = 0; n <= 16; ++n)
+      for (int i = 0; i < 16; ++i) masks[n][i] = i < n ? -1 : 0;
+  }
+};
+const LaneMasks kLanes;
+
+template <class T>
+T* alignedArray(size_t n) {
+  void* p = std::aligned_alloc(64, ((n * sizeof(T) + 63) / 64) * 64);
+  if (!p) throw std::bad_alloc();
+  return static_cast<T*>(p);
+}
+
+// Per-thread scratch, allocated once per thread for the tracer's lifetime.
+struct ThreadBuffers {
+  explicit ThreadBuffers(size_t chunk) {
+    const size_t packets = (chunk + 15) / 16;
+    hit16 = alignedArray<RTCRayHit16>(packets);
+    occ16 = alignedArray<RTCRay16>(packets);
+    hit1M = alignedArray<RTCRayHit>(chunk);
+    occ1M = alignedArray<RTCRay>(chunk);
+    key = alignedArray<uint32_t>(chunk);
+    sample = alignedArray<uint32_t>(chunk);
+  }
+  ~ThreadBuffers() {
+    std::free(hit16);
+    std::free(occ16);
+    std::free(hit1M);
+    std::free(occ1M);
+    std::free(key);
+    std::free(sample);
+  }
+  ThreadBuffers(const ThreadBuffers&) = delete;
+  ThreadBuffers& operator=(const ThreadBuffers&) = delete;
+
+  RTCRayHit16* hit16;
+  RTCRay16* occ16;
+  RTCRayHit* hit1M;
+  RTCRay* occ1M;
+  uint32_t* key;     // pixel key of each camera lane of the chunk
+  uint32_t* sample;  // sample index of each camera lane
+  RayTally tally;
+};
+
+// Walks a tile's camera samples in the renderer's order: pixels row-major
+// within the tile, each pixel's samples 0..spp-1 consecutively.
+struct SampleWalk {
+  SampleWalk(const Sampler& s, int x0_, int y0, int tw, int spp_)
+      : sampler(s), x0(x0_), x1(x0_ + tw), spp(uint32_t(spp_)), px(x0_), py(y0),
+        key(s.pixelKey(uint32_t(x0_), uint32_t(y0))) {}
+  void next() {
+    if (++si != spp) return;
+    si = 0;
+    if (++px == x1) px = x0, ++py;
+    key = sampler.pixelKey(uint32_t(px), uint32_t(py));
+  }
+  const Sampler& sampler;
+  int x0, x1;
+  uint32_t spp;
+  int px, py;
+  uint32_t si = 0;
+  uint32_t key;
+};
+
+// The AO ray of ao.cpp, from what Embree returned (see ao_raw.h).
+struct AoRay {
+  Vec3 org, dir;
+};
+inline AoRay makeAoRay(Vec3 o, Vec3 d, float t, Vec3 ngRaw, uint32_t key, uint32_t sampleIndex) {
+  const Vec3 p = o + d * t;
+  const float len = length(ngRaw);
+  Vec3 ng = (len > 0.0f && std::isfinite(len)) ? ngRaw * (1.0f / len) : -d;
+  if (dot(ng, d) > 0.0f) ng = -ng;
+  const float mag = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
+  const float eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
+  const Frame frame = Frame::fromNormal(ng);
+  const Sample2 s = Sampler::get2D(key, sampleIndex, kFirstIntegratorDim);  // rays = 1: index = sample
+  const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+  return {p + ng * eps, w};  // w is in ng's hemisphere: offset to the front
+}
+
+inline void setContext(RTCIntersectContext& ctx, RTCIntersectContextFlags flags) {
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = flags;
+}
+
+}  // namespace
+
+struct RawAoTracer::Impl {
+  Impl(const Scene& sc, const Camera& cam, const RawSettings& s)
+      : scene(sc.rtcScene()), raster(cam, s.width, s.height), sampler(s.seed), tnear(cam.znear),
+        tfar(cam.zfar), set(s) {
+    if (s.chunk < 16 || s.chunk % 16) throw Error("--chunk must be a positive multiple of 16");
+    if (s.threads < 1) throw Error("internal: thread count must be resolved");
+  }
+
+  RTCScene scene;
+  RasterCamera raster;
+  Sampler sampler;
+  float tnear, tfar;
+  RawSettings set;
+  tbb::enumerable_thread_specific<std::unique_ptr<ThreadBuffers>> buffers;
+
+  ThreadBuffers& local() {
+    std::unique_ptr<ThreadBuffers>& b = buffers.local();
+    if (!b) b = std::make_unique<ThreadBuffers>(size_t(set.chunk));
+    return *b;
+  }
+
+  // --- (a) one ray at a time: camera ray, then its AO ray ------------------
+  void tileSingle(ThreadBuffers& b, int x0, int y0, int tw, int th) const {
+    RTCIntersectContext cc, oc;
+    setContext(cc, RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
+    setContext(oc, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+    const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(set.spp);
+    SampleWalk w(sampler, x0, y0, tw, set.spp);
+    uint64_t ao = 0, unoccluded = 0;
+    for (uint64_t i = 0; i < total; ++i, w.next()) {
+      const Sample2 f = Sampler::get2D(w.key, w.si, kDimPixelFilter);
+      const Vec3 d = raster.direction(float(w.px) + f.u, float(w.py) + f.v);
+      alignas(16) RTCRayHit rh;
+      rh.ray.org_x = raster.org.x; rh.ray.org_y = raster.org.y; rh.ray.org_z = raster.org.z;
+      rh.ray.tnear = tnear;
+      rh.ray.dir_x = d.x; rh.ray.dir_y = d.y; rh.ray.dir_z = d.z;
+      rh.ray.time = 0.0f; rh.ray.tfar = tfar; rh.ray.mask = 0xffffffffU; rh.ray.id = 0; rh.ray.flags = 0;
+      rh.hit.geomID = kInvalid;
+      rh.hit.instID[0] = kInvalid;
+      rtcIntersect1(scene, &cc, &rh);
+      if (rh.hit.geomID == kInvalid) continue;
+      const AoRay a = makeAoRay(raster.org, d, rh.ray.tfar, Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), w.key, w.si);
+      alignas(16) RTCRay r;
+      r.org_x = a.org.x; r.org_y = a.org.y; r.org_z = a.org.z; r.tnear = 0.0f;
+      r.dir_x = a.dir.x; r.dir_y = a.dir.y; r.dir_z = a.dir.z;
+      r.time = 0.0f; r.tfar = set.aoDistance; r.mask = 0xffffffffU; r.id = 0; r.flags = 0;
+      rtcOccluded1(scene, &oc, &r);
+      ++ao;
+      unoccluded += r.tfar >= 0.0f ? 1 : 0;
+    }
+    b.tally.camera += total;
+    b.tally.ao += ao;
+    b.tally.unoccluded += unoccluded;
+  }
+
+  // --- (b) 16-wide SoA packets: a chunk of camera packets, then the chunk's
+  // AO rays compacted into full packets ----------------------------------
+  void tilePacket(ThreadBuffers& b, int x0, int y0, int tw, int th) const {
+    RTCIntersectContext cc, oc;
+    setContext(cc, RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
+    setContext(oc, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+    const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(set.spp);
+    SampleWalk w(sampler, x0, y0, tw, set.spp);
+    RTCRayHit16* const cam = b.hit16;
+    RTCRay16* const occ = b.occ16;
+    uint64_t ao = 0, unoccluded = 0;
+    for (uint64_t begin = 0; begin < total; begin += uint64_t(set.chunk)) {
+      const size_t n = size_t(std::min<uint64_t>(uint64_t(set.chunk), total - begin));
+      for (size_t i = 0; i < n; ++i, w.next()) {
+        const Sample2 f = Sampler::get2D(w.key, w.si, kDimPixelFilter);
+        const Vec3 d = raster.direction(float(w.px) + f.u, float(w.py) + f.v);
+        RTCRayHit16& p = cam[i >> 4];
+        const size_t l = i & 15;
+        p.ray.org_x[l] = raster.org.x; p.ray.org_y[l] = raster.org.y; p.ray.org_z[l] = raster.org.z;
+        p.ray.tnear[l] = tnear;
+        p.ray.dir_x[l] = d.x; p.ray.dir_y[l] = d.y; p.ray.dir_z[l] = d.z;
+        p.ray.time[l] = 0.0f; p.ray.tfar[l] = tfar; p.ray.mask[l] = 0xffffffffU;
+        p.ray.id[l] = unsigned(i); p.ray.flags[l] = 0;
+        p.hit.geomID[l] = kInvalid;
+        p.hit.instID[0][l] = kInvalid;
+        b.key[i] = w.key;
+        b.sample[i] = w.si;
+      }
+      const size_t packets = (n + 15) / 16;
+      for (size_t k = 0; k < packets; ++k)
+        rtcIntersect16(kLanes.masks[std::min<size_t>(16, n - k * 16)], scene, &cc, &cam[k]);
+
+      size_t m = 0;
+      for (size_t i = 0; i < n; ++i) {
+        const RTCRayHit16& p = cam[i >> 4];
+        const size_t l = i & 15;
+        if (p.hit.geomID[l] == kInvalid) continue;
+        const AoRay a = makeAoRay(raster.org, Vec3(p.ray.dir_x[l], p.ray.dir_y[l], p.ray.dir_z[l]), p.ray.tfar[l],
+                                  Vec3(p.hit.Ng_x[l], p.hit.Ng_y[l], p.hit.Ng_z[l]), b.key[i], b.sample[i]);
+        RTCRay16& q = occ[m >> 4];
+        const size_t j = m & 15;
+        q.org_x[j] = a.org.x; q.org_y[j] = a.org.y; q.org_z[j] = a.org.z; q.tnear[j] = 0.0f;
+        q.dir_x[j] = a.dir.x; q.dir_y[j] = a.dir.y; q.dir_z[j] = a.dir.z;
+        q.time[j] = 0.0f; q.tfar[j] = set.aoDistance; q.mask[j] = 0xffffffffU; q.id[j] = unsigned(m); q.flags[j] = 0;
+        ++m;
+      }
+      const size_t aoPackets = (m + 15) / 16;
+      for (size_t k = 0; k < aoPackets; ++k)
+        rtcOccluded16(kLanes.masks[std::min<size_t>(16, m - k * 16)], scene, &oc, &occ[k]);
+      for (size_t j = 0; j < m; ++j) unoccluded += occ[j >> 4].tfar[j & 15] >= 0.0f ? 1 : 0;
+      ao += m;
+    }
+    b.tally.camera += total;
+    b.tally.ao += ao;
+    b.tally.unoccluded += unoccluded;
+  }
+
+  // --- (c) streams: a chunk of RTCRayHit through rtcIntersect1M, then the
+  // chunk's AO rays as an RTCRay array through rtcOccluded1M ---------------
+  void tileStream(ThreadBuffers& b, int x0, int y0, int tw, int th) const {
+    RTCIntersectContext cc, oc;
+    setContext(cc, RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
+    setContext(oc, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+    const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(set.spp);
+    SampleWalk w(sampler, x0, y0, tw, set.spp);
+    RTCRayHit* const cam = b.hit1M;
+    RTCRay* const occ = b.occ1M;
+    uint64_t ao = 0, unoccluded = 0;
+    for (uint64_t begin = 0; begin < total; begin += uint64_t(set.chunk)) {
+      const size_t n = size_t(std::min<uint64_t>(uint64_t(set.chunk), total - begin));
+      for (size_t i = 0; i < n; ++i, w.next()) {
+        const Sample2 f = Sampler::get2D(w.key, w.si, kDimPixelFilter);
+        const Vec3 d = raster.direction(float(w.px) + f.u, float(w.py) + f.v);
+        RTCRayHit& r = cam[i];
+        r.ray.org_x = raster.org.x; r.ray.org_y = raster.org.y; r.ray.org_z = raster.org.z; r.ray.tnear = tnear;
+        r.ray.dir_x = d.x; r.ray.dir_y = d.y; r.ray.dir_z = d.z;
+        r.ray.time = 0.0f; r.ray.tfar = tfar; r.ray.mask = 0xffffffffU; r.ray.id = unsigned(i); r.ray.flags = 0;
+        r.hit.geomID = kInvalid;
+        r.hit.instID[0] = kInvalid;
+        b.key[i] = w.key;
+        b.sample[i] = w.si;
+      }
+      rtcIntersect1M(scene, &cc, cam, unsigned(n), sizeof(RTCRayHit));
+
+      size_t m = 0;
+      for (size_t i = 0; i < n; ++i) {
+        const RTCRayHit& r = cam[i];
+        if (r.hit.geomID == kInvalid) continue;
+        const AoRay a = makeAoRay(raster.org, Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.tfar,
+                                  Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z), b.key[i], b.sample[i]);
+        RTCRay& q = occ[m];
+        q.org_x = a.org.x; q.org_y = a.org.y; q.org_z = a.org.z; q.tnear = 0.0f;
+        q.dir_x = a.dir.x; q.dir_y = a.dir.y; q.dir_z = a.dir.z;
+        q.time = 0.0f; q.tfar = set.aoDistance; q.mask = 0xffffffffU; q.id = unsigned(m); q.flags = 0;
+        ++m;
+      }
+      rtcOccluded1M(scene, &oc, occ, unsigned(m), sizeof(RTCRay));
+      for (size_t j = 0; j < m; ++j) unoccluded += occ[j].tfar >= 0.0f ? 1 : 0;
+      ao += m;
+    }
+    b.tally.camera += total;
+    b.tally.ao += ao;
+    b.tally.unoccluded += unoccluded;
+  }
+};
+
+RawAoTracer::RawAoTracer(const Scene& scene, const Camera& camera, const RawSettings& settings)
+    : impl_(std::make_unique<Impl>(scene, camera, settings)) {}
+
+RawAoTracer::~RawAoTracer() = default;
+
+double RawAoTracer::run(RawApi api, RayTally& tally) {
+  Impl& im = *impl_;
+  const RawSettings& s = im.set;
+  for (auto& b : im.buffers)
+    if (b) b->tally = {};
+  const int tilesX = (s.width + s.tileSize - 1) / s.tileSize, tilesY = (s.height + s.tileSize - 1) / s.tileSize;
+
+  const auto t0 = std::chrono::steady_clock::now();
+  tbb::task_arena arena(s.threads);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
+      ThreadBuffers& b = im.local();
+      for (int t = r.begin(); t != r.end(); ++t) {
+        const int x0 = (t % tilesX) * s.tileSize, y0 = (t / tilesX) * s.tileSize;
+        const int tw = std::min(s.tileSize, s.width - x0), th = std::min(s.tileSize, s.height - y0);
+        switch (api) {
+          case RawApi::Single: im.tileSingle(b, x0, y0, tw, th); break;
+          case RawApi::Packet16: im.tilePacket(b, x0, y0, tw, th); break;
+          case RawApi::Stream1M: im.tileStream(b, x0, y0, tw, th); break;
+        }
+      }
+    });
+  });
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  tally = {};
+  for (const auto& b : im.buffers) {
+    if (!b) continue;
+    tally.camera += b->tally.camera;
+    tally.ao += b->tally.ao;
+    tally.unoccluded += b->tally.unoccluded;
+  }
+  return seconds;
+}
+
+}  // namespace obscura::bench
