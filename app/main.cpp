@@ -15,6 +15,7 @@
 #include "core/gltf_loader.h"
 #include "core/image_io.h"
 #include "core/integrator.h"
+#include "core/plugin.h"
 #include "core/progress.h"
 #include "core/render.h"
 
@@ -43,6 +44,7 @@ struct RenderArgs {
   bool noAovs = false;
   bool quiet = false;
   bool robust = false;
+  std::vector<std::string> plugins;
 };
 
 void parseResolution(const std::string& s, int& w, int& h) {
@@ -107,7 +109,13 @@ std::vector<float> worldToCameraMatrix(const Camera& c) {
   return m;
 }
 
+void loadPlugins(const std::vector<std::string>& paths) {
+  loadPluginsFromEnvironment();
+  for (const auto& p : paths) loadPlugin(p);
+}
+
 int runRender(const RenderArgs& a) {
+  loadPlugins(a.plugins);
   const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(a.integrator);
   ParamSet params(desc.params, desc.name);
   for (const auto& p : a.params) params.setAssignment(p);
@@ -197,7 +205,8 @@ int runRender(const RenderArgs& a) {
   return 0;
 }
 
-int runIntegrators() {
+int runIntegrators(const std::vector<std::string>& plugins) {
+  loadPlugins(plugins);
   for (const auto& d : IntegratorRegistry::instance().all()) {
     std::printf("%s\n    %s\n", d.name.c_str(), d.doc.c_str());
     for (const auto& p : d.params)
@@ -267,9 +276,12 @@ int main(int argc, char** argv) {
   render->add_flag("--half", r.half, "Write 16-bit half floats instead of 32-bit floats");
   render->add_flag("--no-aovs", r.noAovs, "Write only R,G,B,A (skips albedo, N, Z, shaded)");
   render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
+  render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
 
-  app.add_subcommand("integrators", "List integrators with their parameters");
+  std::vector<std::string> listPlugins;
+  CLI::App* integrators = app.add_subcommand("integrators", "List integrators with their parameters");
+  integrators->add_option("--plugin", listPlugins, "Load an integrator plugin first; repeatable");
   std::string infoPath;
   CLI::App* info = app.add_subcommand("info", "Describe a scene: meshes, triangles, instances, cameras, materials, bounds");
   info->add_option("scene", infoPath, "glTF 2.0 scene")->required();
@@ -290,7 +302,7 @@ int main(int argc, char** argv) {
   try {
     if (render->parsed()) return runRender(r);
     if (info->parsed()) return runInfo(infoPath);
-    return runIntegrators();
+    return runIntegrators(listPlugins);
   } catch (const Error& e) {
     std::fprintf(stderr, "obscura: error: %s\n", e.what());
     return 1;

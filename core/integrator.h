@@ -78,7 +78,7 @@ class Integrator {
 };
 
 struct IntegratorDescriptor {
-  std::string name;
+  std::string name;  // [a-z0-9_-]+
   std::string doc;  // one line
   std::vector<ParamSpec> params;
   IntegratorNeeds (*needs)(const ParamSet&) = nullptr;
@@ -88,23 +88,20 @@ struct IntegratorDescriptor {
 class IntegratorRegistry {
  public:
   static IntegratorRegistry& instance();
-  void add(IntegratorDescriptor d);
+  // Adds an integrator; throws obscura::Error if the name is taken or the
+  // descriptor is incomplete. `origin` names the plugin in messages.
+  void add(IntegratorDescriptor d, const std::string& origin = "built-in");
   // Throws obscura::Error listing the known names if `name` is unknown.
   const IntegratorDescriptor& find(const std::string& name) const;
   const std::vector<IntegratorDescriptor>& all() const { return all_; }
 
  private:
   std::vector<IntegratorDescriptor> all_;
+  std::vector<std::string> origins_;
 };
 
-// Registers a built-in integrator at static-initialization time; `fn` is a
-// function returning its IntegratorDescriptor.
-#define OBSCURA_REGISTER_INTEGRATOR(fn)                                     \
-  namespace {                                                              \
-  const bool obscura_registered_##fn = [] {                                \
-    ::obscura::IntegratorRegistry::instance().add(fn());                   \
-    return true;                                                           \
-  }();                                                                     \
-  }
-
+// Integrators register through a plugin entry point (core/plugin.h): each
+// integrator file adds its descriptor function to its module's list with
+// OBSCURA_REGISTER_INTEGRATOR(fn); the module's OBSCURA_PLUGIN_ENTRY hands
+// the list to the registry when the loader has checked the ABI version.
 }  // namespace obscura

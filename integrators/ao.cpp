@@ -8,7 +8,7 @@
 // any-hit rays are traced: AO never needs the occluder itself.
 #include <cmath>
 
-#include "core/integrator.h"
+#include "core/plugin.h"
 #include "core/warp.h"
 
 namespace obscura {

@@ -1,0 +1,67 @@
+// Integrator plugins: the one entry point built-in and third-party
+// integrators share, and the loader that checks it.
+//
+// A module (the obscura program itself for the built-ins, or a shared
+// library) lists its integrators with OBSCURA_REGISTER_INTEGRATOR(fn) - fn
+// returns an IntegratorDescriptor - and exports them once with
+// OBSCURA_PLUGIN_ENTRY("name"). That defines two C symbols:
+//   obscura_plugin_abi_version  (data: OBSCURA_PLUGIN_ABI_VERSION at build time)
+//   obscura_plugin_register     (function: adds the module's integrators)
+// The loader reads the version *before* calling anything in the module and
+// refuses a mismatch with a message; a library without the symbols, one that
+// fails to load, or one whose registration throws gives an obscura::Error,
+// never a crash. See docs/plugins.md.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/integrator.h"
+
+// Bumped whenever a header a plugin compiles against changes in a way that
+// breaks binary compatibility (class layouts, virtual functions, inline code
+// that touches core data).
+#define OBSCURA_PLUGIN_ABI_VERSION 1u
+
+namespace obscura {
+
+namespace detail {
+using DescriptorFn = IntegratorDescriptor (*)();
+// One list per module (hidden visibility: each shared library and the
+// program get their own), filled by static initializers that only append
+// function pointers - nothing runs in a plugin before its ABI is checked.
+__attribute__((visibility("hidden"))) inline std::vector<DescriptorFn>& moduleIntegrators() {
+  static std::vector<DescriptorFn> list;
+  return list;
+}
+}  // namespace detail
+
+// Loads the plugin library at `path` and registers its integrators.
+// Throws obscura::Error naming the path on any failure.
+void loadPlugin(const std::string& path);
+// Loads every plugin named by OBSCURA_PLUGIN_PATH: a ':'-separated list of
+// plugin files or directories (every *.so in a directory, in name order).
+void loadPluginsFromEnvironment();
+// Registers the integrators compiled into the running program (through the
+// same entry point as a plugin). Called once by IntegratorRegistry.
+void loadBuiltinPlugins(IntegratorRegistry& registry);
+
+}  // namespace obscura
+
+#define OBSCURA_REGISTER_INTEGRATOR(fn)                                            \
+  namespace {                                                                     \
+  [[maybe_unused]] const bool obscura_registered_##fn =                           \
+      (::obscura::detail::moduleIntegrators().push_back(&fn), true);              \
+  }
+
+// Exactly once per module, at global scope.
+#define OBSCURA_PLUGIN_ENTRY(pluginName)                                          \
+  extern "C" __attribute__((visibility("default"))) const uint32_t               \
+      obscura_plugin_abi_version = OBSCURA_PLUGIN_ABI_VERSION;                    \
+  extern "C" __attribute__((visibility("default"))) const char                   \
+      obscura_plugin_name[] = pluginName;                                         \
+  extern "C" __attribute__((visibility("default"))) void obscura_plugin_register( \
+      ::obscura::IntegratorRegistry* registry, const char* origin) {              \
+    for (auto fn : ::obscura::detail::moduleIntegrators()) registry->add(fn(), origin); \
+  }

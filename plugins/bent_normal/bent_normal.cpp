@@ -1,0 +1,83 @@
+// bent-normal: the mean unoccluded direction, a standard film AOV (for
+// relighting with environment maps and for directional ambient).
+//
+//   B(x) = (1/pi) Int_Omega V_R(x, w) w cos+(theta) dw
+//
+// With w drawn from cos(theta)/pi about the shading normal, the estimator is
+// the plain mean of V_R(x, w_i) w_i (linear, so pixel filtering and sample
+// accumulation are exact). R,G,B of the pass hold B's world-space x, y, z.
+// It is NOT normalized: its length is the cosine-weighted "openness"
+// (2/3 on an unoccluded plane, where E[cos theta] = 2/3); the unit bent
+// normal a shader wants is normalize(RGB). Components lie in [-1, 1].
+#include <cmath>
+#include <limits>
+
+#include "core/plugin.h"
+#include "core/warp.h"
+
+namespace {
+
+using namespace obscura;
+
+class BentNormal final : public Integrator {
+ public:
+  BentNormal(float distance, uint32_t rays) : distance_(distance), rays_(rays) {}
+
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, Vec3* W) const override {
+    OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
+    for (const SurfaceHit& h : hits) {
+      const Frame frame = Frame::fromNormal(h.ns);
+      for (uint32_t k = 0; k < rays_; ++k) {
+        const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
+        const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+        batch.push(spawnOrigin(h, w), w, 0.0f, distance_);
+      }
+    }
+    ctx.trace(batch);
+    const float inv = 1.0f / float(rays_);
+    size_t r = 0;
+    for (size_t i = 0; i < hits.size(); ++i) {
+      Vec3 sum(0, 0, 0);
+      for (uint32_t k = 0; k < rays_; ++k, ++r)
+        if (!batch.occluded(r)) sum += batch.dir(r);
+      W[i] = sum * inv;
+    }
+  }
+
+ private:
+  float distance_;
+  uint32_t rays_;
+};
+
+IntegratorDescriptor bentNormalDescriptor() {
+  IntegratorDescriptor d;
+  d.name = "bent-normal";
+  d.doc = "Bent normal: mean unoccluded cosine-weighted direction (world xyz in RGB, unnormalized).";
+  ParamSpec distance;
+  distance.name = "distance";
+  distance.type = ParamType::Float;
+  distance.defaultValue = "inf";
+  distance.min = 0.0;
+  distance.allowInfinity = true;
+  distance.doc = "R: occluders farther than this (scene units) do not count; inf = any hit occludes";
+  ParamSpec rays;
+  rays.name = "rays";
+  rays.type = ParamType::Int;
+  rays.defaultValue = "1";
+  rays.min = 1;
+  rays.max = 65536;
+  rays.doc = "rays per camera sample";
+  d.params = {distance, rays};
+  d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
+    const double R = p.getFloat("distance");
+    const float r = R > double(std::numeric_limits<float>::max()) ? INFINITY : float(R);
+    return std::make_unique<BentNormal>(r, uint32_t(p.getInt("rays")));
+  };
+  return d;
+}
+
+}  // namespace
+
+OBSCURA_REGISTER_INTEGRATOR(bentNormalDescriptor)
+OBSCURA_PLUGIN_ENTRY("bent-normal")
