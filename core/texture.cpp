@@ -23,6 +23,10 @@ Texture::Texture(std::vector<unsigned char> encoded, std::string source, bool sr
 
 void Texture::decode() const {
   std::call_once(once_, [this] {
+    struct Mark {
+      std::atomic<bool>& flag;
+      ~Mark() { flag.store(true, std::memory_order_release); }
+    } mark{decodeAttempted_};
     int w = 0, h = 0, comp = 0;
     if (encoded_.size() > size_t(INT32_MAX)) {
       decodeError_ = "image too large";

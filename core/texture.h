@@ -3,6 +3,7 @@
 // sampled bilinearly in linear RGB with the glTF sampler's wrap modes.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -25,6 +26,8 @@ class Texture {
   // Bilinear lookup at (u,v) in linear RGB. decode() must have succeeded.
   Vec3 sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const;
 
+  // True once decode() has run (whether or not it succeeded).
+  bool decoded() const { return decodeAttempted_.load(std::memory_order_acquire); }
   int width() const { return width_; }
   int height() const { return height_; }
   const std::string& source() const { return source_; }
@@ -38,6 +41,7 @@ class Texture {
   mutable std::vector<Vec3> texels_;
   mutable int width_ = 0, height_ = 0;
   mutable std::string decodeError_;
+  mutable std::atomic<bool> decodeAttempted_{false};
 };
 
 float srgbToLinear(float c);
