@@ -19,6 +19,7 @@
 #include "core/sampler.h"
 #include "core/surface.h"
 #include "core/tracer.h"
+#include "core/warp.h"
 
 namespace obscura {
 
@@ -66,6 +67,15 @@ class IntegratorContext {
   OcclusionBatch occlusion_;
   IntersectBatch intersect_;
 };
+
+// Direction k of `rays` drawn for hit h with density cos(theta)/pi about its
+// shading normal (MATH.md section 1); `frame` = Frame::fromNormal(h.ns). The
+// pixel's (sample, ray) pairs index one sequence, so all of a pixel's rays
+// are jointly stratified.
+inline Vec3 cosineDirection(const SurfaceHit& h, const Frame& frame, uint32_t rays, uint32_t k) {
+  const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays + k, kFirstIntegratorDim);
+  return frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+}
 
 class Integrator {
  public:

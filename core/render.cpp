@@ -76,8 +76,6 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     ts.sums.assign(pixels, PixelSums{});
     const uint64_t total = uint64_t(pixels) * uint64_t(s.spp);
 
-    // Linear sample index L = pixel * spp + sample: pixel-major, so each
-    // pixel's samples are summed in sample order whatever the chunking.
     // Pixel-major, sample-minor order: each pixel's samples are summed in
     // sample order whatever the chunking. (pix, si) walk that order; the
     // pixel's sampler key is hashed once per pixel.

@@ -45,4 +45,15 @@ inline Vec3 spawnOrigin(const SurfaceHit& h, Vec3 d) {
   return h.p + h.ng * s;
 }
 
+// Surfaces are opaque: a direction below the geometric plane (which a cosine
+// lobe about a tilted shading normal reaches) is blocked by the surface
+// itself, at distance 0, whatever a ray would find.
+inline bool intoSurface(const SurfaceHit& h, Vec3 w) { return !(dot(w, h.ng) > 0.0f); }
+
+// An any-hit ray i of `batch` that was spawned from h: is its direction open?
+template <class Batch>
+inline bool openDirection(const SurfaceHit& h, const Batch& batch, size_t i) {
+  return !intoSurface(h, batch.dir(i)) && !batch.occluded(i);
+}
+
 }  // namespace obscura

@@ -6,7 +6,12 @@
 // with density cos(theta)/pi about the shading normal, so the estimator is
 // the plain mean of the visibility: AO ~ (1/n) Sum_i V_R(x, w_i). Only
 // any-hit rays are traced: AO never needs the occluder itself.
+//
+// Surfaces are opaque: a direction below the geometric surface (possible
+// when the shading normal tilts away from the geometric one) is blocked by
+// the surface itself, whatever the ray finds (openDirection, core/surface.h).
 #include <cmath>
+#include <limits>
 
 #include "core/plugin.h"
 #include "core/warp.h"
@@ -23,10 +28,7 @@ class AmbientOcclusion final : public Integrator {
     for (const SurfaceHit& h : hits) {
       const Frame frame = Frame::fromNormal(h.ns);
       for (uint32_t k = 0; k < rays_; ++k) {
-        // The pixel's (sample, ray) pairs index one sequence, so all of a
-        // pixel's AO rays are jointly stratified.
-        const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
-        const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+        const Vec3 w = cosineDirection(h, frame, rays_, k);
         batch.push(spawnOrigin(h, w), w, 0.0f, distance_);
       }
     }
@@ -35,7 +37,7 @@ class AmbientOcclusion final : public Integrator {
     size_t r = 0;
     for (size_t i = 0; i < hits.size(); ++i) {
       uint32_t visible = 0;
-      for (uint32_t k = 0; k < rays_; ++k, ++r) visible += batch.occluded(r) ? 0U : 1U;
+      for (uint32_t k = 0; k < rays_; ++k, ++r) visible += openDirection(hits[i], batch, r) ? 1U : 0U;
       const float ao = float(visible) * inv;
       W[i] = Vec3(ao, ao, ao);
     }

@@ -58,15 +58,6 @@ TEST(Plugin, BrokenPluginsGiveClearErrors) {
   EXPECT_EQ(IntegratorRegistry::instance().find("ao").doc.find("impostor"), std::string::npos);
 }
 
-RenderSettings settings(int w, int h, int spp) {
-  RenderSettings s;
-  s.width = w;
-  s.height = h;
-  s.spp = spp;
-  s.aovs = false;
-  return s;
-}
-
 // Unoccluded plane: B = E[w] under cos/pi about n = (0,0,2/3) in the normal's
 // frame. Per-ray variances: Var(w_z) = E[z^2] - 4/9 = 1/2 - 4/9 = 1/18,
 // Var(w_x) = Var(w_y) = E[x^2] = 1/4.
@@ -77,7 +68,7 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
   scene.commit();
   const Camera cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
   const int w = 32, h = 32, spp = 32, rays = 2;
-  const Film film = renderWith(scene, cam, "bent-normal", {"rays=" + std::to_string(rays)}, settings(w, h, spp));
+  const Film film = renderWith(scene, cam, "bent-normal", {"rays=" + std::to_string(rays)}, passSettings(w, h, spp));
   size_t n = 0;
   const double bx = meanCovered(film, kR, &n), by = meanCovered(film, kG), bz = meanCovered(film, kB);
   ASSERT_EQ(n, size_t(w * h));
@@ -100,7 +91,7 @@ TEST(Plugin, BentNormalInTheSphericalCavity) {
   scene.commit();
   const Camera cam = makeLookAtCamera(Vec3(0, 0, 0), Vec3(0, 0, -1), Vec3(0, 1, 0), 1e-4f, "antipode");
   const int w = 16, h = 16, spp = 256, rays = 4;
-  const Film film = renderWith(scene, cam, "bent-normal", {"rays=" + std::to_string(rays)}, settings(w, h, spp));
+  const Film film = renderWith(scene, cam, "bent-normal", {"rays=" + std::to_string(rays)}, passSettings(w, h, spp));
   const double c0 = std::cos(alpha / 2);
   const double expected = 2.0 / 3.0 * (1 - c0 * c0 * c0);
   const double var = (1 - c0 * c0 * c0 * c0) / 2 - expected * expected;

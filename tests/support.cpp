@@ -57,6 +57,16 @@ void addPlane(Scene& scene, float h, float z) {
   scene.addWorldPrimitive({{-h, -h, z}, {h, -h, z}, {h, h, z}, {-h, h, z}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
 }
 
+RenderSettings passSettings(int w, int h, int spp, uint32_t seed) {
+  RenderSettings s;
+  s.width = w;
+  s.height = h;
+  s.spp = spp;
+  s.seed = seed;
+  s.aovs = false;
+  return s;
+}
+
 Film renderWith(const Scene& scene, const Camera& camera, const std::string& integrator,
                 const std::vector<std::string>& params, const RenderSettings& settings, RenderStats* stats) {
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find(integrator);

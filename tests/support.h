@@ -32,6 +32,9 @@ void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segmen
 // A square in the plane z = 0, side 2*halfSize, normal +Z.
 void addPlane(Scene& scene, float halfSize, float z = 0.0f);
 
+// Settings for a pass-only render (no AOVs) of w x h pixels at spp.
+RenderSettings passSettings(int w, int h, int spp, uint32_t seed = 0);
+
 // Renders with `integrator` configured by "key=value" strings.
 Film renderWith(const Scene& scene, const Camera& camera, const std::string& integrator,
                 const std::vector<std::string>& params, const RenderSettings& settings,

@@ -22,15 +22,6 @@
 namespace obscura::test {
 namespace {
 
-RenderSettings settings(int w, int h, int spp) {
-  RenderSettings s;
-  s.width = w;
-  s.height = h;
-  s.spp = spp;
-  s.aovs = false;
-  return s;
-}
-
 // A plane with nothing else: every AO ray escapes, so AO = 1 exactly at every
 // pixel, at any scene scale and distance from the origin (robust offsets:
 // a self-intersection anywhere would make some pixel < 1).
@@ -43,7 +34,7 @@ TEST(AoAnalytic, InfinitePlaneIsExactlyOneAtEveryScale) {
       scene.commit();
       const Camera cam = makeLookAtCamera(Vec3(0.3f * scale, -2.0f * scale, z + 1.0f * scale),
                                           Vec3(0, 0, z), Vec3(0, 0, 1), 1.0f, "test");
-      const Film film = renderWith(scene, cam, "ao", {"rays=4"}, settings(32, 32, 16));
+      const Film film = renderWith(scene, cam, "ao", {"rays=4"}, passSettings(32, 32, 16));
       size_t covered = 0;
       for (int y = 0; y < 32; ++y)
         for (int x = 0; x < 32; ++x) {
@@ -81,7 +72,7 @@ TEST(AoAnalytic, SphericalCavityInfiniteRadiusIsFEverywhere) {
     for (const auto& v : views) {
       const Camera cam = makeLookAtCamera(v.eye, v.target, Vec3(0, 0, 1), 1.2f, "inside");
       const int w = 48, h = 48, spp = 64;
-      const Film film = renderWith(scene, cam, "ao", {}, settings(w, h, spp));
+      const Film film = renderWith(scene, cam, "ao", {}, passSettings(w, h, spp));
       size_t n = 0;
       const double mean = meanCovered(film, kR, &n);
       ASSERT_GT(n, size_t(w * h / 2)) << "eye " << v.eye.x << "," << v.eye.y << "," << v.eye.z << " alpha " << alpha;
@@ -110,7 +101,7 @@ TEST(AoAnalytic, SphericalCavityFiniteRadiusAtAntipode) {
       const double expected = Cavity{alpha}.f() + std::max(0.0, c0 * c0 - (R / (2.0 * rs)) * (R / (2.0 * rs)));
       const int w = 16, h = 16, spp = 256, rays = 4;
       const Film film = renderWith(scene, cam, "ao", {"distance=" + std::to_string(R), "rays=" + std::to_string(rays)},
-                                   settings(w, h, spp));
+                                   passSettings(w, h, spp));
       size_t n = 0;
       const double mean = meanCovered(film, kR, &n);
       ASSERT_EQ(n, size_t(w * h)) << "R/Rs " << rOverRs << " Rs " << rs;

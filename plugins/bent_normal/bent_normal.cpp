@@ -28,8 +28,7 @@ class BentNormal final : public Integrator {
     for (const SurfaceHit& h : hits) {
       const Frame frame = Frame::fromNormal(h.ns);
       for (uint32_t k = 0; k < rays_; ++k) {
-        const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
-        const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+        const Vec3 w = cosineDirection(h, frame, rays_, k);
         batch.push(spawnOrigin(h, w), w, 0.0f, distance_);
       }
     }
@@ -39,7 +38,7 @@ class BentNormal final : public Integrator {
     for (size_t i = 0; i < hits.size(); ++i) {
       Vec3 sum(0, 0, 0);
       for (uint32_t k = 0; k < rays_; ++k, ++r)
-        if (!batch.occluded(r)) sum += batch.dir(r);
+        if (openDirection(hits[i], batch, r)) sum += batch.dir(r);
       W[i] = sum * inv;
     }
   }
