@@ -24,6 +24,7 @@ const char* rawApiName(RawApi api) {
     case RawApi::Single: return "raw rtcIntersect1/Occluded1";
     case RawApi::Packet16: return "raw rtcIntersect16/Occluded16";
     case RawApi::Stream1M: return "raw rtcIntersect1M/Occluded1M";
+    case RawApi::StreamSurface: return "stream1M + computeSurfaceHit";
   }
   return "?";
 }
@@ -126,12 +127,13 @@ inline void setContext(RTCIntersectContext& ctx, RTCIntersectContextFlags flags)
 
 struct RawAoTracer::Impl {
   Impl(const Scene& sc, const Camera& cam, const RawSettings& s)
-      : scene(sc.rtcScene()), raster(cam, s.width, s.height), sampler(s.seed), tnear(cam.znear),
+      : obscuraScene(sc), scene(sc.rtcScene()), raster(cam, s.width, s.height), sampler(s.seed), tnear(cam.znear),
         tfar(cam.zfar), set(s) {
     if (s.chunk < 16 || s.chunk % 16) throw Error("--chunk must be a positive multiple of 16");
     if (s.threads < 1) throw Error("internal: thread count must be resolved");
   }
 
+  const Scene& obscuraScene;
   RTCScene scene;
   RasterCamera raster;
   Sampler sampler;
@@ -238,6 +240,8 @@ struct RawAoTracer::Impl {
 
   // --- (c) streams: a chunk of RTCRayHit through rtcIntersect1M, then the
   // chunk's AO rays as an RTCRay array through rtcOccluded1M ---------------
+  // (kSurface: the StreamSurface diagnostic, see ao_raw.h.)
+  template <bool kSurface>
   void tileStream(ThreadBuffers& b, int x0, int y0, int tw, int th) const {
     RTCIntersectContext cc, oc;
     setContext(cc, RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
@@ -267,8 +271,19 @@ struct RawAoTracer::Impl {
       for (size_t i = 0; i < n; ++i) {
         const RTCRayHit& r = cam[i];
         if (r.hit.geomID == kInvalid) continue;
-        const AoRay a = makeAoRay(raster.org, Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.tfar,
-                                  Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z), b.key[i], b.sample[i]);
+        AoRay a;
+        if constexpr (kSurface) {
+          SurfaceHit h;
+          computeSurfaceHit(obscuraScene, r.hit.geomID, r.hit.primID, r.hit.instID[0], r.hit.u, r.hit.v, r.ray.tfar,
+                            Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), false, h);
+          const Frame frame = Frame::fromNormal(h.ns);
+          const Sample2 s = Sampler::get2D(b.key[i], b.sample[i], kFirstIntegratorDim);
+          a.dir = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+          a.org = spawnOrigin(h, a.dir);
+        } else {
+          a = makeAoRay(raster.org, Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.tfar,
+                        Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z), b.key[i], b.sample[i]);
+        }
         RTCRay& q = occ[m];
         q.org_x = a.org.x; q.org_y = a.org.y; q.org_z = a.org.z; q.tnear = 0.0f;
         q.dir_x = a.dir.x; q.dir_y = a.dir.y; q.dir_z = a.dir.z;
@@ -308,7 +323,8 @@ double RawAoTracer::run(RawApi api, RayTally& tally) {
         switch (api) {
           case RawApi::Single: im.tileSingle(b, x0, y0, tw, th); break;
           case RawApi::Packet16: im.tilePacket(b, x0, y0, tw, th); break;
-          case RawApi::Stream1M: im.tileStream(b, x0, y0, tw, th); break;
+          case RawApi::Stream1M: im.tileStream<false>(b, x0, y0, tw, th); break;
+          case RawApi::StreamSurface: im.tileStream<true>(b, x0, y0, tw, th); break;
         }
       }
     });

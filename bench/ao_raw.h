@@ -26,7 +26,13 @@
 
 namespace obscura::bench {
 
-enum class RawApi { Single, Packet16, Stream1M };
+// Single, Packet16 and Stream1M are the raw variants. StreamSurface is a
+// diagnostic, not a candidate for "best raw": Stream1M plus the renderer's
+// hit reconstruction (obscura::computeSurfaceHit: barycentric point,
+// interpolated shading normal, eps from the vertices) and its AO ray
+// (shading-normal frame, spawnOrigin), so the renderer's loss splits into
+// "surface reconstruction" and "render loop + integrator plumbing".
+enum class RawApi { Single, Packet16, Stream1M, StreamSurface };
 const char* rawApiName(RawApi api);
 
 struct RayTally {

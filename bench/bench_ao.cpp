@@ -183,10 +183,16 @@ struct RendererRun {
   }
 };
 
-constexpr int kVariants = 4;  // 0..2 raw (RawApi order), 3 = renderer
+// 0..2: the raw variants (RawApi order), 3: the renderer, 4: the
+// stream1M + computeSurfaceHit diagnostic (never "best raw"; not run unless
+// asked for with --variants).
+constexpr int kVariants = 5;
 constexpr int kRenderer = 3;
-const char* variantName(int v) { return v == kRenderer ? "renderer (obscura ao)" : rawApiName(RawApi(v)); }
-const char* const kShortNames[kVariants] = {"single", "packet16", "stream1M", "renderer"};
+constexpr int kSurface = 4;
+bool isRawCandidate(int v) { return v < 3; }
+RawApi rawApiOf(int v) { return v == kSurface ? RawApi::StreamSurface : RawApi(v); }
+const char* variantName(int v) { return v == kRenderer ? "renderer (obscura ao)" : rawApiName(rawApiOf(v)); }
+const char* const kShortNames[kVariants] = {"single", "packet16", "stream1M", "renderer", "stream+hit"};
 
 double processCpuSeconds() {
   timespec ts{};
@@ -250,6 +256,7 @@ SceneResult benchScene(const std::string& which, const Options& o, const std::ve
     RawAoTracer warm(*bs.scene, bs.camera, ws);
     RayTally t;
     for (int v = 0; v < 3; ++v) warm.run(RawApi(v), t);
+    warm.run(RawApi::StreamSurface, t);
     RenderSettings wr = s;
     wr.width = ws.width;
     wr.height = ws.height;
@@ -269,7 +276,7 @@ SceneResult benchScene(const std::string& which, const Options& o, const std::ve
       const int v = variants[size_t((k + r) % nv)];  // rotate the order every run
       RayTally t;
       const double c0 = processCpuSeconds();
-      const double sec = v == kRenderer ? renderer.run(t) : raw.run(RawApi(v), t);
+      const double sec = v == kRenderer ? renderer.run(t) : raw.run(rawApiOf(v), t);
       const double c = processCpuSeconds() - c0;
       if (r > 0 && (t.camera != tally[v].camera || t.ao != tally[v].ao))
         std::printf(" [ray count changed between runs!]");
@@ -303,12 +310,12 @@ SceneResult benchScene(const std::string& which, const Options& o, const std::ve
     use[v] = median(u);
     idleRuns[v] = int(idle.size());
     idleMrays[v] = idle.empty() ? 0.0 : rays / median(idle) * 1e-6;
-    if (v == kRenderer) continue;
+    if (!isRawCandidate(v)) continue;
     if (best < 0 || mrays[v] > mrays[best]) best = v;
     if (bestCpu < 0 || cpuMrays[v] > cpuMrays[bestCpu]) bestCpu = v;
     if (idleRuns[v] && (bestIdle < 0 || idleMrays[v] > idleMrays[bestIdle])) bestIdle = v;
   }
-  const int refWall = best >= 0 ? best : kRenderer;
+  const int refWall = best >= 0 ? best : variants[0];
 
   std::printf("\n   %-31s %8s %8s %7s  %8s %8s %5s  %10s   %s\n", "", "wall s", "Mrays/s", "% best", "CPU s", "Mr/CPUs",
               "CPU", "idle runs", "wall s of each run");
@@ -354,6 +361,14 @@ SceneResult benchScene(const std::string& which, const Options& o, const std::ve
                   100.0 * idleMrays[kRenderer] / idleMrays[bestIdle]);
     else
       std::printf("   renderer / best raw, idle runs only: n/a (no idle run of the renderer or of any raw variant)\n");
+    // Paired: the ratio within each run (the two ran minutes apart at most,
+    // so slow changes of the machine's load cancel), median over the runs.
+    std::vector<double> paired;
+    for (size_t i = 0; i < wall[kRenderer].size(); ++i)
+      paired.push_back((double(rt.camera + rt.ao) / wall[kRenderer][i]) / (double(bt.camera + bt.ao) / wall[best][i]));
+    std::printf("   renderer / best raw, paired by run (%s): %.1f%%  (runs:", kShortNames[best], 100.0 * median(paired));
+    for (double x : paired) std::printf(" %.1f%%", 100.0 * x);
+    std::printf(")\n");
     std::printf("   renderer / best raw, per CPU-second (%s): %.1f%%\n", kShortNames[bestCpu], 100.0 * ratioCpu);
     bool busy = false;
     for (int v : variants) busy = busy || use[v] < kIdleUse;
@@ -396,7 +411,7 @@ std::vector<int> parseVariants(const std::string& list) {
     int v = -1;
     for (int i = 0; i < kVariants; ++i)
       if (name == kShortNames[i]) v = i;
-    if (v < 0) throw Error("--variants: unknown '" + name + "' (single, packet16, stream1M, renderer)");
+    if (v < 0) throw Error("--variants: unknown '" + name + "' (single, packet16, stream1M, renderer, stream+hit)");
     if (std::find(out.begin(), out.end(), v) == out.end()) out.push_back(v);
     pos = comma + 1;
   }
@@ -418,7 +433,9 @@ int main(int argc, char** argv) {
   app.add_option("--distance", o.distance, "AO distance R in scene units, or inf (default inf)");
   app.add_option("--chunk", o.chunk, "Camera samples per raw packet/stream batch, multiple of 16 (default 256, "
                                      "the renderer's chunk)");
-  app.add_option("--variants", o.variants, "Comma list of single, packet16, stream1M, renderer (default: all)");
+  app.add_option("--variants", o.variants,
+                 "Comma list of single, packet16, stream1M, renderer (default: these four) and the diagnostic "
+                 "stream+hit (stream1M plus the renderer's computeSurfaceHit and shading-normal AO ray)");
   app.add_flag("--quick", o.quick, "Smoke run: 480x270 unless --res is given");
   app.add_option("--preview", o.preview, "Write the renderer's image of each scene to PREFIX<scene>.png");
   CLI11_PARSE(app, argc, argv);
