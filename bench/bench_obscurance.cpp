@@ -419,6 +419,11 @@ struct Result {
   RayCounters rendRays;
   RawTally raw;
   std::vector<double> rendRuns, rawRuns, rendCpu, rawCpu;
+  // The same from process CPU time: CPU s / threads is the wall time the run
+  // takes when no other process competes for the cores (robust to a busy
+  // machine, where the wall clock measures the neighbours).
+  std::vector<double> rendCpuT, rawCpuT, seedCpuT;
+  double rendMraysCpu = 0, rawMraysCpu = 0, ratioCpu = 0, Tcpu = 0;
   // variance (seeds 1..K)
   double var = 0;            // mean per-pixel variance of one render
   double mean = 0, se = 0;   // mean pass over covered pixels; SE over seeds
@@ -465,7 +470,9 @@ void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads,
         RenderStats st;
         rr[size_t(job / 2)].run(bs, s, st);
         res.rendRuns.push_back(st.seconds);
-        res.rendCpu.push_back((processCpuSeconds() - c0) / (st.seconds * threads));
+        const double cpuT = (processCpuSeconds() - c0) / threads;
+        res.rendCpu.push_back(cpuT / st.seconds);
+        res.rendCpuT.push_back(cpuT);
         if (r > 0 && (st.rays.camera != res.rendRays.camera || st.rays.occlusion != res.rendRays.occlusion ||
                       st.rays.closest != res.rendRays.closest))
           std::printf(" [renderer ray count changed between runs!]");
@@ -474,7 +481,9 @@ void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads,
         RawTally t;
         const double sec = raw.run(res.config, t);
         res.rawRuns.push_back(sec);
-        res.rawCpu.push_back((processCpuSeconds() - c0) / (sec * threads));
+        const double cpuT = (processCpuSeconds() - c0) / threads;
+        res.rawCpu.push_back(cpuT / sec);
+        res.rawCpuT.push_back(cpuT);
         if (r > 0 && (t.camera != res.raw.camera || t.secondary != res.raw.secondary))
           std::printf(" [raw ray count changed between runs!]");
         res.raw = t;
@@ -497,6 +506,9 @@ void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads,
     res.pairedRatio = median(paired);
     res.rendCpuUse = median(res.rendCpu);
     res.rawCpuUse = median(res.rawCpu);
+    res.rendMraysCpu = rendRays / median(res.rendCpuT) * 1e-6;
+    res.rawMraysCpu = rawRays / median(res.rawCpuT) * 1e-6;
+    res.ratioCpu = res.rendMraysCpu / res.rawMraysCpu;
   }
 }
 
@@ -552,7 +564,9 @@ void variancePair(const BenchScene& bs, const Options& o, int w, int h, int thre
       const double c0 = processCpuSeconds();
       const Film film = rr[e].run(bs, s, st);
       pair[e]->seedSeconds.push_back(st.seconds);
-      pair[e]->seedCpu.push_back((processCpuSeconds() - c0) / (st.seconds * threads));
+      const double cpuT = (processCpuSeconds() - c0) / threads;
+      pair[e]->seedCpu.push_back(cpuT / st.seconds);
+      pair[e]->seedCpuT.push_back(cpuT);
       const float* R = film.plane(kR);
       const float* A = film.plane(kA);
       pass[e][k].assign(R, R + pixels);
@@ -567,6 +581,9 @@ void variancePair(const BenchScene& bs, const Options& o, int w, int h, int thre
     cpu.insert(cpu.end(), res.seedCpu.begin(), res.seedCpu.end());
     res.T = median(all);
     res.allCpuUse = median(cpu);
+    std::vector<double> allCpuT = res.rendCpuT;
+    allCpuT.insert(allCpuT.end(), res.seedCpuT.begin(), res.seedCpuT.end());
+    res.Tcpu = median(allCpuT);
   }
 }
 
@@ -583,10 +600,20 @@ std::string fmtG(double x, int prec = 3) {
   return buf;
 }
 
-void printMarkdown(const SceneReport& rep, int w, int h, int spp, int threads, int K) {
+// Did other processes take cores during any timed or seed render?
+bool busy(const SceneReport& rep) {
+  constexpr double kIdleUse = 0.9;
+  for (const Result& r : rep.results)
+    if (r.rendCpuUse < kIdleUse || r.rawCpuUse < kIdleUse || r.allCpuUse < kIdleUse) return true;
+  return false;
+}
+
+// cpu: times from process CPU s / threads instead of the wall clock.
+void printMarkdown(const SceneReport& rep, int w, int h, int spp, int threads, int K, bool cpu) {
   std::printf("\n**%s** (%zu triangles), %dx%d, %d spp, %d threads, R = %s (10%% of the bbox diagonal), "
-              "exponential sigma = 1/R without cut-off; Var over %d seeds:\n\n",
-              rep.label.c_str(), rep.triangles, w, h, spp, threads, fmtG(rep.R, 4).c_str(), K);
+              "exponential sigma = 1/R without cut-off; Var over %d seeds%s:\n\n",
+              rep.label.c_str(), rep.triangles, w, h, spp, threads, fmtG(rep.R, 4).c_str(), K,
+              cpu ? "; times = process CPU s / threads" : "");
   std::printf("| falloff | estimator | renderer Mrays/s | raw Mrays/s | ratio | rays / camera sample | Var per pixel | "
               "time s | Var×time | relative efficiency |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
@@ -595,11 +622,12 @@ void printMarkdown(const SceneReport& rep, int w, int h, int spp, int threads, i
     std::string eff = "1 (ref.)";
     if (r.config.estimator == Estimator::Occlusion && i > 0) {
       const Result& d = rep.results[i - 1];
-      eff = fmtG((d.var * d.T) / (r.var * r.T));
+      eff = fmtG(cpu ? (d.var * d.Tcpu) / (r.var * r.Tcpu) : (d.var * d.T) / (r.var * r.T));
     }
+    const double T = cpu ? r.Tcpu : r.T;
     std::printf("| %s | %s | %.2f | %.2f | %.0f%% | %.3f | %.3e | %.3f | %.3e | %s |\n", falloffName(r.config.falloff),
-                estimatorName(r.config.estimator), r.rendMrays, r.rawMrays, 100.0 * r.ratio, raysPerCameraSample(r),
-                r.var, r.T, r.var * r.T, eff.c_str());
+                estimatorName(r.config.estimator), cpu ? r.rendMraysCpu : r.rendMrays, cpu ? r.rawMraysCpu : r.rawMrays,
+                100.0 * (cpu ? r.ratioCpu : r.ratio), raysPerCameraSample(r), r.var, T, r.var * T, eff.c_str());
   }
 }
 
@@ -673,17 +701,19 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
   }
 
   std::printf("\n   speed (Mrays/s = (camera + secondary rays) / median wall s; ratio = renderer / raw stream1M)\n");
-  std::printf("   %-12s %-9s %9s %9s %7s %7s %7s %8s %8s %5s %5s  %-s\n", "falloff", "estimator", "rend s", "raw s",
-              "rend", "raw", "ratio", "paired", "rays/cs", "CPU", "CPUr", "params");
+  std::printf("   %-12s %-9s %9s %9s %7s %7s %7s %8s %8s %5s %5s | %7s %7s %7s  %-s\n", "falloff", "estimator",
+              "rend s", "raw s", "rend", "raw", "ratio", "paired", "rays/cs", "CPU", "CPUr", "rend/c", "raw/c",
+              "ratio/c", "params");
   for (const Result& r : rep.results)
-    std::printf("   %-12s %-9s %9.3f %9.3f %7.2f %7.2f %6.1f%% %7.1f%% %8.3f %4.0f%% %4.0f%%  %s\n",
+    std::printf("   %-12s %-9s %9.3f %9.3f %7.2f %7.2f %6.1f%% %7.1f%% %8.3f %4.0f%% %4.0f%% | %7.2f %7.2f %6.1f%%  %s\n",
                 falloffName(r.config.falloff), estimatorName(r.config.estimator), r.rendSeconds, r.rawSeconds,
                 r.rendMrays, r.rawMrays, 100.0 * r.ratio, 100.0 * r.pairedRatio, raysPerCameraSample(r),
-                100.0 * r.rendCpuUse, 100.0 * r.rawCpuUse, paramString(r.config).c_str());
+                100.0 * r.rendCpuUse, 100.0 * r.rawCpuUse, r.rendMraysCpu, r.rawMraysCpu, 100.0 * r.ratioCpu,
+                paramString(r.config).c_str());
   std::printf("   paired = median over runs of the per-run ratio; rays/cs = secondary rays per camera sample;\n"
               "   CPU / CPUr = process CPU s / (wall s x %d threads) of the renderer / raw runs (< 90%%: other\n"
-              "   processes took cores).\n",
-              threads);
+              "   processes took cores); rend/c, raw/c, ratio/c = the same Mrays/s from CPU s / %d threads.\n",
+              threads, threads);
 
   std::printf("\n   ray counts            %12s %12s %12s | %12s %12s | %s\n", "rend camera", "rend occl.",
               "rend closest", "raw camera", "raw second.", "check          raw open fraction");
@@ -703,20 +733,22 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
 
   std::printf("\n   variance at equal time (K = %d seeds; Var over the pixels covered in every render of the falloff;\n"
               "   T = median wall s over all %d renders of the configuration (timed runs and seeds); CPU = their\n"
-              "   median CPU use; efficiency = (Var_d T_d) / (Var_o T_o), > 1: occlusion wins)\n",
+              "   median CPU use; efficiency = (Var_d T_d) / (Var_o T_o), > 1: occlusion wins; Tcpu, eff. (CPU): the same\n"
+              "   from CPU s / threads)\n",
               o.seeds, o.seeds + o.runs);
-  std::printf("   %-12s %-9s %9s %12s %9s %5s %12s %11s %10s %10s\n", "falloff", "estimator", "pixels", "Var/pixel",
-              "T s", "CPU", "Var x T", "efficiency", "mean", "SE(mean)");
+  std::printf("   %-12s %-9s %9s %12s %9s %5s %12s %11s %10s %10s | %9s %11s\n", "falloff", "estimator", "pixels",
+              "Var/pixel", "T s", "CPU", "Var x T", "efficiency", "mean", "SE(mean)", "Tcpu s", "eff. (CPU)");
   for (size_t i = 0; i < rep.results.size(); ++i) {
     const Result& r = rep.results[i];
-    std::string eff = "1 (ref.)";
+    std::string eff = "1 (ref.)", effCpu = "1 (ref.)";
     if (r.config.estimator == Estimator::Occlusion && i > 0) {
       const Result& d = rep.results[i - 1];
       eff = fmtG((d.var * d.T) / (r.var * r.T), 4);
+      effCpu = fmtG((d.var * d.Tcpu) / (r.var * r.Tcpu), 4);
     }
-    std::printf("   %-12s %-9s %9zu %12.4e %9.3f %4.0f%% %12.4e %11s %10.6f %10.2e\n", falloffName(r.config.falloff),
-                estimatorName(r.config.estimator), r.covered, r.var, r.T, 100.0 * r.allCpuUse, r.var * r.T,
-                eff.c_str(), r.mean, r.se);
+    std::printf("   %-12s %-9s %9zu %12.4e %9.3f %4.0f%% %12.4e %11s %10.6f %10.2e | %9.3f %11s\n",
+                falloffName(r.config.falloff), estimatorName(r.config.estimator), r.covered, r.var, r.T,
+                100.0 * r.allCpuUse, r.var * r.T, eff.c_str(), r.mean, r.se, r.Tcpu, effCpu.c_str());
   }
   std::printf("\n   sanity: mean(distance) - mean(occlusion) per falloff (they estimate the same O)\n");
   std::printf("   %-12s %12s %14s %16s %10s\n", "falloff", "difference", "z (indep. SE)", "z (paired seeds)",
@@ -797,7 +829,15 @@ int main(int argc, char** argv) {
     for (const std::string& sc : o.scenes) reports.push_back(benchScene(sc, o, width, height, threads));
 
     std::printf("\n== Markdown (for the README)\n");
-    for (const SceneReport& r : reports) printMarkdown(r, width, height, o.spp, threads, o.seeds);
+    for (const SceneReport& r : reports) {
+      printMarkdown(r, width, height, o.spp, threads, o.seeds, false);
+      if (busy(r)) {
+        std::printf("\nWARNING: other processes took cores during %s (CPU use < 90%%): the wall-clock figures above\n"
+                    "measure the machine's load too. The same table from process CPU time (CPU s / %d threads):\n",
+                    r.label.c_str(), threads);
+        printMarkdown(r, width, height, o.spp, threads, o.seeds, true);
+      }
+    }
     std::printf("\nMrays/s = (camera + obscurance rays) / median wall s of the timed renders (seed 0); raw = the same rays through "
                 "rtcIntersect1M/rtcOccluded1M with no shading; ratio = renderer / raw; Var = mean over covered "
                 "pixels of the per-pixel variance across %d seeds; time = median wall s of all renders of the "
