@@ -4,7 +4,8 @@
 // coverage; A = coverage; albedo.R/G/B (premultiplied); N.X/Y/Z = world
 // normal (mean over the pixel's hits, renormalized; 0 where nothing was hit);
 // Z = camera distance (mean over hits; +inf where nothing was hit);
-// shaded.R/G/B = albedo * W * sky (premultiplied).
+// shaded.R/G/B = albedo * W * sky, from the pixel's albedo and W
+// (premultiplied).
 #pragma once
 
 #include <string>

@@ -7,6 +7,15 @@
 // batch (a few hundred hits), never per ray: it fills ray batches through
 // its IntegratorContext and the core traces each batch with one Embree
 // stream call.
+//
+// Each camera sample's estimate is a ratio (num, den); a pixel's W is the
+// ratio of sums over its samples, Sum num / Sum den (per RGB channel). Plain
+// Monte Carlo estimators leave den = 1, so W is the sample mean; the ratio
+// estimators of MATH.md section 4 set both, because a ratio taken per sample
+// (one ray) degenerates to plain AO. A pixel whose denominators sum to 0
+// resolves to W = 1: a ratio estimator has num <= den, so this is 0/0, which
+// for the closed-form transfer means "no open direction, every occluder
+// white" - the white-furnace limit lim_{a->1} f/(1 - a(1-f)) = 1.
 #pragma once
 
 #include <cstdint>
@@ -16,6 +25,7 @@
 #include <vector>
 
 #include "core/params.h"
+#include "core/scene.h"
 #include "core/sampler.h"
 #include "core/surface.h"
 #include "core/tracer.h"
@@ -26,8 +36,20 @@ namespace obscura {
 // What an integrator needs from the scene; the core builds and fetches only
 // that (MATH.md: "compute only what a scene and integrator need").
 struct IntegratorNeeds {
-  bool albedo = false;  // SurfaceHit::albedo is read (decodes textures)
+  bool albedo = false;  // SurfaceHit::albedo is read, here or at secondary hits (decodes textures)
 };
+
+// One camera sample's estimate of W as a ratio (see above). The render loop
+// sets num = 0 and den = 1 before calling Integrator::estimate.
+struct SampleEstimate {
+  Vec3 num;
+  Vec3 den;
+};
+
+// The mean of n values whose sum is `sum`, as a float: one correctly rounded
+// division, so sum == n gives exactly 1 and integrators that share this
+// arithmetic (ao, obscurance, transfer with black occluders) agree bit for bit.
+inline float sampleMean(double sum, uint32_t n) { return float(sum / double(n)); }
 
 // Ray counts, summed over threads at the end of a render.
 struct RayCounters {
@@ -40,7 +62,7 @@ struct RayCounters {
 // between calls, and tracing that counts rays.
 class IntegratorContext {
  public:
-  explicit IntegratorContext(const Tracer& tracer) : tracer_(tracer) {}
+  IntegratorContext(const Scene& scene, const Tracer& tracer) : scene_(scene), tracer_(tracer) {}
   // A cleared batch able to hold `rays` rays.
   OcclusionBatch& occlusionBatch(size_t rays) {
     occlusion_.reserve(rays);
@@ -60,9 +82,23 @@ class IntegratorContext {
     tracer_.intersect(b);
     counters.closest += b.size();
   }
+  // The surface an intersect ray i of `batch` found (batch.hit(i) must be
+  // true), keyed for sampling by (pixelKey, sampleIndex); `albedo` also
+  // evaluates the material, which needs IntegratorNeeds::albedo.
+  void surfaceAt(const IntersectBatch& b, size_t i, bool albedo, uint32_t pixelKey, uint32_t sampleIndex,
+                 SurfaceHit& out) const {
+    computeSurfaceHit(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i), b.t(i), b.dir(i), albedo, out);
+    out.pixelKey = pixelKey;
+    out.sampleIndex = sampleIndex;
+  }
+  // Only the albedo of that surface (cheaper than surfaceAt).
+  Vec3 albedoAt(const IntersectBatch& b, size_t i) const {
+    return surfaceAlbedo(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i));
+  }
   RayCounters counters;
 
  private:
+  const Scene& scene_;
   const Tracer& tracer_;
   OcclusionBatch occlusion_;
   IntersectBatch intersect_;
@@ -77,14 +113,49 @@ inline Vec3 cosineDirection(const SurfaceHit& h, const Frame& frame, uint32_t ra
   return frame.toWorld(squareToCosineHemisphere(s.u, s.v));
 }
 
+// For each hit, `rays` any-hit rays along cosineDirection k = 0..rays-1,
+// with tfar = R: the visibility rays of AO-style estimators, ray
+// i * rays + k belonging to hits[i].
+inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, OcclusionBatch& batch) {
+  for (const SurfaceHit& h : hits) {
+    const Frame frame = Frame::fromNormal(h.ns);
+    for (uint32_t k = 0; k < rays; ++k) {
+      const Vec3 w = cosineDirection(h, frame, rays, k);
+      batch.push(spawnOrigin(h, w), w, 0.0f, R);
+    }
+  }
+}
+
+// out[i].num = the fraction of hits[i]'s rays (rays i * rays + k of an
+// any-hit batch) whose direction is open, as a grey estimate.
+inline void writeMeanVisibility(std::span<const SurfaceHit> hits, const OcclusionBatch& batch, uint32_t rays,
+                                SampleEstimate* out) {
+  size_t r = 0;
+  for (size_t i = 0; i < hits.size(); ++i) {
+    uint32_t open = 0;
+    for (uint32_t k = 0; k < rays; ++k, ++r) open += openDirection(hits[i], batch, r) ? 1U : 0U;
+    const float v = sampleMean(double(open), rays);
+    out[i].num = Vec3(v, v, v);
+  }
+}
+
 class Integrator {
  public:
   virtual ~Integrator() = default;
-  // Writes W for every hit: W[i] estimates MATH.md section 1 at hits[i].
-  // Samples must come from Sampler::get2D/get1D keyed by hits[i].pixelKey
-  // and an index derived from hits[i].sampleIndex, with dimensions from
-  // kFirstIntegratorDim upward, so results do not depend on batching.
-  virtual void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, Vec3* W) const = 0;
+  // Writes out[i], the estimate of MATH.md section 1 at hits[i] (out[i].num
+  // alone for a plain mean). Samples must come from Sampler::get2D/get1D
+  // keyed by hits[i].pixelKey and an index derived from hits[i].sampleIndex,
+  // with dimensions from kFirstIntegratorDim upward, so results do not
+  // depend on batching.
+  virtual void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const = 0;
+  // Maps a pixel's resolved W (Sum num / Sum den) to its final value, given
+  // the pixel's mean albedo over its hits ((1,1,1) unless the integrator
+  // needs albedo). Called once per covered pixel; for estimators that are
+  // a nonlinear function of a converged pixel value (multi-bounce AO).
+  virtual Vec3 resolvePixel(Vec3 W, Vec3 albedo) const {
+    (void)albedo;
+    return W;
+  }
 };
 
 struct IntegratorDescriptor {

@@ -17,14 +17,23 @@ namespace {
 // vanishes, small enough that the batch and its hits stay in L1/L2.
 constexpr size_t kChunk = 256;
 
+// Per-pixel sums in double: at high spp a float sum of 2^24 values stops
+// growing.
+struct Sum3 {
+  double x = 0, y = 0, z = 0;
+  void add(Vec3 v) { x += double(v.x), y += double(v.y), z += double(v.z); }
+};
 struct PixelSums {
-  Vec3 W, albedo, shaded, N;
+  Sum3 num, den, albedo, N;
   double Z;
   uint32_t hits;
 };
 
+// Sum num / Sum den, one channel; 0/0 is 1 (core/integrator.h).
+inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
+
 struct ThreadScratch {
-  explicit ThreadScratch(const Tracer& tracer) : ctx(tracer) {
+  ThreadScratch(const Scene& scene, const Tracer& tracer) : ctx(scene, tracer) {
     camera.reserve(kChunk);
     hits.reserve(kChunk);
   }
@@ -35,7 +44,7 @@ struct ThreadScratch {
   int32_t laneHit[kChunk];      // index into hits, or -1
   uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
   uint32_t laneSample[kChunk];  // sample index within the pixel
-  Vec3 W[kChunk];
+  SampleEstimate W[kChunk];
   std::vector<PixelSums> sums;
   RayCounters cameraCounters;
 };
@@ -57,7 +66,6 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
   const Sampler sampler(s.seed);
   const GaussianFilterSampler& gauss = GaussianFilterSampler::instance();
   const int tilesX = (s.width + s.tileSize - 1) / s.tileSize, tilesY = (s.height + s.tileSize - 1) / s.tileSize;
-  const float invSpp = 1.0f / float(s.spp);
   const float tnear = camera.znear;
   const float tfar = camera.zfar;
 
@@ -68,7 +76,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
   auto renderTile = [&](int tile) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
-    if (!slot) slot = std::make_unique<ThreadScratch>(tracer);
+    if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer);
     ThreadScratch& ts = *slot;
     const int x0 = (tile % tilesX) * s.tileSize, y0 = (tile / tilesX) * s.tileSize;
     const int tw = std::min(s.tileSize, s.width - x0), th = std::min(s.tileSize, s.height - y0);
@@ -123,20 +131,22 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
         h.pixelKey = ts.laneKey[l];
         h.sampleIndex = ts.laneSample[l];
       }
-      if (!ts.hits.empty()) integrator.estimate(ts.hits, ts.ctx, ts.W);
+      if (!ts.hits.empty()) {
+        for (size_t i = 0; i < ts.hits.size(); ++i) ts.W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
+        integrator.estimate(ts.hits, ts.ctx, ts.W);
+      }
 
       for (size_t l = 0; l < n; ++l) {
         const int32_t hi = ts.laneHit[l];
         if (hi < 0) continue;
         const SurfaceHit& h = ts.hits[size_t(hi)];
         PixelSums& p = ts.sums[ts.lanePixel[l]];
-        const Vec3 w = ts.W[hi];
-        p.W += w;
+        p.num.add(ts.W[hi].num);
+        p.den.add(ts.W[hi].den);
         p.hits += 1;
+        if (wantAlbedo) p.albedo.add(h.albedo);
         if (s.aovs) {
-          p.albedo += h.albedo;
-          p.shaded += h.albedo * w * s.sky;
-          p.N += h.ns;
+          p.N.add(h.ns);
           p.Z += double(h.t);
         }
       }
@@ -147,23 +157,40 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
       for (int x = 0; x < tw; ++x) {
         const PixelSums& p = ts.sums[size_t(y) * tw + x];
         const int fx = x0 + x, fy = y0 + y;
-        film.at(kR, fx, fy) = p.W.x * invSpp;
-        film.at(kG, fx, fy) = p.W.y * invSpp;
-        film.at(kB, fx, fy) = p.W.z * invSpp;
-        film.at(kA, fx, fy) = float(p.hits) * invSpp;
+        const double coverage = double(p.hits) / double(s.spp);
+        film.at(kA, fx, fy) = float(coverage);
+        if (p.hits == 0) {  // background: zero (premultiplied), Z = inf
+          if (s.aovs) film.at(kZ, fx, fy) = kInfinity;
+          continue;
+        }
+        // The pass and the albedo are means over the pixel's hits, then
+        // premultiplied by coverage.
+        const double invHits = 1.0 / double(p.hits);
+        const Vec3 albedo = wantAlbedo ? Vec3(float(p.albedo.x * invHits), float(p.albedo.y * invHits),
+                                              float(p.albedo.z * invHits))
+                                       : Vec3(1, 1, 1);
+        const Vec3 W = integrator.resolvePixel(
+            Vec3(resolveRatio(p.num.x, p.den.x), resolveRatio(p.num.y, p.den.y), resolveRatio(p.num.z, p.den.z)),
+            albedo);
+        film.at(kR, fx, fy) = float(double(W.x) * coverage);
+        film.at(kG, fx, fy) = float(double(W.y) * coverage);
+        film.at(kB, fx, fy) = float(double(W.z) * coverage);
         if (!s.aovs) continue;
-        film.at(kAlbedoR, fx, fy) = p.albedo.x * invSpp;
-        film.at(kAlbedoG, fx, fy) = p.albedo.y * invSpp;
-        film.at(kAlbedoB, fx, fy) = p.albedo.z * invSpp;
-        film.at(kShadedR, fx, fy) = p.shaded.x * invSpp;
-        film.at(kShadedG, fx, fy) = p.shaded.y * invSpp;
-        film.at(kShadedB, fx, fy) = p.shaded.z * invSpp;
-        const float nl = length(p.N);
-        const Vec3 n = nl > 0.0f ? p.N * (1.0f / nl) : Vec3(0, 0, 0);
+        film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
+        film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
+        film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
+        // shaded = albedo * W * La (MATH.md section 1), from the pixel's
+        // albedo and pass: exactly the product a compositor would form.
+        film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * s.sky.x * coverage);
+        film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * s.sky.y * coverage);
+        film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * s.sky.z * coverage);
+        const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
+        const float nl = length(nsum);
+        const Vec3 n = nl > 0.0f ? nsum * (1.0f / nl) : Vec3(0, 0, 0);
         film.at(kNX, fx, fy) = n.x;
         film.at(kNY, fx, fy) = n.y;
         film.at(kNZ, fx, fy) = n.z;
-        film.at(kZ, fx, fy) = p.hits ? float(p.Z / double(p.hits)) : kInfinity;
+        film.at(kZ, fx, fy) = float(p.Z * invHits);
       }
     }
     progress.advance(pixels);

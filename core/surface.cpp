@@ -5,6 +5,31 @@
 
 namespace obscura {
 
+namespace {
+Vec3 primitiveAlbedo(const Scene& scene, const Primitive& prim, const uint32_t* tri, float u, float v) {
+  const Material* m = scene.materialOf(prim);
+  if (!m) return Vec3(1, 1, 1);
+  Vec3 a = m->baseColorFactor;
+  if (m->texture >= 0 && !prim.uvs.empty()) {
+    const float w = 1.0f - u - v;
+    const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
+    const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
+    const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
+    const float tu = t0[0] * w + t1[0] * u + t2[0] * v;
+    const float tv = t0[1] * w + t1[1] * u + t2[1] * v;
+    const Texture& tex = *scene.textures[size_t(m->texture)];
+    a = a * tex.sample(tu, tv, m->wrapS, m->wrapT);
+  }
+  return a;
+}
+}  // namespace
+
+Vec3 surfaceAlbedo(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID, float u, float v) {
+  const Affine* toWorld = nullptr;
+  const Primitive& prim = scene.primitiveOf(geomID, instID, &toWorld);
+  return primitiveAlbedo(scene, prim, prim.indices + size_t(primID) * 3, u, v);
+}
+
 void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID, float u,
                        float v, float t, Vec3 dir, bool albedo, SurfaceHit& out) {
   const Affine* toWorld = nullptr;
@@ -51,23 +76,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   }
   out.ns = ns;
 
-  if (albedo) {
-    const Material* m = scene.materialOf(prim);
-    Vec3 a(1, 1, 1);
-    if (m) {
-      a = m->baseColorFactor;
-      if (m->texture >= 0 && !prim.uvs.empty()) {
-        const float* t0 = &prim.uvs[size_t(i0) * 2];
-        const float* t1 = &prim.uvs[size_t(i1) * 2];
-        const float* t2 = &prim.uvs[size_t(i2) * 2];
-        const float tu = t0[0] * w + t1[0] * u + t2[0] * v;
-        const float tv = t0[1] * w + t1[1] * u + t2[1] * v;
-        const Texture& tex = *scene.textures[size_t(m->texture)];
-        a = a * tex.sample(tu, tv, m->wrapS, m->wrapT);
-      }
-    }
-    out.albedo = a;
-  }
+  if (albedo) out.albedo = primitiveAlbedo(scene, prim, tri, u, v);
 }
 
 }  // namespace obscura

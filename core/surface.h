@@ -29,6 +29,10 @@ struct SurfaceHit {
 void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID,
                        float u, float v, float t, Vec3 dir, bool albedo, SurfaceHit& out);
 
+// The material albedo at barycentrics (u, v) of a hit (decodes textures on
+// first use): what computeSurfaceHit(albedo = true) stores, alone.
+Vec3 surfaceAlbedo(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID, float u, float v);
+
 // Relative offset: 2^-16 of the largest coordinate magnitude involved in the
 // hit, i.e. about 128 float ulps of it. Embree's triangle test and our
 // barycentric reconstruction both err by a few ulps of the vertex and point

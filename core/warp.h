@@ -38,6 +38,15 @@ inline Vec3 squareToCosineHemisphere(float u, float v) {
   return {x, y, z};
 }
 
+// Direction with uniform density 1/(2 pi) over the hemisphere about +z
+// (z = cos(theta) is uniform on [0, 1]).
+inline Vec3 squareToUniformHemisphere(float u, float v) {
+  const float z = u;
+  const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+  const float phi = 2.0f * kPi * v;
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
 // Pixel reconstruction by filter importance sampling: each camera sample is
 // offset from the pixel centre with a density equal to the normalised filter,
 // and weighted 1. A sample therefore belongs to exactly one pixel, which

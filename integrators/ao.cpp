@@ -23,24 +23,11 @@ class AmbientOcclusion final : public Integrator {
  public:
   AmbientOcclusion(float distance, int rays) : distance_(distance), rays_(uint32_t(rays)) {}
 
-  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, Vec3* W) const override {
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
-    for (const SurfaceHit& h : hits) {
-      const Frame frame = Frame::fromNormal(h.ns);
-      for (uint32_t k = 0; k < rays_; ++k) {
-        const Vec3 w = cosineDirection(h, frame, rays_, k);
-        batch.push(spawnOrigin(h, w), w, 0.0f, distance_);
-      }
-    }
+    pushCosineRays(hits, rays_, distance_, batch);
     ctx.trace(batch);
-    const float inv = 1.0f / float(rays_);
-    size_t r = 0;
-    for (size_t i = 0; i < hits.size(); ++i) {
-      uint32_t visible = 0;
-      for (uint32_t k = 0; k < rays_; ++k, ++r) visible += openDirection(hits[i], batch, r) ? 1U : 0U;
-      const float ao = float(visible) * inv;
-      W[i] = Vec3(ao, ao, ao);
-    }
+    writeMeanVisibility(hits, batch, rays_, out);
   }
 
  private:

@@ -23,15 +23,9 @@ class BentNormal final : public Integrator {
  public:
   BentNormal(float distance, uint32_t rays) : distance_(distance), rays_(rays) {}
 
-  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, Vec3* W) const override {
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
-    for (const SurfaceHit& h : hits) {
-      const Frame frame = Frame::fromNormal(h.ns);
-      for (uint32_t k = 0; k < rays_; ++k) {
-        const Vec3 w = cosineDirection(h, frame, rays_, k);
-        batch.push(spawnOrigin(h, w), w, 0.0f, distance_);
-      }
-    }
+    pushCosineRays(hits, rays_, distance_, batch);
     ctx.trace(batch);
     const float inv = 1.0f / float(rays_);
     size_t r = 0;
@@ -39,7 +33,7 @@ class BentNormal final : public Integrator {
       Vec3 sum(0, 0, 0);
       for (uint32_t k = 0; k < rays_; ++k, ++r)
         if (openDirection(hits[i], batch, r)) sum += batch.dir(r);
-      W[i] = sum * inv;
+      out[i].num = sum * inv;
     }
   }
 

@@ -1,0 +1,146 @@
+#include "integrators/ambient_paths.h"
+
+#include <algorithm>
+#include <vector>
+
+namespace obscura {
+namespace {
+
+// Double-precision RGB for path arithmetic: the per-path sums must round
+// exactly like obscurance's double sums (see the header).
+struct Rgb {
+  double c[3];
+};
+
+struct PathState {
+  SurfaceHit x;      // current vertex; x.sampleIndex = the path's sample index
+  Rgb throughput;    // product of (1 - mu) a along the path (/ q under roulette)
+  Rgb sum;           // S = Sum throughput * mu
+  Rgb absorbed;      // A = Sum throughput * (1 - mu) * (1 - a)  (tail=closed only)
+  uint32_t owner;    // index of the camera hit
+};
+
+// Per-thread storage that keeps its memory between batches: the hot loop
+// allocates nothing once warm.
+struct Scratch {
+  std::vector<PathState> paths, next;
+  std::vector<Rgb> num, den;  // per camera hit
+};
+thread_local Scratch tlsScratch;
+
+inline Rgb splat(double v) { return {{v, v, v}}; }
+
+}  // namespace
+
+void AmbientPaths::estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const {
+  Scratch& s = tlsScratch;
+  s.num.assign(hits.size(), splat(0.0));
+  s.den.assign(hits.size(), splat(0.0));
+  s.paths.clear();
+  for (size_t i = 0; i < hits.size(); ++i)
+    for (uint32_t k = 0; k < rays; ++k) {
+      PathState& p = s.paths.emplace_back();
+      p.x = hits[i];
+      p.x.sampleIndex = hits[i].sampleIndex * rays + k;
+      p.throughput = splat(1.0);
+      p.sum = splat(0.0);
+      p.absorbed = splat(0.0);
+      p.owner = uint32_t(i);
+    }
+
+  // A finished path adds its estimate to its camera hit, in path order
+  // within each bounce (the same order for num and den).
+  const auto finish = [&](const PathState& p) {
+    Rgb& n = s.num[p.owner];
+    Rgb& d = s.den[p.owner];
+    for (int c = 0; c < 3; ++c) {
+      n.c[c] += p.sum.c[c];
+      d.c[c] += closedTail ? p.sum.c[c] + p.absorbed.c[c] : 1.0;
+    }
+  };
+
+  for (uint32_t bounce = 0; !s.paths.empty(); ++bounce) {
+    const bool last = depth != kUnlimited && bounce >= depth;
+    const uint32_t dim = kFirstIntegratorDim + 4 * bounce;
+    IntersectBatch& batch = ctx.intersectBatch(s.paths.size());
+    for (const PathState& p : s.paths) {
+      const Sample2 u = Sampler::get2D(p.x.pixelKey, p.x.sampleIndex, dim);
+      const Vec3 w = Frame::fromNormal(p.x.ns).toWorld(squareToCosineHemisphere(u.u, u.v));
+      float tfar = mu.tfar();
+      if (estimator == Estimator::Occlusion && !mu.zeroRadius())
+        tfar = mu.segment(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 1));
+      if (tfar > 0.0f && !intoSurface(p.x, w))
+        batch.push(spawnOrigin(p.x, w), w, 0.0f, tfar);
+      else  // blocked by the surface itself, or an empty segment: not traced
+        batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f);
+    }
+    ctx.trace(batch);
+
+    s.next.clear();
+    for (size_t r = 0; r < s.paths.size(); ++r) {
+      PathState& p = s.paths[r];
+      const bool self = intoSurface(p.x, batch.dir(r));
+      // mu of this segment: the surface itself (d = 0) gives 0; a miss
+      // (escape, beyond R, open segment, inactive ray) gives 1.
+      double m = 0.0;
+      if (!self && !batch.hit(r)) {
+        m = 1.0;
+      } else if (!self && estimator == Estimator::Distance) {
+        m = mu(double(batch.t(r)));
+      }
+      for (int c = 0; c < 3; ++c) p.sum.c[c] += p.throughput.c[c] * m;
+      if (m >= 1.0 || (last && !closedTail)) {
+        finish(p);
+        continue;
+      }
+      // The occluder: x itself, or the closest hit (full vertex only if the
+      // path goes on).
+      Vec3 a = p.x.albedo;
+      const bool goOn = !last;
+      if (!self) {
+        if (goOn)
+          ctx.surfaceAt(batch, r, true, p.x.pixelKey, p.x.sampleIndex, p.x);
+        a = goOn ? p.x.albedo : ctx.albedoAt(batch, r);
+      }
+      const double open = 1.0 - m;
+      const double ac[3] = {double(a.x), double(a.y), double(a.z)};
+      bool alive = false;
+      for (int c = 0; c < 3; ++c) {
+        if (closedTail) p.absorbed.c[c] += p.throughput.c[c] * (open * (1.0 - ac[c]));
+        p.throughput.c[c] *= open * ac[c];
+        alive = alive || p.throughput.c[c] > 0.0;
+      }
+      if (!goOn || !alive) {
+        finish(p);
+        continue;
+      }
+      if (roulette && bounce + 1 >= kRouletteStart) {
+        const double q =
+            std::min(0.95, std::max(p.throughput.c[0], std::max(p.throughput.c[1], p.throughput.c[2])));
+        if (double(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 2)) >= q) {
+          finish(p);
+          continue;
+        }
+        for (double& t : p.throughput.c) t /= q;
+      }
+      s.next.push_back(p);
+    }
+    std::swap(s.paths, s.next);
+  }
+
+  // Per camera sample: the means over its paths. Without roulette every
+  // path's sum is at most 1 - T <= 1, so num <= den up to rounding; the
+  // clamp makes W <= 1 exact (and is the one obscurance applies).
+  for (size_t i = 0; i < hits.size(); ++i) {
+    float n[3], d[3];
+    for (int c = 0; c < 3; ++c) {
+      d[c] = sampleMean(s.den[i].c[c], rays);
+      n[c] = sampleMean(s.num[i].c[c], rays);
+      if (!roulette) n[c] = std::min(n[c], d[c]);
+    }
+    out[i].num = Vec3(n[0], n[1], n[2]);
+    out[i].den = Vec3(d[0], d[1], d[2]);
+  }
+}
+
+}  // namespace obscura

@@ -1,0 +1,94 @@
+// The path estimator of the ambient transfer equation (MATH.md section 5),
+// shared by `transfer` (closed form and recursive) and `gi` (full global
+// illumination), because their math is the same:
+//
+//   W(x) = O(x) + (1/pi) Int (1 - mu(d)) a(y) W(y) cos+(theta) dw
+//
+// At each vertex a direction w ~ cos(theta)/pi is drawn; the path adds
+// throughput * mu(d) and continues from the occluder y with
+// throughput *= (1 - mu(d)) * a(y). With the step membership at R = inf
+// (mu = 0 for every hit, 1 for escape) and no depth limit this is the
+// diffuse path tracer under a uniform sky; with the exponential membership
+// it is the exact solution of the ambient-medium model of section 2.
+//
+// After `depth` bounces the recursion is closed:
+// - tail=zero: the rest is dropped (truncation, biased low); each path's
+//   estimate is its sum, den = 1.
+// - tail=closed: the closed form of section 4 closes it. With the local
+//   approximation W(beyond the last occluder) ~ W(x), the equation for the
+//   unknown tail gives W(x) ~ E[S] / E[1 - T], S = the path's sum and
+//   T = its throughput after the last occluder. Both expectations are
+//   estimated from the same samples and divided once per pixel (the ratio
+//   estimator of section 4; a ratio per path with one direction would
+//   degenerate to AO). 1 - T is computed as S + A, A = the energy the path's
+//   occluders absorbed, Sum throughput * (1 - mu) * (1 - a) - equal in exact
+//   arithmetic, and exact in floating point at both ends: A = 0 for white
+//   occluders (num == den, W = 1 exactly: the white furnace) and
+//   mu + (1 - mu) rounds to exactly 1 for black ones (W = obscurance,
+//   bit for bit). depth = 0 is the closed form itself [AT 6, 9]:
+//   W ~ Sum mu_i / Sum (mu_i + (1 - mu_i)(1 - a_i)) = Sum mu_i / (n - Sum (1 - mu_i) a_i).
+//   For depth >= 1 the approximation is the paper's closure moved one
+//   occluder further each time; in a uniform configuration (the spherical
+//   cavity) every depth is exact.
+//
+// Occluder albedo: the distance estimator reads it at the closest hit
+// (mu < 1 there). The occlusion estimator traces the segment [0, r] for its
+// closest hit, so the occluder is the model's one - the first surface along
+// w - not an arbitrary any-hit one; its rays are closest-hit rays, shorter
+// on average than the distance estimator's.
+//
+// Opaque surfaces: a direction below the geometric plane meets the surface
+// itself at d = 0 (mu = 0); that occluder is x, with x's albedo, and a path
+// continues from x. No ray is traced for it.
+//
+// Russian roulette (gi): from bounce kRouletteStart on, a path survives with
+// q = min(0.95, max channel of its throughput) and its throughput is divided
+// by q: unbiased, and it terminates with probability 1 even in a closed white
+// room (q <= 0.95). Roulette needs tail=zero (a divided throughput breaks the
+// S + A = 1 - T identity the closed tail relies on).
+//
+// Sample dimensions: bounce b draws its direction from the 2D pair
+// kFirstIntegratorDim + 4b, the occlusion estimator's r from the 1D
+// dimension kFirstIntegratorDim + 4b + 1 and roulette from + 4b + 2, all at
+// index sampleIndex * rays + k (path k of the camera sample). Bounce 0 is
+// exactly the obscurance integrator's sequence, which is what makes
+// transfer with black occluders equal obscurance bit for bit.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <span>
+
+#include "core/integrator.h"
+#include "integrators/membership.h"
+
+namespace obscura {
+
+struct AmbientPaths {
+  static constexpr uint32_t kUnlimited = std::numeric_limits<uint32_t>::max();
+  static constexpr uint32_t kRouletteStart = 3;
+
+  Membership mu;
+  Estimator estimator = Estimator::Distance;
+  uint32_t rays = 1;           // paths per camera sample
+  uint32_t depth = 0;          // bounces after the first segment; kUnlimited with roulette
+  bool closedTail = true;      // tail=closed (ratio) or tail=zero (plain mean)
+  bool roulette = false;
+
+  // Writes out[i] for every camera hit (num and den, see above).
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const;
+};
+
+// An integrator that is nothing but a configured path estimator (transfer, gi).
+class AmbientPathIntegrator final : public Integrator {
+ public:
+  explicit AmbientPathIntegrator(const AmbientPaths& paths) : paths_(paths) {}
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
+    paths_.estimate(hits, ctx, out);
+  }
+
+ private:
+  AmbientPaths paths_;
+};
+
+}  // namespace obscura
