@@ -60,7 +60,7 @@ void AmbientPaths::estimate(std::span<const SurfaceHit> hits, IntegratorContext&
   };
 
   for (uint32_t bounce = 0; !s.paths.empty(); ++bounce) {
-    const bool last = depth != kUnlimited && bounce >= depth;
+    const bool last = bounce >= std::min(depth, kMaxBounces);
     const uint32_t dim = kFirstIntegratorDim + 4 * bounce;
     IntersectBatch& batch = ctx.intersectBatch(s.paths.size());
     for (const PathState& p : s.paths) {
@@ -116,7 +116,7 @@ void AmbientPaths::estimate(std::span<const SurfaceHit> hits, IntegratorContext&
       }
       if (roulette && bounce + 1 >= kRouletteStart) {
         const double q =
-            std::min(0.95, std::max(p.throughput.c[0], std::max(p.throughput.c[1], p.throughput.c[2])));
+            std::min(1.0, std::max(p.throughput.c[0], std::max(p.throughput.c[1], p.throughput.c[2])));
         if (double(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 2)) >= q) {
           finish(p);
           continue;

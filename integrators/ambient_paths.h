@@ -42,10 +42,16 @@
 // continues from x. No ray is traced for it.
 //
 // Russian roulette (gi): from bounce kRouletteStart on, a path survives with
-// q = min(0.95, max channel of its throughput) and its throughput is divided
-// by q: unbiased, and it terminates with probability 1 even in a closed white
-// room (q <= 0.95). Roulette needs tail=zero (a divided throughput breaks the
-// S + A = 1 - T identity the closed tail relies on).
+// q = min(1, max channel of its throughput), and its throughput is divided by
+// q. Unbiased, and it keeps every path's weight at most 1: a fixed cap on q
+// (0.95, say) would instead let a path in a near-white, nearly closed room
+// grow its weight by a/0.95 a bounce - infinite variance once the escape
+// probability drops below 5% (fireflies of 3x in the Cornell boxes).
+// Paths end by escaping, by losing energy to albedo < 1, by roulette, or at
+// kMaxBounces: only a lossless enclosure with no way out reaches that bound
+// (its true W is what the first kMaxBounces bounces carried).
+// Roulette needs tail=zero (a divided throughput breaks the S + A = 1 - T
+// identity the closed tail relies on).
 //
 // Sample dimensions: bounce b draws its direction from the 2D pair
 // kFirstIntegratorDim + 4b, the occlusion estimator's r from the 1D
@@ -67,6 +73,7 @@ namespace obscura {
 struct AmbientPaths {
   static constexpr uint32_t kUnlimited = std::numeric_limits<uint32_t>::max();
   static constexpr uint32_t kRouletteStart = 3;
+  static constexpr uint32_t kMaxBounces = 1u << 16;  // depth = kUnlimited stops here
 
   Membership mu;
   Estimator estimator = Estimator::Distance;

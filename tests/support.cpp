@@ -26,7 +26,15 @@ std::string tempDir(const std::string& name) {
   return dir.string();
 }
 
-void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments) {
+int addGreyMaterial(Scene& scene, float a) {
+  Material m;
+  m.name = "grey";
+  m.baseColorFactor = Vec3(a, a, a);
+  scene.materials.push_back(m);
+  return int(scene.materials.size()) - 1;
+}
+
+void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material) {
   std::vector<Vec3> pos, nrm;
   std::vector<uint32_t> idx;
   // Ring r at polar angle theta_r from +Z: theta_0 = alpha (hole edge) to
@@ -50,7 +58,7 @@ void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segmen
     }
   const uint32_t pole = uint32_t(rings * segments);
   for (int s = 0; s < segments; ++s) idx.insert(idx.end(), {at(rings - 1, s), pole, at(rings - 1, s + 1)});
-  scene.addWorldPrimitive(pos, idx, nrm, {}, -1);
+  scene.addWorldPrimitive(pos, idx, nrm, {}, material);
 }
 
 void addPlane(Scene& scene, float h, float z) {

@@ -27,7 +27,11 @@ std::string tempDir(const std::string& name);
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
 // removed (MATH.md section 7). `rings` latitude bands from the hole edge to
 // the -Z pole, `segments` around; vertex normals are exact (-p/rs).
-void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments);
+// `material` indexes scene.materials (-1 = the default, albedo 1).
+void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material = -1);
+
+// Appends a grey material of albedo a with no texture and returns its index.
+int addGreyMaterial(Scene& scene, float a);
 
 // A square in the plane z = 0, side 2*halfSize, normal +Z.
 void addPlane(Scene& scene, float halfSize, float z = 0.0f);
