@@ -3,6 +3,8 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <filesystem>
 
 #include "core/error.h"
@@ -124,6 +126,52 @@ TEST(Exr, CliRendersDefaultSceneWithChannelsAndMetadata) {
     if (a == 0.0f) {
       EXPECT_TRUE(std::isinf(r.planes.at("Z")[i]));
     }
+  }
+}
+
+// Every built-in ambient integrator renders the default scene and each scene
+// of ../shared/scenes that is present, through the CLI: exit 0 and a pass
+// that is finite and in [0, A] (gi, a plain Monte Carlo mean with roulette
+// weights, only finite and >= 0).
+TEST(Exr, CliRendersEveryIntegratorOnEveryScene) {
+  const std::string dir = tempDir("cli_all");
+  std::vector<std::string> scenes = {OBSCURA_SOURCE_DIR "/scenes/default.gltf"};
+  for (const char* s : {"/cornell_box_classic/cornell-box.gltf", "/cornell_box_suzanne/cornell-box.glb",
+                        "/damaged_helmet/DamagedHelmet.gltf", "/suzanne/Suzanne.gltf", "/viking_room/viking_room.glb"}) {
+    const std::string path = std::string(OBSCURA_SHARED_SCENES) + s;
+    if (std::filesystem::exists(path))
+      scenes.push_back(path);
+    else
+      std::printf("skipping absent scene %s\n", path.c_str());
+  }
+  const std::vector<std::vector<std::string>> integrators = {
+      {"ao"}, {"obscurance", "-p", "falloff=exponential"}, {"transfer"}, {"transfer", "-p", "depth=2"},
+      {"gi"}, {"gi", "-p", "sigma=1"}, {"multibounce"}, {"multibounce", "-p", "mapping=improved"}};
+  std::vector<std::vector<std::string>> runs;
+  std::vector<std::string> outputs;
+  for (size_t s = 0; s < scenes.size(); ++s)
+    for (size_t i = 0; i < integrators.size(); ++i) {
+      outputs.push_back(dir + "/s" + std::to_string(s) + "_i" + std::to_string(i) + ".exr");
+      std::vector<std::string> a = {"render", scenes[s], "-o", outputs.back(), "--res", "48x27", "--spp", "2",
+                                    "--quiet", "-i"};
+      a.insert(a.end(), integrators[i].begin(), integrators[i].end());
+      runs.push_back(a);
+    }
+  const std::vector<CliResult> results = runClis(runs, dir);
+  for (size_t r = 0; r < runs.size(); ++r) {
+    const std::string what = runs[r][1] + " -i " + runs[r].back();
+    ASSERT_EQ(results[r].exitCode, 0) << what << ": " << results[r].stderrText;
+    const ReadBack img = readExr(outputs[r]);
+    ASSERT_TRUE(img.ok) << what;
+    const bool bounded = img.spec.get_string_attribute("obscura:integrator") != "gi";
+    const std::vector<float>& A = img.planes.at("A");
+    for (size_t p = 0; p < A.size(); ++p)
+      for (const char* c : {"R", "G", "B"}) {
+        const float v = img.planes.at(c)[p];
+        ASSERT_TRUE(std::isfinite(v)) << what;
+        ASSERT_GE(v, 0.0f) << what;
+        if (bounded) ASSERT_LE(v, A[p]) << what << " channel " << c;
+      }
   }
 }
 

@@ -119,7 +119,7 @@ TEST(Stability, ExtremeDistances) {
   scene.commit();
   const Camera cam = makeLookAtCamera(Vec3(6, -5, 4), Vec3(2, 0, 1), Vec3(0, 0, 1), 0.9f, "crease");
   const RenderSettings st = passSettings(24, 16, 8);
-  for (const std::string integ : {"ao", "obscurance"}) {
+  for (const std::string integ : {"ao", "obscurance", "transfer", "multibounce"}) {
     const Film tiny = renderWith(scene, cam, integ, {"distance=1.6e-8"}, st);
     expectFiniteInUnitRange(tiny, integ + " tiny R");
     EXPECT_GT(meanCovered(tiny, kR), 1.0 - 1e-3) << integ;
@@ -128,6 +128,41 @@ TEST(Stability, ExtremeDistances) {
     expectFiniteInUnitRange(huge, integ + " huge R");
     for (int y = 0; y < st.height; ++y)
       for (int x = 0; x < st.width; ++x) EXPECT_EQ(huge.at(kR, x, y), inf.at(kR, x, y)) << integ;
+  }
+}
+
+// The white crease (albedo 1, sky reachable) is a white furnace: transfer is
+// exactly 1 and gi converges to 1, at every scale, with the extreme media
+// too. gi's pixels are independent estimates: 4 standard errors of their
+// mean. sigma = 1e30 makes mu(d) = 1 - e^(-sigma d) = 1 beyond d ~ 1e-28, so
+// the medium itself is the sky; sigma = 1e-30 is vacuum to double precision.
+TEST(Stability, WhiteCreaseIsAWhiteFurnaceAtEveryScale) {
+  for (const float s : {1e-4f, 1.0f, 1e5f}) {
+    Scene scene;
+    addCrease(scene, s);
+    scene.commit();
+    const Camera cam = makeLookAtCamera(Vec3(6 * s, -5 * s, 4 * s), Vec3(2 * s, 0, 1 * s), Vec3(0, 0, 1), 0.9f, "crease");
+    const int w = 32, h = 24;
+    for (const std::vector<std::string> p : {std::vector<std::string>{"depth=0"}, {"depth=3"},
+                                              {"falloff=exponential", "sigma=1e-30"},
+                                              {"falloff=exponential", "sigma=1e30", "estimator=occlusion"}}) {
+      const Film f = renderWith(scene, cam, "transfer", p, passSettings(w, h, 8));
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) ASSERT_EQ(f.at(kR, x, y), 1.0f) << "transfer " << p[0] << " scale " << s;
+    }
+    for (const char* sigma : {"sigma=0", "sigma=1e-30", "sigma=1e30"}) {
+      const Film f = renderWith(scene, cam, "gi", {sigma}, passSettings(w, h, 16));
+      double sum = 0, sum2 = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const double v = f.at(kR, x, y);
+          ASSERT_TRUE(std::isfinite(v)) << sigma;
+          sum += v, sum2 += v * v;
+        }
+      const double n = double(w * h), mean = sum / n;
+      const double se = std::sqrt(std::max(sum2 / n - mean * mean, 0.0) / (n - 1));
+      EXPECT_NEAR(mean, 1.0, 4.0 * se + 1e-6) << "gi " << sigma << " scale " << s;
+    }
   }
 }
 
