@@ -33,6 +33,16 @@ inline Rgb splat(double v) { return {{v, v, v}}; }
 }  // namespace
 
 void AmbientPaths::estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const {
+  // At most kMaxPaths paths in flight: the state and the ray batch stay a few
+  // hundred KiB whatever `rays` is (a camera sample's paths are never split).
+  const size_t group = std::max<size_t>(1, kMaxPaths / rays);
+  for (size_t begin = 0; begin < hits.size(); begin += group) {
+    const size_t n = std::min(group, hits.size() - begin);
+    estimateGroup(hits.subspan(begin, n), ctx, out + begin);
+  }
+}
+
+void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const {
   Scratch& s = tlsScratch;
   s.num.assign(hits.size(), splat(0.0));
   s.den.assign(hits.size(), splat(0.0));

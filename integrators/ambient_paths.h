@@ -84,6 +84,10 @@ struct AmbientPaths {
 
   // Writes out[i] for every camera hit (num and den, see above).
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const;
+
+ private:
+  static constexpr size_t kMaxPaths = 4096;
+  void estimateGroup(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const;
 };
 
 // An integrator that is nothing but a configured path estimator (transfer, gi).
