@@ -18,6 +18,8 @@
 #include "core/plugin.h"
 #include "core/progress.h"
 #include "core/render.h"
+#include "app/cli_common.h"
+#include "app/compare.h"
 
 using namespace obscura;
 
@@ -46,73 +48,6 @@ struct RenderArgs {
   bool robust = false;
   std::vector<std::string> plugins;
 };
-
-void parseResolution(const std::string& s, int& w, int& h) {
-  const size_t x = s.find('x');
-  const auto num = [&](const std::string& t) -> int {
-    if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos) return -1;
-    return std::atoi(t.c_str());
-  };
-  w = x == std::string::npos ? -1 : num(s.substr(0, x));
-  h = x == std::string::npos ? -1 : num(s.substr(x + 1));
-  if (w < 1 || h < 1 || w > 65536 || h > 65536)
-    throw Error("--res: expected WIDTHxHEIGHT with each in [1, 65536], got '" + s + "'");
-}
-
-Vec3 parseSky(const std::string& s) {
-  std::vector<float> v;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    char* end = nullptr;
-    const float f = std::strtof(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !std::isfinite(f) || f < 0)
-      throw Error("--sky: expected R,G,B (finite, non-negative), got '" + s + "'");
-    v.push_back(f);
-  }
-  if (v.size() == 1) v = {v[0], v[0], v[0]};
-  if (v.size() != 3) throw Error("--sky: expected R,G,B (finite, non-negative), got '" + s + "'");
-  return {v[0], v[1], v[2]};
-}
-
-Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
-  if (want.empty()) return scene.cameras.empty() ? makeAutoCamera(scene.bounds(), aspect) : scene.cameras[0];
-  if (want == "auto") return makeAutoCamera(scene.bounds(), aspect);
-  std::string names;
-  for (const auto& c : scene.cameras) {
-    if (c.name == want) return c;
-    names += (names.empty() ? "" : ", ") + c.name;
-  }
-  if (want.find_first_not_of("0123456789") == std::string::npos && want.size() < 9) {
-    const int i = std::stoi(want);
-    for (const auto& c : scene.cameras)
-      if (c.fileIndex == i) return c;
-    throw Error("--camera: no perspective camera with index " + want + " (the scene has " +
-                std::to_string(scene.cameras.size()) + " usable camera" + (scene.cameras.size() == 1 ? "" : "s") + ")");
-  }
-  throw Error("--camera: no camera named '" + want + "' (cameras: " + (names.empty() ? "none" : names) +
-              "; or 'auto')");
-}
-
-// EXR/OpenImageIO matrices are row-vector form (p' = p M): the transpose of
-// the column-vector matrices used in the code.
-std::vector<float> worldToCameraMatrix(const Camera& c) {
-  const Affine& a = c.toWorld;
-  std::vector<float> m(16, 0.0f);
-  const Vec3 t = c.position();
-  for (int r = 0; r < 3; ++r) {
-    const Vec3 axis(a.m[0][r], a.m[1][r], a.m[2][r]);  // camera axis r in world
-    for (int k = 0; k < 3; ++k) m[size_t(k * 4 + r)] = axis[k];  // row-vector form: column r
-    m[size_t(12 + r)] = -dot(axis, t);
-  }
-  m[15] = 1.0f;
-  return m;
-}
-
-void loadPlugins(const std::vector<std::string>& paths) {
-  loadPluginsFromEnvironment();
-  for (const auto& p : paths) loadPlugin(p);
-}
 
 int runRender(const RenderArgs& a) {
   loadPlugins(a.plugins);
@@ -164,35 +99,10 @@ int runRender(const RenderArgs& a) {
     return 130;
   }
 
-  ExrOptions exr;
+  ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
+                                        .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust,
+                                        .bvhSeconds = scene->buildSeconds()});
   exr.half = a.half;
-  const auto str = [&](const std::string& k, const std::string& v) { exr.attributes.push_back({k, v}); };
-  str("Software", std::string("Obscura ") + OBSCURA_VERSION);
-  str("obscura:version", OBSCURA_VERSION);
-  str("obscura:scene", std::filesystem::absolute(a.scene).lexically_normal().string());
-  str("obscura:camera", camera.name);
-  str("obscura:integrator", desc.name);
-  std::string all;
-  for (const auto& [k, v] : params.values()) {
-    str("obscura:param:" + k, v);
-    all += (all.empty() ? "" : ",") + k + "=" + v;
-  }
-  str("obscura:params", all);
-  exr.attributes.push_back({"obscura:spp", s.spp});
-  exr.attributes.push_back({"obscura:seed", int(s.seed)});  // stored bit pattern; see README
-  str("obscura:seedText", std::to_string(s.seed));
-  str("obscura:resolution", std::to_string(s.width) + "x" + std::to_string(s.height));
-  str("obscura:filter", a.filter);
-  exr.attributes.push_back({"obscura:robust", int(a.robust)});
-  str("obscura:sky", formatFloat(s.sky.x) + "," + formatFloat(s.sky.y) + "," + formatFloat(s.sky.z));
-  exr.attributes.push_back({"obscura:threads", s.threads > 0 ? s.threads : int(tbb::this_task_arena::max_concurrency())});
-  exr.attributes.push_back({"obscura:renderTime", float(stats.seconds)});
-  exr.attributes.push_back({"obscura:bvhBuildTime", float(scene->buildSeconds())});
-  str("obscura:rays:camera", std::to_string(stats.rays.camera));
-  str("obscura:rays:occlusion", std::to_string(stats.rays.occlusion));
-  str("obscura:rays:closest", std::to_string(stats.rays.closest));
-  str("obscura:rays:total", std::to_string(stats.rays.camera + stats.rays.occlusion + stats.rays.closest));
-  exr.attributes.push_back({"worldToCamera", worldToCameraMatrix(camera)});
   writeExr(a.output, film, exr);
   if (!a.preview.empty()) writePreviewPng(a.preview, film);
 
@@ -279,6 +189,31 @@ int main(int argc, char** argv) {
   render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
 
+  CompareArgs cmp;
+  cmp.scene = OBSCURA_DEFAULT_SCENE;
+  CLI::App* compare = app.add_subcommand(
+      "compare", "Measure the speed/accuracy trade of integrator configs against a full-GI reference");
+  compare->option_defaults()->always_capture_default();
+  compare->add_option("scene", cmp.scene, "glTF 2.0 scene; default: the bundled scene");
+  compare->add_option("-o,--output", cmp.output, "Output directory (created; results.csv etc.; rerun to resume)")->required();
+  compare->add_option("-c,--config", cmp.configs,
+                      "integrator[:key=value,...], e.g. ao, obscurance:falloff=sqrt,distance=0.5, transfer:depth=1 "
+                      "(repeatable)")->required();
+  compare->add_option("--spp", cmp.sppList, "Comma-separated camera samples per pixel for every config");
+  auto* refOpt = compare->add_option("--reference", cmp.reference, "Reference pass (EXR of the same view and resolution)");
+  compare->add_option("--reference-spp", cmp.referenceSpp, "Without --reference: spp of the cached gi reference")
+      ->excludes(refOpt);
+  compare->add_option("--seeds", cmp.seeds, "Renders per cell with seeds seed..seed+N-1 (>= 2: bias^2 and variance)");
+  compare->add_option("--targets", cmp.targets, "RMSE targets for the summary (default 0.1,0.05,0.02,0.01)");
+  compare->add_option("--res", cmp.res, "Resolution WIDTHxHEIGHT");
+  compare->add_option("--camera", cmp.camera, "Camera name or index in the file, or 'auto'");
+  compare->add_option("--threads", cmp.threads, "Worker threads (0 = all cores)");
+  compare->add_option("--seed", cmp.seed, "First sampling seed");
+  compare->add_option("--sky", cmp.sky, "Sky radiance R,G,B (part of the view: the reference cache key)");
+  compare->add_flag("-q,--quiet", cmp.quiet, "No progress (the summary table still goes to stdout)");
+  compare->add_flag("--robust", cmp.robust, "Watertight Embree traversal");
+  compare->add_option("--plugin", cmp.plugins, "Load an integrator plugin; repeatable");
+
   std::vector<std::string> listPlugins;
   CLI::App* integrators = app.add_subcommand("integrators", "List integrators with their parameters");
   integrators->add_option("--plugin", listPlugins, "Load an integrator plugin first; repeatable");
@@ -301,6 +236,11 @@ int main(int argc, char** argv) {
 
   try {
     if (render->parsed()) return runRender(r);
+    if (compare->parsed()) {
+      std::signal(SIGINT, onSignal);
+      std::signal(SIGTERM, onSignal);
+      return runCompare(cmp, &gCancel);
+    }
     if (info->parsed()) return runInfo(infoPath);
     return runIntegrators(listPlugins);
   } catch (const Error& e) {

@@ -3,6 +3,7 @@
 #include <OpenImageIO/imageio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -84,6 +85,11 @@ void writeExr(const std::string& path, const Film& film, const ExrOptions& optio
   writeAtomically(path, "openexr", spec, OIIO::TypeDesc::FLOAT, pixels.data());
 }
 
+unsigned char linearToSrgb8(float v) {
+  const float c = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+  return (unsigned char)std::lround(255.0f * linearToSrgb(c));
+}
+
 void writePreviewPng(const std::string& path, const Film& film) {
   const int w = film.width(), h = film.height();
   std::vector<unsigned char> px(size_t(w) * h * 3);
@@ -91,11 +97,23 @@ void writePreviewPng(const std::string& path, const Film& film) {
     for (int x = 0; x < w; ++x)
       for (int c = 0; c < 3; ++c) {
         const float v = film.at(kR + c, x, y);
-        px[(size_t(y) * w + x) * 3 + c] = (unsigned char)std::lround(255.0f * linearToSrgb(std::isfinite(v) ? v : 0.0f));
+        px[(size_t(y) * w + x) * 3 + c] = linearToSrgb8(v);
       }
-  OIIO::ImageSpec spec(w, h, 3, OIIO::TypeDesc::UINT8);
+  writePngRgb8(path, w, h, px.data());
+}
+
+void writePngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
+  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
   spec.attribute("oiio:ColorSpace", "sRGB");
-  writeAtomically(path, "png", spec, OIIO::TypeDesc::UINT8, px.data());
+  writeAtomically(path, "png", spec, OIIO::TypeDesc::UINT8, rgb);
+}
+
+std::string readExrAttribute(const std::string& path, const std::string& name) {
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw Error(path + ": cannot open: " + OIIO::geterror());
+  const std::string v = in->spec().get_string_attribute(name);
+  in->close();
+  return v;
 }
 
 }  // namespace obscura

@@ -24,7 +24,14 @@ struct ExrOptions {
 
 // Throws obscura::Error naming the path on failure (nothing is left behind).
 void writeExr(const std::string& path, const Film& film, const ExrOptions& options);
+// A header attribute of an image file as text ("" if absent); throws
+// obscura::Error naming the path if the file cannot be opened.
+std::string readExrAttribute(const std::string& path, const std::string& name);
 // sRGB preview of the pass (R,G,B over black); 8-bit PNG.
 void writePreviewPng(const std::string& path, const Film& film);
+// An 8-bit sRGB PNG from interleaved RGB bytes, row-major, top row first.
+void writePngRgb8(const std::string& path, int width, int height, const unsigned char* rgb);
+// sRGB encoding of a linear value in [0, 1] (clamped), as a byte.
+unsigned char linearToSrgb8(float v);
 
 }  // namespace obscura

@@ -34,9 +34,9 @@ int addGreyMaterial(Scene& scene, float a) {
   return int(scene.materials.size()) - 1;
 }
 
-void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material) {
-  std::vector<Vec3> pos, nrm;
-  std::vector<uint32_t> idx;
+void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
+                      std::vector<uint32_t>& idx) {
+  pos.clear(), nrm.clear(), idx.clear();
   // Ring r at polar angle theta_r from +Z: theta_0 = alpha (hole edge) to
   // theta_rings = pi (the -Z pole, one vertex).
   for (int r = 0; r <= rings; ++r) {
@@ -58,6 +58,12 @@ void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segmen
     }
   const uint32_t pole = uint32_t(rings * segments);
   for (int s = 0; s < segments; ++s) idx.insert(idx.end(), {at(rings - 1, s), pole, at(rings - 1, s + 1)});
+}
+
+void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material) {
+  std::vector<Vec3> pos, nrm;
+  std::vector<uint32_t> idx;
+  sphereCavityMesh(rs, alpha, rings, segments, pos, nrm, idx);
   scene.addWorldPrimitive(pos, idx, nrm, {}, material);
 }
 

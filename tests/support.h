@@ -27,6 +27,10 @@ std::string tempDir(const std::string& name);
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
 // removed (MATH.md section 7). `rings` latitude bands from the hole edge to
 // the -Z pole, `segments` around; vertex normals are exact (-p/rs).
+// The same triangles as position, normal and index lists.
+void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
+                      std::vector<uint32_t>& idx);
+
 // `material` indexes scene.materials (-1 = the default, albedo 1).
 void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material = -1);
 

@@ -1,0 +1,117 @@
+#include "app/cli_common.h"
+
+#include <tbb/task_arena.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/plugin.h"
+
+namespace obscura {
+
+void parseResolution(const std::string& s, int& w, int& h) {
+  const size_t x = s.find('x');
+  const auto num = [&](const std::string& t) -> int {
+    if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos) return -1;
+    return std::atoi(t.c_str());
+  };
+  w = x == std::string::npos ? -1 : num(s.substr(0, x));
+  h = x == std::string::npos ? -1 : num(s.substr(x + 1));
+  if (w < 1 || h < 1 || w > 65536 || h > 65536)
+    throw Error("--res: expected WIDTHxHEIGHT with each in [1, 65536], got '" + s + "'");
+}
+
+Vec3 parseSky(const std::string& s) {
+  std::vector<float> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const float f = std::strtof(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !std::isfinite(f) || f < 0)
+      throw Error("--sky: expected R,G,B (finite, non-negative), got '" + s + "'");
+    v.push_back(f);
+  }
+  if (v.size() == 1) v = {v[0], v[0], v[0]};
+  if (v.size() != 3) throw Error("--sky: expected R,G,B (finite, non-negative), got '" + s + "'");
+  return {v[0], v[1], v[2]};
+}
+
+Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
+  if (want.empty()) return scene.cameras.empty() ? makeAutoCamera(scene.bounds(), aspect) : scene.cameras[0];
+  if (want == "auto") return makeAutoCamera(scene.bounds(), aspect);
+  std::string names;
+  for (const auto& c : scene.cameras) {
+    if (c.name == want) return c;
+    names += (names.empty() ? "" : ", ") + c.name;
+  }
+  if (want.find_first_not_of("0123456789") == std::string::npos && want.size() < 9) {
+    const int i = std::stoi(want);
+    for (const auto& c : scene.cameras)
+      if (c.fileIndex == i) return c;
+    throw Error("--camera: no perspective camera with index " + want + " (the scene has " +
+                std::to_string(scene.cameras.size()) + " usable camera" + (scene.cameras.size() == 1 ? "" : "s") + ")");
+  }
+  throw Error("--camera: no camera named '" + want + "' (cameras: " + (names.empty() ? "none" : names) +
+              "; or 'auto')");
+}
+
+// EXR/OpenImageIO matrices are row-vector form (p' = p M): the transpose of
+// the column-vector matrices used in the code.
+namespace {
+std::vector<float> worldToCameraMatrix(const Camera& c) {
+  const Affine& a = c.toWorld;
+  std::vector<float> m(16, 0.0f);
+  const Vec3 t = c.position();
+  for (int r = 0; r < 3; ++r) {
+    const Vec3 axis(a.m[0][r], a.m[1][r], a.m[2][r]);  // camera axis r in world
+    for (int k = 0; k < 3; ++k) m[size_t(k * 4 + r)] = axis[k];  // row-vector form: column r
+    m[size_t(12 + r)] = -dot(axis, t);
+  }
+  m[15] = 1.0f;
+  return m;
+}
+
+}  // namespace
+
+void loadPlugins(const std::vector<std::string>& paths) {
+  loadPluginsFromEnvironment();
+  for (const auto& p : paths) loadPlugin(p);
+}
+
+ExrOptions passHeader(const PassInfo& i) {
+  ExrOptions exr;
+  const auto str = [&](const std::string& k, const std::string& v) { exr.attributes.push_back({k, v}); };
+  str("Software", std::string("Obscura ") + OBSCURA_VERSION);
+  str("obscura:version", OBSCURA_VERSION);
+  str("obscura:scene", std::filesystem::absolute(i.scenePath).lexically_normal().string());
+  str("obscura:camera", i.camera.name);
+  str("obscura:integrator", i.integrator.name);
+  std::string all;
+  for (const auto& [k, v] : i.params.values()) {
+    str("obscura:param:" + k, v);
+    all += (all.empty() ? "" : ",") + k + "=" + v;
+  }
+  str("obscura:params", all);
+  exr.attributes.push_back({"obscura:spp", i.settings.spp});
+  exr.attributes.push_back({"obscura:seed", int(i.settings.seed)});  // stored bit pattern; see README
+  str("obscura:seedText", std::to_string(i.settings.seed));
+  str("obscura:resolution", std::to_string(i.settings.width) + "x" + std::to_string(i.settings.height));
+  str("obscura:filter", i.filterName);
+  exr.attributes.push_back({"obscura:robust", int(i.robust)});
+  str("obscura:sky", formatFloat(i.settings.sky.x) + "," + formatFloat(i.settings.sky.y) + "," + formatFloat(i.settings.sky.z));
+  exr.attributes.push_back({"obscura:threads", i.settings.threads > 0 ? i.settings.threads : int(tbb::this_task_arena::max_concurrency())});
+  exr.attributes.push_back({"obscura:renderTime", float(i.stats.seconds)});
+  exr.attributes.push_back({"obscura:bvhBuildTime", float(i.bvhSeconds)});
+  str("obscura:rays:camera", std::to_string(i.stats.rays.camera));
+  str("obscura:rays:occlusion", std::to_string(i.stats.rays.occlusion));
+  str("obscura:rays:closest", std::to_string(i.stats.rays.closest));
+  str("obscura:rays:total", std::to_string(i.stats.rays.camera + i.stats.rays.occlusion + i.stats.rays.closest));
+  exr.attributes.push_back({"worldToCamera", worldToCameraMatrix(i.camera)});
+  return exr;
+}
+
+}  // namespace obscura

@@ -1,0 +1,40 @@
+// What the `render` and `compare` commands share: parsing of the scene
+// options, camera selection, plugin loading and the EXR header of a pass.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/image_io.h"
+#include "core/integrator.h"
+#include "core/render.h"
+#include "core/scene.h"
+
+namespace obscura {
+
+// "WIDTHxHEIGHT", each in [1, 65536]; throws obscura::Error naming --res.
+void parseResolution(const std::string& s, int& w, int& h);
+// "R,G,B" or one value, finite and non-negative; throws naming --sky.
+Vec3 parseSky(const std::string& s);
+// --camera: a name, an index into the file's cameras, "auto", or empty
+// (the first camera, else auto).
+Camera selectCamera(const Scene& scene, const std::string& want, float aspect);
+// OBSCURA_PLUGIN_PATH, then each --plugin.
+void loadPlugins(const std::vector<std::string>& paths);
+
+// Everything the header of a pass records (README "The EXR pass").
+struct PassInfo {
+  std::string scenePath;
+  const Camera& camera;
+  const IntegratorDescriptor& integrator;
+  const ParamSet& params;
+  const RenderSettings& settings;
+  const RenderStats& stats;
+  std::string filterName;
+  bool robust = false;
+  double bvhSeconds = 0;
+};
+ExrOptions passHeader(const PassInfo& info);
+
+}  // namespace obscura

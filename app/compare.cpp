@@ -1,0 +1,470 @@
+// `obscura compare`: every CONFIG x spp cell rendered (with `--seeds`
+// seeds), its error measured against a full-GI reference, and the trade
+// reported: results.csv / results.json, an error-versus-time plot with the
+// Pareto front, a heat map per config and a contact sheet.
+//
+// Cells are independent and keyed by a hash of everything that determines
+// their image (reference, scene, camera, resolution, config with every
+// parameter value, spp, seed, seeds): a finished cell's row in results.csv
+// is kept and not recomputed, so an interrupted run resumes where it
+// stopped. Time is the render loop's wall time (scene loading and the BVH
+// build are the same for every cell and left out); with several seeds it
+// is the median.
+#include "app/compare.h"
+
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+
+#include "app/cli_common.h"
+#include "app/report.h"
+#include "core/error.h"
+#include "core/gltf_loader.h"
+#include "core/metrics.h"
+#include "core/render.h"
+
+namespace obscura {
+namespace fs = std::filesystem;
+
+namespace {
+
+// FNV-1a, 64 bit: a stable key for file names and resumption (not security).
+struct Hash64 {
+  uint64_t h = 0xcbf29ce484222325ULL;
+  Hash64& add(const void* data, size_t n) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ULL;
+    return *this;
+  }
+  Hash64& add(const std::string& s) {
+    add(s.data(), s.size());
+    return add("\x1f", 1);  // separator: ("ab","c") != ("a","bc")
+  }
+  std::string hex() const {
+    char buf[17];
+    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+    return buf;
+  }
+};
+
+std::string fileHash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot read");
+  Hash64 h;
+  char buf[1 << 16];
+  while (in) {
+    in.read(buf, sizeof buf);
+    h.add(buf, size_t(in.gcount()));
+  }
+  return h.hex();
+}
+
+std::vector<int> parseSppList(const std::string& s) {
+  std::vector<int> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const long n = std::strtol(item.c_str(), &end, 10);
+    if (item.empty() || *end != '\0' || n < 1 || n > (1 << 24))
+      throw Error("--spp: expected a comma-separated list of sample counts in [1, 16777216], got '" + s + "'");
+    v.push_back(int(n));
+  }
+  if (v.empty()) throw Error("--spp: expected a comma-separated list of sample counts, got '" + s + "'");
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
+
+std::vector<double> parseTargets(const std::string& s) {
+  if (s.empty()) return {0.1, 0.05, 0.02, 0.01};
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    char* end = nullptr;
+    const double t = std::strtod(item.c_str(), &end);
+    if (item.empty() || *end != '\0' || !(t > 0) || !std::isfinite(t))
+      throw Error("--targets: expected a comma-separated list of positive RMSE values, got '" + s + "'");
+    v.push_back(t);
+  }
+  std::sort(v.rbegin(), v.rend());
+  return v;
+}
+
+struct Cell {
+  std::string key, config, canonical, integrator, params;
+  int spp = 0, seeds = 0;
+  double seconds = 0;
+  uint64_t rays = 0;
+  ErrorMetrics error;
+  std::optional<BiasVariance> bv;
+  std::string pass;  // EXR of the first seed, relative to DIR
+};
+
+const char* kCsvHeader = "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass";
+
+std::string csvQuote(const std::string& s) {
+  std::string q = "\"";
+  for (const char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+std::string fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+
+std::string csvRow(const Cell& c) {
+  return c.key + "," + csvQuote(c.config) + "," + c.integrator + "," + csvQuote(c.params) + "," + std::to_string(c.spp) +
+         "," + std::to_string(c.seeds) + "," + fmt(c.seconds) + "," + std::to_string(c.rays) + "," + fmt(c.error.rmse) +
+         "," + fmt(c.error.relMse) + "," + fmt(c.error.mae) + "," + fmt(c.error.p99) + "," +
+         (c.bv ? fmt(c.bv->bias2) : "") + "," + (c.bv ? fmt(c.bv->variance) : "") + "," + csvQuote(c.pass);
+}
+
+// Splits one CSV line (quoted fields with "" escapes).
+std::vector<std::string> csvFields(const std::string& line) {
+  std::vector<std::string> f(1);
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') f.back() += '"', ++i;
+      else if (c == '"') quoted = false;
+      else f.back() += c;
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      f.emplace_back();
+    } else {
+      f.back() += c;
+    }
+  }
+  return f;
+}
+
+// Rows of an earlier run's results.csv (empty if none or unreadable: the
+// run then recomputes; a file from another version is ignored whole).
+std::map<std::string, Cell> readPreviousCells(const std::string& path) {
+  std::map<std::string, Cell> cells;
+  std::ifstream in(path);
+  std::string line;
+  if (!in || !std::getline(in, line) || line != kCsvHeader) return cells;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = csvFields(line);
+    if (f.size() != 15) continue;
+    try {
+      Cell c;
+      c.key = f[0], c.config = f[1], c.integrator = f[2], c.params = f[3];
+      c.spp = std::stoi(f[4]), c.seeds = std::stoi(f[5]);
+      c.seconds = std::stod(f[6]), c.rays = std::stoull(f[7]);
+      c.error.rmse = std::stod(f[8]), c.error.relMse = std::stod(f[9]), c.error.mae = std::stod(f[10]);
+      c.error.p99 = std::stod(f[11]);
+      if (!f[12].empty()) c.bv = BiasVariance{std::stod(f[12]), std::stod(f[13])};
+      c.pass = f[14];
+      cells[c.key] = c;
+    } catch (const std::exception&) {
+      // a damaged row is recomputed
+    }
+  }
+  return cells;
+}
+
+// Writes text atomically (temporary sibling, then rename).
+void writeTextFile(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw Error(path + ": cannot write");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw Error(path + ": cannot write: " + ec.message());
+}
+
+// A pass image as a film (for the EXR writer): RGBA only.
+Film filmFromPass(const PassImage& p) {
+  Film f(p.width, p.height, false);
+  std::copy(p.r.begin(), p.r.end(), f.plane(kR));
+  std::copy(p.g.begin(), p.g.end(), f.plane(kG));
+  std::copy(p.b.begin(), p.b.end(), f.plane(kB));
+  std::copy(p.a.begin(), p.a.end(), f.plane(kA));
+  return f;
+}
+
+PassImage averagePasses(const PassImage& x, const PassImage& y) {
+  PassImage m = x;
+  for (size_t i = 0; i < m.pixels(); ++i) {
+    m.r[i] = 0.5f * (x.r[i] + y.r[i]);
+    m.g[i] = 0.5f * (x.g[i] + y.g[i]);
+    m.b[i] = 0.5f * (x.b[i] + y.b[i]);
+    m.a[i] = 0.5f * (x.a[i] + y.a[i]);
+  }
+  return m;
+}
+
+}  // namespace
+
+CompareConfig parseCompareConfig(const std::string& text) {
+  CompareConfig c;
+  c.text = text;
+  const size_t colon = text.find(':');
+  c.integrator = text.substr(0, colon);
+  if (c.integrator.empty()) throw Error("-c '" + text + "': expected integrator[:key=value,...]");
+  const IntegratorDescriptor* desc = nullptr;
+  try {
+    desc = &IntegratorRegistry::instance().find(c.integrator);
+  } catch (const Error& e) {
+    throw Error("-c '" + text + "': " + e.what());
+  }
+  ParamSet params(desc->params, desc->name);
+  if (colon != std::string::npos) {
+    std::stringstream ss(text.substr(colon + 1));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      if (item.empty() || item.find('=') == std::string::npos || item.front() == '=')
+        throw Error("-c '" + text + "': expected key=value, got '" + item + "'");
+      try {
+        params.setAssignment(item);
+      } catch (const Error& e) {
+        throw Error("-c '" + text + "': " + e.what());
+      }
+      c.assignments.push_back(item);
+    }
+    if (c.assignments.empty() || text.back() == ',')
+      throw Error("-c '" + text + "': expected key=value after ':'");
+  }
+  c.canonical = c.integrator;
+  for (const auto& [k, v] : params.values()) c.canonical += ":" + k + "=" + v;
+  return c;
+}
+
+int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
+  // --- validate everything before any work ---------------------------------
+  loadPlugins(a.plugins);
+  if (a.configs.empty()) throw Error("-c: at least one CONFIG is required, e.g. -c ao -c transfer:depth=1");
+  std::vector<CompareConfig> configs;
+  for (const auto& t : a.configs) configs.push_back(parseCompareConfig(t));
+  const std::vector<int> spps = parseSppList(a.sppList);
+  const std::vector<double> targets = parseTargets(a.targets);
+  if (a.seeds < 1 || a.seeds > 64) throw Error("--seeds: must be in [1, 64], got " + std::to_string(a.seeds));
+  if (a.referenceSpp < 2) throw Error("--reference-spp: must be at least 2, got " + std::to_string(a.referenceSpp));
+  if (a.seed < 0 || a.seed > 0xffffffffLL - 64) throw Error("--seed: must be in [0, 4294967231]");
+  if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
+  RenderSettings base;
+  parseResolution(a.res, base.width, base.height);
+  base.sky = parseSky(a.sky);
+  base.threads = a.threads;
+  base.aovs = false;
+  base.progress = !a.quiet;
+  if (a.output.empty()) throw Error("-o: an output directory is required");
+  const fs::path dir(a.output);
+  if (fs::exists(dir) && !fs::is_directory(dir)) throw Error(a.output + ": exists and is not a directory");
+  if (!dir.parent_path().empty() && !fs::is_directory(dir.parent_path()))
+    throw Error(a.output + ": cannot create: directory '" + dir.parent_path().string() + "' does not exist");
+  std::optional<PassImage> givenReference;
+  if (!a.reference.empty()) givenReference = readPass(a.reference);
+
+  std::optional<tbb::global_control> limit;
+  if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
+
+  std::unique_ptr<Scene> scene = loadGltf(a.scene, LoadOptions{.robust = a.robust});
+  const Camera camera = selectCamera(*scene, a.camera, float(base.width) / float(base.height));
+  std::error_code ec;
+  fs::create_directories(dir / "passes", ec);
+  if (ec) throw Error(a.output + ": cannot create: " + ec.message());
+  fs::create_directories(dir / "cache", ec);
+
+  // What makes two images comparable: scene, view, resolution, sky.
+  Hash64 viewHash;
+  viewHash.add(fileHash(a.scene)).add(camera.name).add(&camera.toWorld, sizeof camera.toWorld);
+  viewHash.add(&camera.yfov, sizeof camera.yfov).add(a.res).add(formatFloat(base.sky.x) + "," + formatFloat(base.sky.y) + "," + formatFloat(base.sky.z));
+  viewHash.add(a.robust ? "robust" : "fast");
+
+  const auto renderPass = [&](const IntegratorDescriptor& d, const ParamSet& p, int spp, uint32_t seed,
+                              RenderStats& stats) -> std::optional<PassImage> {
+    RenderSettings s = base;
+    s.spp = spp;
+    s.seed = seed;
+    auto integ = d.create(p);
+    Film film = render(*scene, camera, *integ, d.needs(p), s, stats, cancel);
+    if (cancel && cancel->load()) return std::nullopt;
+    return passFromFilm(film);
+  };
+  const auto interrupted = [&](size_t kept) {
+    std::fprintf(stderr, "obscura: interrupted; %zu finished cell%s kept in %s/results.csv (run again to resume)\n", kept,
+                 kept == 1 ? "" : "s", a.output.c_str());
+    return 130;
+  };
+
+  // --- the reference -----------------------------------------------------
+  PassImage reference;
+  std::string referencePath, referenceKey;
+  double referenceNoiseRmse = -1;  // unknown for a given reference
+  if (givenReference) {
+    reference = *givenReference;
+    if (reference.width != base.width || reference.height != base.height)
+      throw Error(a.reference + ": is " + std::to_string(reference.width) + "x" + std::to_string(reference.height) +
+                  " but --res is " + a.res);
+    referencePath = fs::absolute(a.reference).lexically_normal().string();
+    referenceKey = fileHash(a.reference);
+  } else {
+    Hash64 rk = viewHash;
+    rk.add("gi-reference").add(std::to_string(a.referenceSpp)).add(std::to_string(a.seed)).add(OBSCURA_VERSION);
+    referenceKey = rk.hex();
+    const fs::path cached = dir / "cache" / ("reference-" + referenceKey + ".exr");
+    referencePath = cached.string();
+    const IntegratorDescriptor& gi = IntegratorRegistry::instance().find("gi");
+    const ParamSet giParams(gi.params, gi.name);
+    bool have = false;
+    if (fs::exists(cached)) {
+      try {
+        reference = readPass(cached.string());
+        const std::string noise = readExrAttribute(cached.string(), "obscura:referenceNoise");
+        referenceNoiseRmse = noise.empty() ? -1 : std::stod(noise);
+        have = reference.width == base.width && reference.height == base.height;
+      } catch (const std::exception&) {
+        have = false;  // damaged cache: render again
+      }
+    }
+    if (have) {
+      if (!a.quiet) std::fprintf(stderr, "obscura: reference: cached %s\n", cached.string().c_str());
+    } else {
+      // Two independent halves: their mean is the reference, their
+      // difference measures its noise.
+      if (!a.quiet)
+        std::fprintf(stderr, "obscura: reference: gi at %d spp (two halves of %d) -> %s\n", a.referenceSpp,
+                     a.referenceSpp / 2, cached.string().c_str());
+      RenderStats s1, s2;
+      const uint32_t refSeed = uint32_t(a.seed) ^ 0x9e3779b9U;  // never a cell's seed
+      const auto h1 = renderPass(gi, giParams, a.referenceSpp / 2, refSeed, s1);
+      if (!h1) return interrupted(0);
+      const auto h2 = renderPass(gi, giParams, a.referenceSpp - a.referenceSpp / 2, refSeed + 1, s2);
+      if (!h2) return interrupted(0);
+      reference = averagePasses(*h1, *h2);
+      referenceNoiseRmse = referenceNoise(*h1, *h2);
+      RenderSettings rs = base;
+      rs.spp = a.referenceSpp;
+      rs.seed = refSeed;
+      RenderStats both = s1;
+      both.seconds += s2.seconds;
+      both.rays.camera += s2.rays.camera;
+      both.rays.occlusion += s2.rays.occlusion;
+      both.rays.closest += s2.rays.closest;
+      ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = gi, .params = giParams,
+                                           .settings = rs, .stats = both, .filterName = "box", .robust = a.robust,
+                                           .bvhSeconds = scene->buildSeconds()});
+      exr.attributes.push_back({"obscura:referenceNoise", fmt(referenceNoiseRmse)});
+      exr.attributes.push_back({"obscura:referenceKey", referenceKey});
+      writeExr(cached.string(), filmFromPass(reference), exr);
+    }
+  }
+  if (!a.quiet && referenceNoiseRmse >= 0)
+    std::fprintf(stderr, "obscura: reference noise (RMSE of the reference itself): %.3g\n", referenceNoiseRmse);
+
+  // --- the cells -----------------------------------------------------------
+  const std::string csvPath = (dir / "results.csv").string();
+  std::map<std::string, Cell> previous = readPreviousCells(csvPath);
+  std::vector<Cell> cells;
+  std::vector<std::string> cellOrder;
+  const auto save = [&] {
+    std::string csv = std::string(kCsvHeader) + "\n";
+    for (const Cell& c : cells) csv += csvRow(c) + "\n";
+    writeTextFile(csvPath, csv);
+  };
+  const size_t total = configs.size() * spps.size();
+  size_t done = 0;
+  for (const CompareConfig& cfg : configs) {
+    const IntegratorDescriptor& d = IntegratorRegistry::instance().find(cfg.integrator);
+    ParamSet params(d.params, d.name);
+    for (const auto& s : cfg.assignments) params.setAssignment(s);
+    std::string paramText;
+    for (const auto& [k, v] : params.values()) paramText += (paramText.empty() ? "" : ",") + k + "=" + v;
+    for (const int spp : spps) {
+      ++done;
+      Hash64 ck;
+      ck.add(referenceKey).add(viewHash.hex()).add(cfg.canonical).add(std::to_string(spp)).add(std::to_string(a.seed));
+      ck.add(std::to_string(a.seeds)).add(OBSCURA_VERSION);
+      const std::string key = ck.hex();
+      if (auto it = previous.find(key); it != previous.end() && fs::exists(dir / it->second.pass)) {
+        Cell c = it->second;
+        c.config = cfg.text;
+        cells.push_back(c);
+        if (!a.quiet) std::fprintf(stderr, "[%zu/%zu] %s @ %d spp: done earlier (kept)\n", done, total, cfg.text.c_str(), spp);
+        continue;
+      }
+      if (!a.quiet) std::fprintf(stderr, "[%zu/%zu] %s @ %d spp\n", done, total, cfg.text.c_str(), spp);
+      Cell c;
+      c.key = key, c.config = cfg.text, c.canonical = cfg.canonical, c.integrator = d.name, c.params = paramText;
+      c.spp = spp, c.seeds = a.seeds;
+      std::vector<PassImage> renders;
+      std::vector<double> seconds;
+      double mse = 0, rel = 0, mae = 0, p99 = 0;
+      for (int k = 0; k < a.seeds; ++k) {
+        RenderStats stats;
+        auto img = renderPass(d, params, spp, uint32_t(a.seed) + uint32_t(k), stats);
+        if (!img) return interrupted(cells.size());
+        const ErrorMetrics e = errorMetrics(*img, reference);
+        mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
+        c.error.values = e.values;
+        seconds.push_back(stats.seconds);
+        if (k == 0) {
+          c.rays = stats.rays.camera + stats.rays.occlusion + stats.rays.closest;
+          c.pass = "passes/" + safeFileName(cfg.text) + "@" + std::to_string(spp) + ".exr";
+          RenderSettings s = base;
+          s.spp = spp;
+          s.seed = uint32_t(a.seed);
+          writeExr((dir / c.pass).string(), filmFromPass(*img),
+                   passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = d, .params = params,
+                                       .settings = s, .stats = stats, .filterName = "box", .robust = a.robust,
+                                       .bvhSeconds = scene->buildSeconds()}));
+        }
+        renders.push_back(std::move(*img));
+      }
+      const double K = double(a.seeds);
+      c.error.rmse = std::sqrt(mse / K), c.error.relMse = rel / K, c.error.mae = mae / K, c.error.p99 = p99 / K;
+      std::sort(seconds.begin(), seconds.end());
+      c.seconds = seconds[seconds.size() / 2];
+      if (a.seeds >= 2) c.bv = biasVariance(renders, reference, std::max(referenceNoiseRmse, 0.0));
+      if (!a.quiet)
+        std::fprintf(stderr, "        %.3f s  %.3g Mrays  RMSE %.4g  MAE %.4g  p99 %.4g%s\n", c.seconds, double(c.rays) * 1e-6,
+                     c.error.rmse, c.error.mae, c.error.p99,
+                     c.bv ? (" bias2 " + fmt(c.bv->bias2) + " var " + fmt(c.bv->variance)).c_str() : "");
+      cells.push_back(c);
+      save();
+    }
+  }
+  save();
+
+  // --- the report ----------------------------------------------------------
+  CompareReport report;
+  report.dir = a.output;
+  report.scene = a.scene;
+  report.camera = camera.name;
+  report.resolution = a.res;
+  report.referencePath = referencePath;
+  report.referenceNoise = referenceNoiseRmse;
+  report.reference = &reference;
+  report.targets = targets;
+  for (const Cell& c : cells)
+    report.cells.push_back({c.config, c.integrator, c.params, c.spp, c.seeds, c.seconds, c.rays, c.error, c.bv, c.pass});
+  writeCompareReport(report);
+  printCompareSummary(report, stdout);
+  return 0;
+}
+
+}  // namespace obscura

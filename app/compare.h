@@ -1,0 +1,45 @@
+// `obscura compare`: the speed/accuracy trade of integrator configurations
+// against a full-GI reference, on the user's scene (README "Compare").
+#pragma once
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+namespace obscura {
+
+struct CompareArgs {
+  std::string scene;
+  std::string output;               // DIR
+  std::string reference;            // REF.exr, or empty: render (and cache) a gi reference
+  int referenceSpp = 1024;
+  std::vector<std::string> configs;  // integrator[:key=value,...]
+  std::string sppList = "4,16,64";
+  int seeds = 1;                    // renders per cell (>= 2: bias^2 and variance)
+  std::string targets;              // RMSE targets for the summary; empty: 0.1,0.05,0.02,0.01
+  std::string res = "320x180";
+  std::string camera;
+  int threads = 0;
+  long long seed = 0;
+  std::string sky = "1,1,1";
+  bool quiet = false;
+  bool robust = false;
+  std::vector<std::string> plugins;
+};
+
+// One parsed CONFIG: the integrator and its parameters as the user typed
+// them. Throws obscura::Error naming the config on a malformed string, an
+// unknown integrator or a bad parameter.
+struct CompareConfig {
+  std::string text;        // as typed
+  std::string integrator;
+  std::vector<std::string> assignments;  // key=value
+  std::string canonical;   // integrator and every parameter's value: the cache key
+};
+CompareConfig parseCompareConfig(const std::string& text);
+
+// Runs the comparison; returns the process exit code (130 when interrupted
+// through `cancel`). Throws obscura::Error on bad input.
+int runCompare(const CompareArgs& args, const std::atomic<bool>* cancel);
+
+}  // namespace obscura

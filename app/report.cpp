@@ -1,0 +1,362 @@
+#include "app/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/image_io.h"
+
+namespace obscura {
+namespace fs = std::filesystem;
+
+std::string safeFileName(const std::string& s) {
+  std::string out;
+  for (const char c : s)
+    out += (std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '=' || c == '-') ? c : '_';
+  return out;
+}
+
+std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells) {
+  std::vector<size_t> order(cells.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+    if (cells[x].seconds != cells[y].seconds) return cells[x].seconds < cells[y].seconds;
+    return cells[x].error.rmse < cells[y].error.rmse;
+  });
+  std::vector<size_t> front;
+  double best = INFINITY;
+  for (const size_t i : order)
+    if (cells[i].error.rmse < best) {
+      front.push_back(i);
+      best = cells[i].error.rmse;
+    }
+  return front;
+}
+
+std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target) {
+  std::optional<size_t> best;
+  for (size_t i = 0; i < cells.size(); ++i)
+    if (cells[i].error.rmse <= target && (!best || cells[i].seconds < cells[*best].seconds)) best = i;
+  return best;
+}
+
+namespace {
+
+void writeText(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out) throw Error(path.string() + ": cannot write");
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw Error(path.string() + ": cannot write: " + ec.message());
+}
+
+std::string xmlEscape(const std::string& s) {
+  std::string o;
+  for (const char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else if (c == '"') o += "&quot;";
+    else o += c;
+  }
+  return o;
+}
+
+std::string num(double v, int digits = 3) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+// Distinguishable line colours (Okabe-Ito, then a few more).
+const char* kPalette[] = {"#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9",
+                          "#F0E442", "#000000", "#7F3C8D", "#11A579", "#3969AC", "#F2B701"};
+
+// Cells grouped by config, in first-appearance order, each by spp.
+std::vector<std::pair<std::string, std::vector<size_t>>> byConfig(const std::vector<ReportCell>& cells) {
+  std::vector<std::pair<std::string, std::vector<size_t>>> groups;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    auto it = std::find_if(groups.begin(), groups.end(), [&](const auto& g) { return g.first == cells[i].config; });
+    if (it == groups.end()) {
+      groups.push_back({cells[i].config, {}});
+      it = groups.end() - 1;
+    }
+    it->second.push_back(i);
+  }
+  for (auto& g : groups)
+    std::sort(g.second.begin(), g.second.end(), [&](size_t x, size_t y) { return cells[x].spp < cells[y].spp; });
+  return groups;
+}
+
+// Log-scale axis: the decades (and 2, 5 between them when the range is
+// short) inside [lo, hi], as values.
+std::vector<double> logTicks(double lo, double hi) {
+  std::vector<double> t;
+  const bool fine = std::log10(hi / lo) < 2.5;
+  for (int e = int(std::floor(std::log10(lo))); e <= int(std::ceil(std::log10(hi))); ++e)
+    for (const double m : {1.0, 2.0, 5.0}) {
+      if (!fine && m != 1.0) continue;
+      const double v = m * std::pow(10.0, e);
+      if (v >= lo * 0.999 && v <= hi * 1.001) t.push_back(v);
+    }
+  return t;
+}
+
+std::string errorVersusTimeSvg(const CompareReport& r) {
+  const std::vector<ReportCell>& cells = r.cells;
+  double tLo = INFINITY, tHi = 0, eLo = INFINITY, eHi = 0;
+  for (const ReportCell& c : cells) {
+    const double t = std::max(c.seconds, 1e-6), e = std::max(c.error.rmse, 1e-9);
+    tLo = std::min(tLo, t), tHi = std::max(tHi, t), eLo = std::min(eLo, e), eHi = std::max(eHi, e);
+  }
+  if (r.referenceNoise > 0) eLo = std::min(eLo, r.referenceNoise), eHi = std::max(eHi, r.referenceNoise);
+  // Pad to at least a factor of 2 and by 15% (in log) on each side.
+  const auto pad = [](double& lo, double& hi) {
+    if (hi / lo < 2.0) {
+      const double m = std::sqrt(lo * hi);
+      lo = m / std::sqrt(2.0), hi = m * std::sqrt(2.0);
+    }
+    const double k = std::pow(hi / lo, 0.15);
+    lo /= k, hi *= k;
+  };
+  pad(tLo, tHi);
+  pad(eLo, eHi);
+  const double W = 900, H = 560, L = 80, R = 280, T = 40, B = 60;
+  const auto X = [&](double t) { return L + (W - L - R) * std::log(t / tLo) / std::log(tHi / tLo); };
+  const auto Y = [&](double e) { return H - B - (H - T - B) * std::log(e / eLo) / std::log(eHi / eLo); };
+  std::ostringstream s;
+  s << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << W << "\" height=\"" << H
+    << "\" font-family=\"sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+  s << "<text x=\"" << L << "\" y=\"24\" font-size=\"15\">Error against the GI reference vs render time ("
+    << xmlEscape(fs::path(r.scene).filename().string()) << ", " << xmlEscape(r.resolution) << ")</text>\n";
+  // Axes and grid.
+  for (const double t : logTicks(tLo, tHi))
+    s << "<line x1=\"" << X(t) << "\" y1=\"" << T << "\" x2=\"" << X(t) << "\" y2=\"" << H - B
+      << "\" stroke=\"#ddd\"/><text x=\"" << X(t) << "\" y=\"" << H - B + 16 << "\" text-anchor=\"middle\">" << num(t)
+      << "</text>\n";
+  for (const double e : logTicks(eLo, eHi))
+    s << "<line x1=\"" << L << "\" y1=\"" << Y(e) << "\" x2=\"" << W - R << "\" y2=\"" << Y(e)
+      << "\" stroke=\"#ddd\"/><text x=\"" << L - 6 << "\" y=\"" << Y(e) + 4 << "\" text-anchor=\"end\">" << num(e)
+      << "</text>\n";
+  s << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << H - T - B
+    << "\" fill=\"none\" stroke=\"black\"/>\n";
+  s << "<text x=\"" << (L + W - R) / 2 << "\" y=\"" << H - 18 << "\" text-anchor=\"middle\">render time, s (log)</text>\n";
+  s << "<text transform=\"translate(18," << (T + H - B) / 2 << ") rotate(-90)\" text-anchor=\"middle\">RMSE of W (log)</text>\n";
+  if (r.referenceNoise > 0)
+    s << "<line x1=\"" << L << "\" y1=\"" << Y(r.referenceNoise) << "\" x2=\"" << W - R << "\" y2=\"" << Y(r.referenceNoise)
+      << "\" stroke=\"#888\" stroke-dasharray=\"2,3\"/><text x=\"" << W - R - 4 << "\" y=\"" << Y(r.referenceNoise) - 4
+      << "\" text-anchor=\"end\" fill=\"#666\">reference noise " << num(r.referenceNoise) << "</text>\n";
+  // One curve per config, points labelled with spp.
+  const auto groups = byConfig(cells);
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const char* colour = kPalette[g % (sizeof kPalette / sizeof *kPalette)];
+    std::string pts;
+    for (const size_t i : groups[g].second)
+      pts += num(X(std::max(cells[i].seconds, 1e-6)), 6) + "," + num(Y(std::max(cells[i].error.rmse, 1e-9)), 6) + " ";
+    s << "<polyline points=\"" << pts << "\" fill=\"none\" stroke=\"" << colour << "\" stroke-width=\"2\"/>\n";
+    for (const size_t i : groups[g].second) {
+      const double x = X(std::max(cells[i].seconds, 1e-6)), y = Y(std::max(cells[i].error.rmse, 1e-9));
+      s << "<circle cx=\"" << x << "\" cy=\"" << y << "\" r=\"3.5\" fill=\"" << colour << "\"><title>"
+        << xmlEscape(cells[i].config) << " @ " << cells[i].spp << " spp: " << num(cells[i].seconds) << " s, RMSE "
+        << num(cells[i].error.rmse) << "</title></circle><text x=\"" << x + 5 << "\" y=\"" << y - 5
+        << "\" font-size=\"9\" fill=\"" << colour << "\">" << cells[i].spp << "</text>\n";
+    }
+    const double ly = T + 10 + 18 * double(g);
+    s << "<line x1=\"" << W - R + 14 << "\" y1=\"" << ly << "\" x2=\"" << W - R + 38 << "\" y2=\"" << ly << "\" stroke=\""
+      << colour << "\" stroke-width=\"2\"/><text x=\"" << W - R + 44 << "\" y=\"" << ly + 4 << "\">"
+      << xmlEscape(groups[g].first) << "</text>\n";
+  }
+  // The Pareto front.
+  std::string front;
+  for (const size_t i : paretoFront(cells))
+    front += num(X(std::max(cells[i].seconds, 1e-6)), 6) + "," + num(Y(std::max(cells[i].error.rmse, 1e-9)), 6) + " ";
+  s << "<polyline points=\"" << front << "\" fill=\"none\" stroke=\"black\" stroke-width=\"1.2\" stroke-dasharray=\"6,4\"/>\n";
+  const double ly = T + 10 + 18 * double(groups.size());
+  s << "<line x1=\"" << W - R + 14 << "\" y1=\"" << ly << "\" x2=\"" << W - R + 38 << "\" y2=\"" << ly
+    << "\" stroke=\"black\" stroke-dasharray=\"6,4\"/><text x=\"" << W - R + 44 << "\" y=\"" << ly + 4
+    << "\">Pareto front</text>\n";
+  s << "<text x=\"" << W - R + 14 << "\" y=\"" << ly + 22 << "\" font-size=\"10\" fill=\"#555\">numbers at points: spp</text>\n";
+  s << "</svg>\n";
+  return s.str();
+}
+
+// A perceptually ordered dark-to-bright map (magma-like control points).
+void heatColour(double x, unsigned char* rgb) {
+  static const double stops[][3] = {{0, 0, 4},      {59, 15, 112},  {140, 41, 129},
+                                    {222, 73, 104}, {254, 159, 109}, {252, 253, 191}};
+  x = std::clamp(std::isfinite(x) ? x : 1.0, 0.0, 1.0) * 5.0;
+  const int i = std::min(int(x), 4);
+  const double f = x - i;
+  for (int c = 0; c < 3; ++c) rgb[c] = (unsigned char)std::lround(stops[i][c] * (1 - f) + stops[i + 1][c] * f);
+}
+
+void writePassPreview(const fs::path& path, const PassImage& p) {
+  std::vector<unsigned char> px(p.pixels() * 3);
+  for (size_t i = 0; i < p.pixels(); ++i) {
+    px[i * 3 + 0] = linearToSrgb8(p.r[i]);
+    px[i * 3 + 1] = linearToSrgb8(p.g[i]);
+    px[i * 3 + 2] = linearToSrgb8(p.b[i]);
+  }
+  writePngRgb8(path.string(), p.width, p.height, px.data());
+}
+
+}  // namespace
+
+void writeCompareReport(const CompareReport& r) {
+  const fs::path dir(r.dir);
+  std::error_code ec;
+  for (const char* sub : {"heatmaps", "previews"}) fs::create_directories(dir / sub, ec);
+  const std::vector<ReportCell>& cells = r.cells;
+  const auto groups = byConfig(cells);
+
+  // The highest-spp pass of each config: heat map, preview, contact sheet.
+  std::vector<std::pair<size_t, PassImage>> finest;
+  double scale = 0;
+  for (const auto& g : groups) {
+    const size_t i = g.second.back();
+    finest.push_back({i, readPass((dir / cells[i].pass).string())});
+    scale = std::max(scale, cells[i].error.p99);
+  }
+  if (!(scale > 0)) scale = 1e-6;
+  const PassImage& ref = *r.reference;
+  std::vector<std::string> names;
+  for (const auto& [i, img] : finest) names.push_back(safeFileName(cells[i].config));
+  for (size_t k = 0; k < finest.size(); ++k) {
+    const PassImage& img = finest[k].second;
+    std::vector<unsigned char> px(img.pixels() * 3);
+    for (size_t i = 0; i < img.pixels(); ++i) {
+      if (!(ref.a[i] == 1.0f && img.a[i] > 0.0f)) {  // not compared: grey
+        px[i * 3] = px[i * 3 + 1] = px[i * 3 + 2] = 64;
+        continue;
+      }
+      double e = 0;
+      for (int c = 0; c < 3; ++c) e += std::abs(double(img.W(c, i)) - ref.W(c, i)) / 3.0;
+      heatColour(e / scale, &px[i * 3]);
+    }
+    writePngRgb8((dir / "heatmaps" / (names[k] + ".png")).string(), img.width, img.height, px.data());
+    writePassPreview(dir / "previews" / (names[k] + ".png"), img);
+  }
+  writePassPreview(dir / "previews" / "reference.png", ref);
+
+  // Contact sheet: the reference, then each config's finest pass, in a grid.
+  const int tiles = int(finest.size()) + 1, cols = std::min(tiles, 4), rows = (tiles + cols - 1) / cols;
+  const int w = ref.width, h = ref.height, label = 34;
+  {
+    std::ostringstream s;
+    s << "<svg xmlns=\"http://www.w3.org/2000/svg\" xmlns:xlink=\"http://www.w3.org/1999/xlink\" width=\"" << cols * (w + 8)
+      << "\" height=\"" << rows * (h + label + 8) << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+      << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
+    for (int t = 0; t < tiles; ++t) {
+      const int x = (t % cols) * (w + 8) + 4, y = (t / cols) * (h + label + 8) + 4;
+      const std::string file = t == 0 ? "previews/reference.png" : "previews/" + names[size_t(t - 1)] + ".png";
+      std::string line1 = "gi reference", line2 = r.referenceNoise >= 0 ? "noise RMSE " + num(r.referenceNoise) : "given";
+      if (t > 0) {
+        const ReportCell& c = cells[finest[size_t(t - 1)].first];
+        line1 = c.config + " @ " + std::to_string(c.spp) + " spp";
+        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse);
+      }
+      s << "<image x=\"" << x << "\" y=\"" << y << "\" width=\"" << w << "\" height=\"" << h << "\" href=\"" << file
+        << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(line1)
+        << "</text><text x=\"" << x << "\" y=\"" << y + h + 28 << "\" fill=\"#555\">" << xmlEscape(line2) << "</text>\n";
+    }
+    s << "</svg>\n";
+    writeText(dir / "contact_sheet.svg", s.str());
+    // The same grid as one PNG (without the labels; their order is the
+    // SVG's and results.json's "contactSheet").
+    const int W = cols * (w + 4) + 4, H = rows * (h + 4) + 4;
+    std::vector<unsigned char> px(size_t(W) * H * 3, 255);
+    for (int t = 0; t < tiles; ++t) {
+      const PassImage& img = t == 0 ? ref : finest[size_t(t - 1)].second;
+      const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + 4) + 4;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          const size_t i = size_t(y) * w + x, o = (size_t(y0 + y) * W + x0 + x) * 3;
+          px[o] = linearToSrgb8(img.r[i]), px[o + 1] = linearToSrgb8(img.g[i]), px[o + 2] = linearToSrgb8(img.b[i]);
+        }
+    }
+    writePngRgb8((dir / "contact_sheet.png").string(), W, H, px.data());
+  }
+
+  writeText(dir / "error_vs_time.svg", errorVersusTimeSvg(r));
+
+  nlohmann::json j;
+  j["scene"] = r.scene;
+  j["camera"] = r.camera;
+  j["resolution"] = r.resolution;
+  j["reference"] = {{"path", r.referencePath}};
+  if (r.referenceNoise >= 0) j["reference"]["noiseRmse"] = r.referenceNoise;
+  j["metrics"] = {{"rmse", "sqrt(mean e^2), e = W - W_ref over fully covered reference pixels and R,G,B"},
+                  {"relMse", "mean e^2 / (W_ref^2 + 0.01)"},
+                  {"mae", "mean |e|"},
+                  {"p99", "99th percentile of |e|"},
+                  {"bias2", "mean (mean over seeds - W_ref)^2 - variance / seeds"},
+                  {"variance", "mean per-value variance across seeds (of one render)"},
+                  {"time", "render loop wall time, median over seeds"}};
+  j["cells"] = nlohmann::json::array();
+  for (const ReportCell& c : cells) {
+    nlohmann::json e = {{"config", c.config}, {"integrator", c.integrator}, {"params", c.params},
+                        {"spp", c.spp}, {"seeds", c.seeds}, {"seconds", c.seconds}, {"rays", c.rays},
+                        {"rmse", c.error.rmse}, {"relMse", c.error.relMse}, {"mae", c.error.mae},
+                        {"p99", c.error.p99}, {"pass", c.pass}};
+    if (c.bv) e["bias2"] = c.bv->bias2, e["variance"] = c.bv->variance;
+    j["cells"].push_back(e);
+  }
+  j["paretoFront"] = nlohmann::json::array();
+  for (const size_t i : paretoFront(cells)) j["paretoFront"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
+  j["targets"] = nlohmann::json::array();
+  for (const double t : r.targets) {
+    const auto best = fastestReaching(cells, t);
+    nlohmann::json e = {{"rmse", t}};
+    if (best) e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"seconds", cells[*best].seconds}};
+    else e["fastest"] = nullptr;
+    j["targets"].push_back(e);
+  }
+  j["heatmapScale"] = scale;
+  j["contactSheet"] = nlohmann::json::array({"reference"});
+  for (const auto& [i, img] : finest) j["contactSheet"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
+  writeText(dir / "results.json", j.dump(2) + "\n");
+}
+
+void printCompareSummary(const CompareReport& r, FILE* out) {
+  const std::vector<ReportCell>& cells = r.cells;
+  bool bv = false;
+  size_t width = 6;
+  for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), width = std::max(width, c.config.size());
+  std::fprintf(out, "%-*s %7s %9s %8s %9s %9s %9s %9s", int(width), "config", "spp", "time s", "Mrays", "RMSE", "relMSE",
+               "MAE", "p99");
+  if (bv) std::fprintf(out, " %9s %9s", "bias^2", "variance");
+  std::fprintf(out, "\n");
+  for (const ReportCell& c : cells) {
+    std::fprintf(out, "%-*s %7d %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp, c.seconds,
+                 double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99);
+    if (c.bv) std::fprintf(out, " %9.3g %9.3g", c.bv->bias2, c.bv->variance);
+    std::fprintf(out, "\n");
+  }
+  if (r.referenceNoise >= 0)
+    std::fprintf(out, "\nreference noise (RMSE of the gi reference itself): %.3g — errors near it are not resolved\n",
+                 r.referenceNoise);
+  std::fprintf(out, "\nfastest config reaching each RMSE target:\n");
+  for (const double t : r.targets) {
+    const auto best = fastestReaching(cells, t);
+    if (best)
+      std::fprintf(out, "  RMSE <= %-8.3g %s @ %d spp (%.3f s)\n", t, cells[*best].config.c_str(), cells[*best].spp,
+                   cells[*best].seconds);
+    else
+      std::fprintf(out, "  RMSE <= %-8.3g not reached by any config\n", t);
+  }
+  std::fprintf(out, "\nPareto front (faster and more accurate than every other):");
+  for (const size_t i : paretoFront(cells)) std::fprintf(out, "  %s@%d", cells[i].config.c_str(), cells[i].spp);
+  std::fprintf(out, "\nreport: %s/{results.csv, results.json, error_vs_time.svg, contact_sheet.svg, heatmaps/}\n",
+               r.dir.c_str());
+}
+
+}  // namespace obscura

@@ -1,0 +1,48 @@
+// The report of `obscura compare`: results.json, the error-versus-time plot
+// with the Pareto front (SVG), a heat map of each config's error (PNG), a
+// contact sheet of the passes (SVG over PNG previews, and one PNG), and the
+// summary table on stdout.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/metrics.h"
+
+namespace obscura {
+
+struct ReportCell {
+  std::string config, integrator, params;
+  int spp = 0, seeds = 0;
+  double seconds = 0;
+  uint64_t rays = 0;
+  ErrorMetrics error;
+  std::optional<BiasVariance> bv;
+  std::string pass;  // EXR relative to the report directory
+};
+
+struct CompareReport {
+  std::string dir, scene, camera, resolution, referencePath;
+  double referenceNoise = -1;  // RMSE of the reference itself; < 0: unknown
+  const PassImage* reference = nullptr;
+  std::vector<double> targets;  // RMSE targets, largest first
+  std::vector<ReportCell> cells;
+};
+
+// Indices of the cells on the Pareto front of (time, RMSE): no other cell is
+// both faster and at least as accurate. Sorted by time.
+std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells);
+// For an RMSE target, the fastest cell that reaches it, if any.
+std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target);
+
+// A name safe in a file name: [A-Za-z0-9.=-] kept, the rest '_'.
+std::string safeFileName(const std::string& s);
+
+// Writes every file of the report into report.dir; throws obscura::Error.
+void writeCompareReport(const CompareReport& report);
+void printCompareSummary(const CompareReport& report, FILE* out);
+
+}  // namespace obscura
