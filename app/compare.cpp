@@ -322,6 +322,9 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
                   " but --res is " + a.res);
     referencePath = fs::absolute(a.reference).lexically_normal().string();
     referenceKey = fileHash(a.reference);
+    // A reference written by an earlier compare records its noise.
+    const std::string noise = readExrAttribute(a.reference, "obscura:referenceNoise");
+    if (!noise.empty()) referenceNoiseRmse = std::strtod(noise.c_str(), nullptr);
   } else {
     Hash64 rk = viewHash;
     rk.add("gi-reference").add(std::to_string(a.referenceSpp)).add(std::to_string(a.seed)).add(OBSCURA_VERSION);
@@ -368,7 +371,9 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
       ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = gi, .params = giParams,
                                            .settings = rs, .stats = both, .filterName = "box", .robust = a.robust,
                                            .bvhSeconds = scene->buildSeconds()});
-      exr.attributes.push_back({"obscura:referenceNoise", fmt(referenceNoiseRmse)});
+      char noise[32];  // round-trips: a cached reference reports the same noise
+      std::snprintf(noise, sizeof noise, "%.17g", referenceNoiseRmse);
+      exr.attributes.push_back({"obscura:referenceNoise", std::string(noise)});
       exr.attributes.push_back({"obscura:referenceKey", referenceKey});
       writeExr(cached.string(), filmFromPass(reference), exr);
     }

@@ -209,6 +209,37 @@ void writePassPreview(const fs::path& path, const PassImage& p) {
   writePngRgb8(path.string(), p.width, p.height, px.data());
 }
 
+// The summary as Markdown (for docs/trade.md and reports): the table, the
+// targets and the Pareto front.
+std::string summaryMarkdown(const CompareReport& r) {
+  const std::vector<ReportCell>& cells = r.cells;
+  bool bv = false;
+  for (const ReportCell& c : cells) bv = bv || c.bv.has_value();
+  std::ostringstream s;
+  s << "| config | spp | time s | Mrays | RMSE | relMSE | MAE | p99 |" << (bv ? " bias² | variance |" : "") << "\n";
+  s << "|---|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
+  for (const ReportCell& c : cells) {
+    s << "| `" << c.config << "` | " << c.spp << " | " << num(c.seconds) << " | " << num(double(c.rays) * 1e-6) << " | "
+      << num(c.error.rmse) << " | " << num(c.error.relMse) << " | " << num(c.error.mae) << " | " << num(c.error.p99) << " |";
+    if (bv) s << " " << (c.bv ? num(c.bv->bias2) : "") << " | " << (c.bv ? num(c.bv->variance) : "") << " |";
+    s << "\n";
+  }
+  s << "\n";
+  if (r.referenceNoise >= 0) s << "Reference noise (RMSE of the gi reference itself): " << num(r.referenceNoise) << ".\n\n";
+  s << "| RMSE target | fastest config reaching it |\n|---:|---|\n";
+  for (const double t : r.targets) {
+    const auto best = fastestReaching(cells, t);
+    s << "| " << num(t) << " | "
+      << (best ? "`" + cells[*best].config + "` @ " + std::to_string(cells[*best].spp) + " spp, " + num(cells[*best].seconds) + " s"
+               : std::string("not reached"))
+      << " |\n";
+  }
+  s << "\nPareto front:";
+  for (const size_t i : paretoFront(cells)) s << " `" << cells[i].config << "`@" << cells[i].spp;
+  s << "\n";
+  return s.str();
+}
+
 }  // namespace
 
 void writeCompareReport(const CompareReport& r) {
@@ -321,6 +352,7 @@ void writeCompareReport(const CompareReport& r) {
     j["targets"].push_back(e);
   }
   j["heatmapScale"] = scale;
+  writeText(dir / "summary.md", summaryMarkdown(r));
   j["contactSheet"] = nlohmann::json::array({"reference"});
   for (const auto& [i, img] : finest) j["contactSheet"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
   writeText(dir / "results.json", j.dump(2) + "\n");

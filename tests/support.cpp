@@ -159,8 +159,6 @@ std::string WarningCapture::all() const {
 
 // --- the CLI ------------------------------------------------------------------
 
-namespace {
-
 // Starts the binary; returns its pid, or -1 with the reason in r.stderrText.
 pid_t startCli(const std::vector<std::string>& args, const std::string& stderrPath, CliResult& r) {
   std::vector<std::string> all = {OBSCURA_BINARY};
@@ -193,8 +191,6 @@ void finishCli(pid_t pid, const std::string& stderrPath, CliResult& r) {
   const auto bytes = readBytes(stderrPath);
   r.stderrText.assign(bytes.begin(), bytes.end());
 }
-
-}  // namespace
 
 CliResult runCli(const std::vector<std::string>& args, const std::string& stderrPath) {
   CliResult r;

@@ -6,6 +6,8 @@
 #include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
+#include <sys/types.h>
+
 #include <cmath>
 #include <map>
 #include <memory>
@@ -99,6 +101,12 @@ struct CliResult {
 // Runs the obscura binary with `args`, stdout to /dev/null and stderr to
 // the file stderrPath, and waits for it.
 CliResult runCli(const std::vector<std::string>& args, const std::string& stderrPath);
+
+// The two halves of runCli, for a test that signals the running process:
+// startCli returns its pid (-1 with the reason in r.stderrText), finishCli
+// waits for it and fills in r.
+pid_t startCli(const std::vector<std::string>& args, const std::string& stderrPath, CliResult& r);
+void finishCli(pid_t pid, const std::string& stderrPath, CliResult& r);
 
 // Runs one process per argument list, a few at a time (each start costs
 // ~0.4 s); the i-th one's stderr goes to dir/stderr<i>.txt.

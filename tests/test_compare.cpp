@@ -4,7 +4,11 @@
 // every config's bias and so the ranking.
 #include <gtest/gtest.h>
 
+#include <signal.h>
+
+#include <chrono>
 #include <cmath>
+#include <thread>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -219,6 +223,66 @@ TEST(CompareEndToEnd, CavityRankingFollowsTheClosedForms) {
   size_t rows = 0;
   for (std::string line; std::getline(csv, line);) ++rows;
   EXPECT_EQ(rows, 1u + 8u);
+
+  // The cached reference given with --reference: the same numbers.
+  std::string cached;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/out/cache")) cached = e.path().string();
+  const CliResult r3 = runCli({"compare", scene, "-o", dir + "/given", "--res", "24x24", "--reference", cached, "--seeds",
+                               "2", "--robust", "-q", "-c", "ao", "--spp", "64"},
+                              dir + "/err3.txt");
+  ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
+  std::ifstream in3(dir + "/given/results.json");
+  const nlohmann::json j3 = nlohmann::json::parse(in3);
+  EXPECT_EQ(j3["cells"][0]["rmse"].get<double>(), cell.at("ao")["rmse"].get<double>());
+  EXPECT_EQ(j3["reference"]["noiseRmse"].get<double>(), refNoise);
+  // A reference of another size is refused with one line.
+  const CliResult r4 = runCli({"compare", scene, "-o", dir + "/bad", "--res", "32x32", "--reference", cached, "-c", "ao"},
+                              dir + "/err4.txt");
+  EXPECT_EQ(r4.exitCode, 1);
+  EXPECT_NE(r4.stderrText.find("is 24x24 but --res is 32x32"), std::string::npos) << r4.stderrText;
+}
+
+// Ctrl-C: the run stops with exit code 130, says so, and results.csv holds
+// the cells that finished (complete rows only); running again keeps them.
+TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
+  const std::string dir = tempDir("compare_interrupt");
+  const std::vector<std::string> args = {"compare", "-o", dir + "/out", "--res", "64x36", "--reference-spp", "8",
+                                         "--spp", "1,2,4,8,16,32,64,128,256", "-c", "ao", "-c", "gi", "-q"};
+  CliResult r;
+  const pid_t pid = startCli(args, dir + "/err1.txt", r);
+  ASSERT_GT(pid, 0) << r.stderrText;
+  // Wait (up to 60 s) until at least two cells are in results.csv.
+  const auto rows = [&] {
+    std::ifstream in(dir + "/out/results.csv");
+    size_t n = 0;
+    for (std::string line; std::getline(in, line);) ++n;
+    return n > 0 ? n - 1 : 0;
+  };
+  for (int i = 0; i < 1200 && rows() < 2; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_GE(rows(), 2u);
+  kill(pid, SIGINT);
+  finishCli(pid, dir + "/err1.txt", r);
+  const size_t kept = rows();
+  if (r.exitCode == 0) GTEST_SKIP() << "the run finished before the signal arrived";
+  EXPECT_EQ(r.exitCode, 130) << r.stderrText;
+  EXPECT_NE(r.stderrText.find("interrupted; " + std::to_string(kept) + " finished cell"), std::string::npos)
+      << r.stderrText;
+  EXPECT_LT(kept, 18u);
+  // Every kept row is complete (15 fields) and its pass exists.
+  {
+    std::ifstream in(dir + "/out/results.csv");
+    std::string line;
+    std::getline(in, line);
+    while (std::getline(in, line)) EXPECT_GE(std::count(line.begin(), line.end(), ','), 14) << line;
+  }
+  std::vector<std::string> again = args;
+  again.erase(std::find(again.begin(), again.end(), "-q"));
+  const CliResult r2 = runCli(again, dir + "/err2.txt");
+  ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+  size_t reused = 0;
+  for (size_t p = r2.stderrText.find("(kept)"); p != std::string::npos; p = r2.stderrText.find("(kept)", p + 1)) ++reused;
+  EXPECT_EQ(reused, kept) << r2.stderrText;
+  EXPECT_EQ(rows(), 18u);
 }
 
 }  // namespace
