@@ -42,10 +42,7 @@
 //        build/bench/obscura_bench_ao --variants stream1M,stream+hit,renderer
 // About 2-4 minutes at the defaults on 2 idle cores.
 #include <CLI/CLI.hpp>
-#include <sys/resource.h>
-#include <tbb/global_control.h>
 #include <tbb/task_arena.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -53,17 +50,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
-#include <filesystem>
-#include <fstream>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "bench/ao_raw.h"
-#include "bench/generated_scene.h"
+#include "bench/common.h"
 #include "core/error.h"
-#include "core/gltf_loader.h"
 #include "core/image_io.h"
 #include "core/integrator.h"
 #include "core/render.h"
@@ -73,96 +65,13 @@ using namespace obscura::bench;
 
 namespace {
 
-const std::string kVikingRoom = std::string(OBSCURA_SHARED_SCENES) + "/viking_room/viking_room.glb";
-
-struct Options {
-  std::vector<std::string> scenes;
-  std::string res = "1920x1080";
-  int spp = 16;
-  int runs = 3;
-  int threads = 0;
+struct Options : CommonOptions {
+  Options() { res = "1920x1080"; }
   std::string distance = "inf";
   int chunk = 256;
-  bool quick = false;
   std::string preview;
   std::string variants = "single,packet16,stream1M,renderer";
 };
-
-struct BenchScene {
-  std::string label, source;
-  std::unique_ptr<Scene> scene;
-  Camera camera;
-  size_t triangles = 0;
-  double loadSeconds = 0;   // load + build (whole construction)
-  double buildSeconds = 0;  // BVH commit only
-  double rssAddedMiB = 0;   // resident memory the scene added
-};
-
-double peakRssMiB() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return double(u.ru_maxrss) / 1024.0;  // Linux: KiB
-}
-
-double currentRssMiB() {
-  std::ifstream f("/proc/self/statm");
-  long pages = 0, resident = 0;
-  f >> pages >> resident;
-  return double(resident) * double(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
-}
-
-std::string cpuName() {
-  std::ifstream f("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(f, line))
-    if (line.rfind("model name", 0) == 0) {
-      const size_t c = line.find(':');
-      if (c != std::string::npos) return line.substr(c + 2);
-    }
-  return "unknown CPU";
-}
-
-void parseResolution(const std::string& s, int& w, int& h) {
-  const size_t x = s.find('x');
-  w = h = -1;
-  if (x != std::string::npos) {
-    w = std::atoi(s.substr(0, x).c_str());
-    h = std::atoi(s.substr(x + 1).c_str());
-  }
-  if (w < 1 || h < 1 || w > 65536 || h > 65536) throw Error("--res: expected WIDTHxHEIGHT, got '" + s + "'");
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-BenchScene loadScene(const std::string& which, float aspect) {
-  BenchScene b;
-  const double rss0 = currentRssMiB();
-  const auto t0 = std::chrono::steady_clock::now();
-  if (which == "generated") {
-    b.label = "generated";
-    b.source = "generated in code (bench/generated_scene.cpp)";
-    b.scene = std::make_unique<Scene>();
-    buildGeneratedScene(*b.scene);
-    b.scene->commit();
-    b.camera = generatedSceneCamera();
-  } else {
-    const std::string path = which == "viking" ? kVikingRoom : which;
-    b.label = std::filesystem::path(path).stem().string();
-    b.source = std::filesystem::path(path).lexically_normal().string();
-    b.scene = loadGltf(path);
-    // As `obscura render` without --camera: the file's first camera, else auto.
-    b.camera = b.scene->cameras.empty() ? makeAutoCamera(b.scene->bounds(), aspect) : b.scene->cameras[0];
-  }
-  b.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  b.buildSeconds = b.scene->buildSeconds();
-  b.triangles = b.scene->stats().renderedTriangles;
-  b.rssAddedMiB = currentRssMiB() - rss0;
-  return b;
-}
 
 // The renderer side: obscura::render with the registered ao integrator.
 struct RendererRun {
@@ -207,12 +116,6 @@ RawApi rawApiOf(int v) { return v == kSurface ? RawApi::StreamSurface : RawApi(v
 const char* variantName(int v) { return v == kRenderer ? "renderer (obscura ao)" : rawApiName(rawApiOf(v)); }
 const char* const kShortNames[kVariants] = {"single", "packet16", "stream1M", "renderer", "stream+hit"};
 
-double processCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-
 struct SceneResult {
   std::string label;
   size_t triangles = 0;
@@ -249,15 +152,8 @@ SceneResult benchScene(const std::string& which, const Options& o, const std::ve
   rs.aoDistance = aoDistance;
   RawAoTracer raw(*bs.scene, bs.camera, rs);
 
-  RenderSettings s;
-  s.width = width;
-  s.height = height;
-  s.spp = o.spp;
-  s.threads = threads;
+  RenderSettings s = benchRenderSettings(width, height, o.spp, threads);
   s.tileSize = rs.tileSize;
-  s.filter = PixelFilter::Box;
-  s.aovs = false;
-  s.progress = false;
   RendererRun renderer(bs, o.distance, s);
 
   // Warm-up (untimed): worker threads, per-thread buffers, first touches.
@@ -436,45 +332,31 @@ std::vector<int> parseVariants(const std::string& list) {
 int main(int argc, char** argv) {
   CLI::App app{"obscura_bench_ao: the ao integrator's rays through raw Embree vs obscura::render"};
   Options o;
-  app.add_option("--scene", o.scenes,
-                 "Scene: a glTF path, 'viking' (" + kVikingRoom + ") or 'generated'; repeatable "
-                 "(default: viking and generated)");
-  app.add_option("--res", o.res, "Resolution WIDTHxHEIGHT (default 1920x1080)");
-  app.add_option("--spp", o.spp, "Camera samples per pixel (default 16)");
-  app.add_option("--runs", o.runs, "Timed runs per variant; the median is reported (default 3)");
-  app.add_option("--threads", o.threads, "Worker threads, 0 = all (default 0)");
+  addCommonOptions(app, o, "Smoke run: 480x270 unless --res is given");
   app.add_option("--distance", o.distance, "AO distance R in scene units, or inf (default inf)");
   app.add_option("--chunk", o.chunk, "Camera samples per raw packet/stream batch, multiple of 16 (default 256, "
                                      "the renderer's chunk)");
   app.add_option("--variants", o.variants,
                  "Comma list of single, packet16, stream1M, renderer (default: these four) and the diagnostic "
                  "stream+hit (stream1M plus the renderer's computeSurfaceHit and shading-normal AO ray)");
-  app.add_flag("--quick", o.quick, "Smoke run: 480x270 unless --res is given");
   app.add_option("--preview", o.preview, "Write the renderer's image of each scene to PREFIX<scene>.png");
   CLI11_PARSE(app, argc, argv);
 
   try {
     if (o.quick && app.count("--res") == 0) o.res = "480x270";
-    int width = 0, height = 0;
-    parseResolution(o.res, width, height);
-    if (o.spp < 1) throw Error("--spp must be at least 1");
-    if (o.runs < 1) throw Error("--runs must be at least 1");
-    if (o.threads < 0) throw Error("--threads must be >= 0");
+    const auto [width, height] = checkCommonOptions(o);
     if (o.chunk < 16 || o.chunk % 16) throw Error("--chunk must be a positive multiple of 16");
     char* end = nullptr;
     const double R = std::strtod(o.distance.c_str(), &end);
     if (o.distance.empty() || *end != '\0' || !(R > 0)) throw Error("--distance: expected a positive number or inf");
     const float aoDistance = R > double(std::numeric_limits<float>::max()) ? INFINITY : float(R);
-    if (o.scenes.empty()) o.scenes = {"viking", "generated"};
     const std::vector<int> variants = parseVariants(o.variants);
 
-    std::optional<tbb::global_control> limit;
-    if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
-    const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+    const ThreadLimit limit(o.threads);
+    const int threads = limit.threads();
 
     std::printf("obscura_bench_ao: ao rays through raw Embree vs obscura::render (-i ao)\n");
-    std::printf("   cpu        %s, %d threads used\n", cpuName().c_str(), threads);
-    std::printf("   embree     %s (headers)\n", RTC_VERSION_STRING);
+    printMachine(threads);
     std::printf("   settings   %dx%d, %d spp, AO distance %s, rays=1, seed 0, box filter, tiles 16x16\n", width,
                 height, o.spp, o.distance.c_str());
     std::printf("   timing     median of %d run%s, variants interleaved (order rotated each run), raw chunk %d\n",

@@ -58,7 +58,6 @@
 #include <embree3/rtcore.h>
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -68,21 +67,15 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
-#include <filesystem>
-#include <fstream>
 #include <limits>
 #include <memory>
-#include <new>
-#include <optional>
 #include <string>
 #include <vector>
 
-#include "bench/generated_scene.h"
+#include "bench/common.h"
 #include "core/camera.h"
 #include "core/error.h"
 #include "core/film.h"
-#include "core/gltf_loader.h"
 #include "core/integrator.h"
 #include "core/render.h"
 #include "core/sampler.h"
@@ -91,10 +84,9 @@
 #include "core/warp.h"
 
 using namespace obscura;
+using namespace obscura::bench;
 
 namespace {
-
-const std::string kVikingRoom = std::string(OBSCURA_SHARED_SCENES) + "/viking_room/viking_room.glb";
 
 enum class Falloff { Linear, Sqrt, Exponential };
 enum class Estimator { Distance, Occlusion };
@@ -127,80 +119,12 @@ inline double sampleDistance(const Config& c, double xi) {
   return c.R;
 }
 
-struct Options {
-  std::vector<std::string> scenes;
-  std::string res = "960x540";
-  int spp = 16;
-  int runs = 3;
-  int threads = 0;
+struct Options : CommonOptions {
+  Options() { res = "960x540"; }
   int seeds = 8;
   int rays = 1;
   double radiusFraction = 0.1;
-  bool quick = false;
 };
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-double processCpuSeconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
-
-std::string cpuName() {
-  std::ifstream f("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(f, line))
-    if (line.rfind("model name", 0) == 0) {
-      const size_t c = line.find(':');
-      if (c != std::string::npos) return line.substr(c + 2);
-    }
-  return "unknown CPU";
-}
-
-void parseResolution(const std::string& s, int& w, int& h) {
-  const size_t x = s.find('x');
-  w = h = -1;
-  if (x != std::string::npos) {
-    w = std::atoi(s.substr(0, x).c_str());
-    h = std::atoi(s.substr(x + 1).c_str());
-  }
-  if (w < 1 || h < 1 || w > 65536 || h > 65536) throw Error("--res: expected WIDTHxHEIGHT, got '" + s + "'");
-}
-
-struct BenchScene {
-  std::string label, source;
-  std::unique_ptr<Scene> scene;
-  Camera camera;
-  size_t triangles = 0;
-  double diagonal = 0;
-};
-
-BenchScene loadScene(const std::string& which, float aspect) {
-  BenchScene b;
-  if (which == "generated") {
-    b.label = "generated";
-    b.source = "generated in code (bench/generated_scene.cpp)";
-    b.scene = std::make_unique<Scene>();
-    bench::buildGeneratedScene(*b.scene);
-    b.scene->commit();
-    b.camera = bench::generatedSceneCamera();
-  } else {
-    const std::string path = which == "viking" ? kVikingRoom : which;
-    b.label = std::filesystem::path(path).stem().string();
-    b.source = std::filesystem::path(path).lexically_normal().string();
-    b.scene = loadGltf(path);
-    // As `obscura render` without --camera: the file's first camera, else auto.
-    b.camera = b.scene->cameras.empty() ? makeAutoCamera(b.scene->bounds(), aspect) : b.scene->cameras[0];
-  }
-  b.triangles = b.scene->stats().renderedTriangles;
-  b.diagonal = double(length(b.scene->bounds().diagonal()));
-  return b;
-}
 
 // ---------------------------------------------------------------------------
 // Raw Embree replay of the integrator's rays (streams only).
@@ -209,18 +133,6 @@ struct RawTally {
   uint64_t camera = 0;     // camera rays
   uint64_t secondary = 0;  // obscurance rays (active or not), = camera hits x rays
   uint64_t open = 0;       // distance: escaped within tfar; occlusion: unoccluded
-};
-
-template <class T>
-struct AlignedArray {
-  explicit AlignedArray(size_t n) {
-    p = static_cast<T*>(std::aligned_alloc(64, ((n * sizeof(T) + 63) / 64) * 64));
-    if (!p) throw std::bad_alloc();
-  }
-  ~AlignedArray() { std::free(p); }
-  AlignedArray(const AlignedArray&) = delete;
-  AlignedArray& operator=(const AlignedArray&) = delete;
-  T* p;
 };
 
 constexpr size_t kChunk = 256;  // the renderer's camera samples per chunk
@@ -441,16 +353,8 @@ double raysPerCameraSample(const Result& r) {
 }
 
 RenderSettings benchSettings(const Options& o, int w, int h, int threads, uint32_t seed) {
-  RenderSettings s;
-  s.width = w;
-  s.height = h;
-  s.spp = o.spp;
-  s.seed = seed;
-  s.threads = threads;
+  RenderSettings s = benchRenderSettings(w, h, o.spp, threads, seed);
   s.tileSize = kTile;
-  s.filter = PixelFilter::Box;
-  s.aovs = false;
-  s.progress = false;
   return s;
 }
 
@@ -779,18 +683,11 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
 int main(int argc, char** argv) {
   CLI::App app{"obscura_bench_obscurance: obscurance estimators - rays/s vs raw Embree, variance at equal time"};
   Options o;
-  app.add_option("--scene", o.scenes,
-                 "Scene: a glTF path, 'viking' (" + kVikingRoom + ") or 'generated'; repeatable "
-                 "(default: viking and generated)");
-  app.add_option("--res", o.res, "Resolution WIDTHxHEIGHT (default 960x540)");
-  app.add_option("--spp", o.spp, "Camera samples per pixel (default 16)");
-  app.add_option("--runs", o.runs, "Timed runs per configuration and side; the median is reported (default 3)");
-  app.add_option("--threads", o.threads, "Worker threads, 0 = all (default 0)");
+  addCommonOptions(app, o, "Smoke run: 320x180, 1 run, 4 seeds unless given");
   app.add_option("--seeds", o.seeds, "Renders (seeds 1..K) per configuration for the variance (default 8)");
   app.add_option("--rays", o.rays, "The integrator's rays per camera sample (default 1)");
   app.add_option("--radius-fraction", o.radiusFraction,
                  "R as a fraction of the scene's bounding-box diagonal (default 0.1)");
-  app.add_flag("--quick", o.quick, "Smoke run: 320x180, 1 run, 4 seeds unless given");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -799,25 +696,18 @@ int main(int argc, char** argv) {
       if (app.count("--runs") == 0) o.runs = 1;
       if (app.count("--seeds") == 0) o.seeds = 4;
     }
-    int width = 0, height = 0;
-    parseResolution(o.res, width, height);
-    if (o.spp < 1) throw Error("--spp must be at least 1");
-    if (o.runs < 1) throw Error("--runs must be at least 1");
-    if (o.threads < 0) throw Error("--threads must be >= 0");
+    const auto [width, height] = checkCommonOptions(o);
     if (o.seeds < 2) throw Error("--seeds must be at least 2");
     if (o.rays < 1 || o.rays > 65536) throw Error("--rays must be in [1, 65536]");
     if (!(o.radiusFraction > 0) || !std::isfinite(o.radiusFraction))
       throw Error("--radius-fraction must be a positive number");
-    if (o.scenes.empty()) o.scenes = {"viking", "generated"};
 
-    std::optional<tbb::global_control> limit;
-    if (o.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(o.threads));
-    const int threads = o.threads > 0 ? o.threads : tbb::this_task_arena::max_concurrency();
+    const ThreadLimit limit(o.threads);
+    const int threads = limit.threads();
 
     std::printf("obscura_bench_obscurance: obscurance estimators, renderer vs raw Embree streams, variance at equal "
                 "time\n");
-    std::printf("   cpu        %s, %d threads used\n", cpuName().c_str(), threads);
-    std::printf("   embree     %s (headers)\n", RTC_VERSION_STRING);
+    printMachine(threads);
     std::printf("   settings   %dx%d, %d spp, rays=%d, seed 0 for timing, seeds 1..%d for variance, box filter, "
                 "tiles 16x16\n",
                 width, height, o.spp, o.rays, o.seeds);
