@@ -61,7 +61,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     for (const auto& t : scene.textures) t->decode();
 
   Film film(s.width, s.height, s.aovs);
-  const Tracer tracer(scene.rtcScene());
+  const Tracer tracer(scene.rtcScene(), s.recorder);
   const RasterCamera raster(camera, s.width, s.height);
   const Sampler sampler(s.seed);
   const GaussianFilterSampler& gauss = GaussianFilterSampler::instance();

@@ -24,6 +24,7 @@ struct RenderSettings {
   Vec3 sky{1, 1, 1};       // La of MATH.md section 1 (only scales shaded.*)
   bool aovs = true;        // write albedo/N/Z/shaded channels
   bool progress = false;   // progress bar on stderr
+  RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
 };
 
 struct RenderStats {

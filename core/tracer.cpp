@@ -13,6 +13,8 @@ void Tracer::occluded(OcclusionBatch& batch, RayCoherence c) const {
   if (batch.size() == 0) return;
   RTCIntersectContext ctx;
   initContext(ctx, c);
+  if (recorder_) [[unlikely]]  // benchmark capture only (RayRecorder)
+    return recorder_->occluded(scene_, ctx, batch.data(), unsigned(batch.size()));
   rtcOccluded1M(scene_, &ctx, batch.data(), unsigned(batch.size()), sizeof(RTCRay));
 }
 
@@ -20,6 +22,8 @@ void Tracer::intersect(IntersectBatch& batch, RayCoherence c) const {
   if (batch.size() == 0) return;
   RTCIntersectContext ctx;
   initContext(ctx, c);
+  if (recorder_) [[unlikely]]  // benchmark capture only (RayRecorder)
+    return recorder_->intersect(scene_, ctx, batch.data(), unsigned(batch.size()));
   rtcIntersect1M(scene_, &ctx, batch.data(), unsigned(batch.size()), sizeof(RTCRayHit));
 }
 

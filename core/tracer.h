@@ -110,16 +110,34 @@ class IntersectBatch : public RayBatch<RTCRayHit> {
 
 enum class RayCoherence { Coherent, Incoherent };
 
+// A benchmark hook, not a rendering feature: bench/bench_transfer.cpp
+// captures every batch a render traces, to replay the very same rays through
+// raw Embree. When a Tracer has a recorder, it hands each batch to it instead
+// of calling Embree; the recorder must trace it with the same call
+// (rtcIntersect1M / rtcOccluded1M over n rays with `ctx`) and may keep a copy
+// of the rays before and of the hits after. It is called from every render
+// thread at once, so it must be thread-safe. Ordinary renders have none
+// (RenderSettings::recorder = nullptr): the cost is one well-predicted null
+// check per batch (of up to a few hundred rays), which the bench measures
+// as nil against a render without the check.
+class RayRecorder {
+ public:
+  virtual ~RayRecorder() = default;
+  virtual void intersect(RTCScene scene, RTCIntersectContext& ctx, RTCRayHit* rays, unsigned n) = 0;
+  virtual void occluded(RTCScene scene, RTCIntersectContext& ctx, RTCRay* rays, unsigned n) = 0;
+};
+
 // Traces batches against one Embree scene. Stateless and thread-safe.
 class Tracer {
  public:
-  explicit Tracer(RTCScene scene) : scene_(scene) {}
+  explicit Tracer(RTCScene scene, RayRecorder* recorder = nullptr) : scene_(scene), recorder_(recorder) {}
   void occluded(OcclusionBatch& batch, RayCoherence c = RayCoherence::Incoherent) const;
   void intersect(IntersectBatch& batch, RayCoherence c = RayCoherence::Incoherent) const;
   RTCScene scene() const { return scene_; }
 
  private:
   RTCScene scene_;
+  RayRecorder* recorder_;  // null but in a benchmark's capture (see RayRecorder)
 };
 
 }  // namespace obscura
