@@ -313,16 +313,12 @@ SceneResult benchScene(const std::string& which, const Options& o, const std::ve
 
 std::vector<int> parseVariants(const std::string& list) {
   std::vector<int> out;
-  size_t pos = 0;
-  while (pos <= list.size()) {
-    const size_t comma = std::min(list.find(',', pos), list.size());
-    const std::string name = list.substr(pos, comma - pos);
+  for (const std::string& name : splitCommaList(list)) {
     int v = -1;
     for (int i = 0; i < kVariants; ++i)
       if (name == kShortNames[i]) v = i;
     if (v < 0) throw Error("--variants: unknown '" + name + "' (single, packet16, stream1M, renderer, stream+hit)");
     if (std::find(out.begin(), out.end(), v) == out.end()) out.push_back(v);
-    pos = comma + 1;
   }
   return out;
 }

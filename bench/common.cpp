@@ -121,6 +121,17 @@ ThreadLimit::ThreadLimit(int requested) {
   threads_ = requested > 0 ? requested : tbb::this_task_arena::max_concurrency();
 }
 
+std::vector<std::string> splitCommaList(const std::string& list) {
+  std::vector<std::string> out;
+  size_t pos = 0;
+  while (pos <= list.size()) {
+    const size_t comma = std::min(list.find(',', pos), list.size());
+    out.push_back(list.substr(pos, comma - pos));
+    pos = comma + 1;
+  }
+  return out;
+}
+
 void printMachine(int threads) {
   std::printf("   cpu        %s, %d threads used\n", cpuName().c_str(), threads);
   std::printf("   embree     %s (headers)\n", RTC_VERSION_STRING);

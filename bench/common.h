@@ -89,6 +89,9 @@ class ThreadLimit {
   int threads_;
 };
 
+// "a,b,,c" -> {"a", "b", "", "c"} (the items of a comma-separated option).
+std::vector<std::string> splitCommaList(const std::string& list);
+
 // The "cpu" and "embree" lines of a bench's preamble.
 void printMachine(int threads);
 

@@ -1,0 +1,674 @@
+// obscura_bench_transfer: rays per second of the `transfer` and `gi`
+// integrators against raw Embree tracing the very same rays.
+//
+// Both integrators are configurations of the wavefront path estimator
+// (integrators/ambient_paths.h): per chunk of <= 256 camera hits it traces
+// one rtcIntersect1M batch per bounce, rebuilds every hit that goes on
+// (computeSurfaceHit), reads occluder albedo, samples the next direction and
+// keeps the paths' throughputs. Which rays a bounce traces depends on the
+// previous bounces' hits, so instead of rebuilding the rays outside the
+// renderer (as bench_ao and bench_obscurance do) this bench captures them:
+//
+// 1. Capture (untimed). One render with RenderSettings::recorder set to a
+//    recorder (core/tracer.h, RayRecorder) that, for every batch the render
+//    traces - camera and secondary alike, in each thread's order - stores the
+//    rays (origin, tnear, direction, tfar: 32 bytes), traces the batch with
+//    the same Embree call and context, and stores what came back (geomID,
+//    primID, instID, t: 16 bytes). Storage is per thread, in 64 Ki-ray
+//    blocks, capped by --max-capture-gib (a config over the cap is skipped
+//    and says so). The ray count must equal the render's RenderStats.rays.
+// 2. Check (untimed). The capture is replayed once through rtcIntersect1M
+//    and every hit must be bit-equal to the captured one (geomID, primID,
+//    instID, and the bits of t); the film of the capture render must equal
+//    the timed renders' films (the recorder changes nothing).
+// 3. Timed runs, interleaved with the order rotated each run:
+//    - renderer: obscura::render() with the integrator (no recorder, AOVs
+//      off, box filter, 16x16 tiles, seed 0). Mrays/s = RenderStats.rays
+//      (camera + closest + occlusion) / wall s of the render loop.
+//    - raw: the captured batches replayed through rtcIntersect1M (or
+//      rtcOccluded1M) with the same batch sizes, the same context flags
+//      (camera batches COHERENT, the rest INCOHERENT) and the same thread
+//      count, in a task_arena with tbb::parallel_for over groups of `spp`
+//      consecutive chunks of one thread's capture (a chunk: a camera batch
+//      and the secondary batches after it; `spp` chunks are one 16x16 tile's
+//      worth, the renderer's unit of parallel work). Each batch is expanded
+//      from the capture into an RTCRayHit array and traced: nothing else.
+//      Reading the capture streams 32 bytes a ray from memory, which the
+//      renderer does not pay, so raw is if anything slightly pessimistic.
+//    - raw+hit (diagnostic): raw plus computeSurfaceHit (with albedo) for
+//      every hit of every intersect batch. The renderer rebuilds camera hits
+//      and hits that continue a path, and reads only the albedo of a path's
+//      last occluder, so this overstates reconstruction a little.
+//    The ratio renderer / raw is what the renderer keeps of Embree's speed;
+//    the gap splits into raw -> raw+hit (hit reconstruction and albedo
+//    lookup) and raw+hit -> renderer (camera ray generation, sampling,
+//    direction warps, path bookkeeping, accumulation and film).
+//    Times are medians over --runs; process CPU s / threads is printed too
+//    (robust to other processes taking cores on a shared machine).
+//
+// Configurations (R = 10 % of the scene's bounding-box diagonal):
+//   transfer           depth=0 (the closed form), falloff=exponential sigma=1/R distance=inf
+//   transfer-step      depth=0, falloff=step distance=inf
+//   transfer-d2        depth=2, falloff=exponential sigma=1/R distance=inf
+//   gi                 defaults: vacuum, unlimited depth, Russian roulette
+//   gi-sigma           sigma=1/R (the ambient medium)
+//
+// --hook-check adds a fourth variant: the renderer with a pass-through
+// recorder (it only traces), which costs the hook's null check plus a
+// virtual call per batch, so it bounds what the null check alone costs.
+//
+// Run:   build/bench/obscura_bench_transfer                  both scenes, 960x540, 8 spp, 3 runs
+//        build/bench/obscura_bench_transfer --quick          smoke run (320x180, 2 spp, 1 run)
+//        build/bench/obscura_bench_transfer --scene generated --configs gi,gi-sigma --runs 5
+#include <CLI/CLI.hpp>
+#include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "bench/common.h"
+#include "core/error.h"
+#include "core/integrator.h"
+#include "core/render.h"
+#include "core/surface.h"
+
+using namespace obscura;
+using namespace obscura::bench;
+
+namespace {
+
+constexpr unsigned kInvalid = RTC_INVALID_GEOMETRY_ID;
+
+// ---------------------------------------------------------------------------
+// Configurations.
+
+struct Config {
+  std::string name;        // short name (--configs)
+  std::string integrator;  // registry name
+  std::vector<std::pair<std::string, std::string>> params;
+};
+
+const char* const kConfigNames[] = {"transfer", "transfer-step", "transfer-d2", "gi", "gi-sigma"};
+
+std::string number(double x) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.9g", x);
+  return buf;
+}
+
+Config makeConfig(const std::string& name, double R) {
+  const std::string sigma = number(1.0 / R);
+  if (name == "transfer")
+    return {name, "transfer", {{"falloff", "exponential"}, {"sigma", sigma}, {"distance", "inf"}, {"depth", "0"}}};
+  if (name == "transfer-step") return {name, "transfer", {{"falloff", "step"}, {"distance", "inf"}, {"depth", "0"}}};
+  if (name == "transfer-d2")
+    return {name, "transfer", {{"falloff", "exponential"}, {"sigma", sigma}, {"distance", "inf"}, {"depth", "2"}}};
+  if (name == "gi") return {name, "gi", {}};
+  if (name == "gi-sigma") return {name, "gi", {{"sigma", sigma}}};
+  throw Error("--configs: unknown '" + name + "' (transfer, transfer-step, transfer-d2, gi, gi-sigma)");
+}
+
+std::string paramString(const Config& c) {
+  std::string s = c.integrator;
+  for (const auto& [k, v] : c.params) s += " " + k + "=" + v;
+  return s;
+}
+
+// ---------------------------------------------------------------------------
+// Capture.
+
+struct RayIn {  // what the renderer put in a ray (mask ~0, time 0, flags 0, id = lane: checked)
+  float org[3], tnear, dir[3], tfar;
+};
+struct HitOut {  // what Embree gave back; t = tfar after tracing (-inf: occluded)
+  unsigned geomID, primID, instID;
+  float t;
+};
+struct BatchRec {
+  RayIn* rays;
+  HitOut* hits;
+  uint32_t n;
+  uint32_t flags;  // RTCIntersectContext::flags the renderer traced it with
+  bool occlusion;  // rtcOccluded1M (else rtcIntersect1M)
+};
+
+struct ThreadCapture {
+  static constexpr size_t kBlock = size_t(1) << 16;  // rays per storage block
+  struct Block {
+    std::unique_ptr<RayIn[]> rays;
+    std::unique_ptr<HitOut[]> hits;
+    size_t used = 0, cap = 0;
+  };
+  std::vector<Block> blocks;
+  std::vector<BatchRec> batches;
+  uint64_t rays = 0;
+  uint64_t malformed = 0;  // rays with mask/time/flags/id other than the renderer's
+
+  std::pair<RayIn*, HitOut*> allocate(size_t n) {
+    if (blocks.empty() || blocks.back().cap - blocks.back().used < n) {
+      Block b;
+      b.cap = std::max(kBlock, n);
+      b.rays.reset(new RayIn[b.cap]);
+      b.hits.reset(new HitOut[b.cap]);
+      blocks.push_back(std::move(b));
+    }
+    Block& b = blocks.back();
+    const size_t at = b.used;
+    b.used += n;
+    return {b.rays.get() + at, b.hits.get() + at};
+  }
+};
+
+class CaptureRecorder final : public RayRecorder {
+ public:
+  explicit CaptureRecorder(size_t maxBytes) : maxBytes_(maxBytes) {}
+
+  void intersect(RTCScene scene, RTCIntersectContext& ctx, RTCRayHit* rays, unsigned n) override {
+    BatchRec* b = store(n, ctx, false);
+    if (b)
+      for (unsigned i = 0; i < n; ++i) copyIn(rays[i].ray, i, b->rays[i]);
+    rtcIntersect1M(scene, &ctx, rays, n, sizeof(RTCRayHit));
+    if (b)
+      for (unsigned i = 0; i < n; ++i)
+        b->hits[i] = {rays[i].hit.geomID, rays[i].hit.primID, rays[i].hit.instID[0], rays[i].ray.tfar};
+  }
+
+  void occluded(RTCScene scene, RTCIntersectContext& ctx, RTCRay* rays, unsigned n) override {
+    BatchRec* b = store(n, ctx, true);
+    if (b)
+      for (unsigned i = 0; i < n; ++i) copyIn(rays[i], i, b->rays[i]);
+    rtcOccluded1M(scene, &ctx, rays, n, sizeof(RTCRay));
+    if (b)
+      for (unsigned i = 0; i < n; ++i) b->hits[i] = {kInvalid, kInvalid, kInvalid, rays[i].tfar};
+  }
+
+  bool overflowed() const { return overflow_.load(); }
+  size_t bytes() const { return bytes_.load(); }
+  std::vector<const ThreadCapture*> threads() const {
+    std::vector<const ThreadCapture*> v;
+    for (const ThreadCapture& t : logs_) v.push_back(&t);
+    return v;
+  }
+  uint64_t rays() const {
+    uint64_t n = 0;
+    for (const ThreadCapture& t : logs_) n += t.rays;
+    return n;
+  }
+  uint64_t malformed() const {
+    uint64_t n = 0;
+    for (const ThreadCapture& t : logs_) n += t.malformed;
+    return n;
+  }
+
+ private:
+  ThreadCapture& local() { return logs_.local(); }
+
+  // A new batch record with room for n rays, or null once over the cap (the
+  // render goes on; the capture is then unusable and reported as such).
+  BatchRec* store(unsigned n, const RTCIntersectContext& ctx, bool occlusion) {
+    if (overflow_.load(std::memory_order_relaxed)) return nullptr;
+    const size_t add = size_t(n) * (sizeof(RayIn) + sizeof(HitOut));
+    if (bytes_.fetch_add(add) + add > maxBytes_) {
+      overflow_ = true;
+      return nullptr;
+    }
+    ThreadCapture& t = local();
+    const auto [in, out] = t.allocate(n);
+    t.rays += n;
+    return &t.batches.emplace_back(BatchRec{in, out, n, uint32_t(ctx.flags), occlusion});
+  }
+
+  void copyIn(const RTCRay& r, unsigned lane, RayIn& in) {
+    in = {{r.org_x, r.org_y, r.org_z}, r.tnear, {r.dir_x, r.dir_y, r.dir_z}, r.tfar};
+    if (r.mask != 0xffffffffU || r.time != 0.0f || r.flags != 0 || r.id != lane) ++local().malformed;
+  }
+
+  tbb::enumerable_thread_specific<ThreadCapture> logs_;
+  std::atomic<size_t> bytes_{0};
+  std::atomic<bool> overflow_{false};
+  size_t maxBytes_;
+};
+
+// Only traces: the hook's cost when set (virtual call + branch), an upper
+// bound for its cost when unset (the branch alone).
+class PassThroughRecorder final : public RayRecorder {
+ public:
+  void intersect(RTCScene scene, RTCIntersectContext& ctx, RTCRayHit* rays, unsigned n) override {
+    rtcIntersect1M(scene, &ctx, rays, n, sizeof(RTCRayHit));
+  }
+  void occluded(RTCScene scene, RTCIntersectContext& ctx, RTCRay* rays, unsigned n) override {
+    rtcOccluded1M(scene, &ctx, rays, n, sizeof(RTCRay));
+  }
+};
+
+// ---------------------------------------------------------------------------
+// Replay.
+
+enum class ReplayMode { Raw, Check, Surface };
+
+struct ReplayTally {
+  uint64_t rays = 0;
+  uint64_t batches = 0;
+  uint64_t mismatches = 0;  // Check: hits not bit-equal to the capture's
+  uint64_t surfaces = 0;    // Surface: hits rebuilt
+  double sink = 0;          // Surface: keeps the rebuilt hits observable
+};
+
+class Replayer {
+ public:
+  // Groups of `group` consecutive chunks of one thread's capture are the
+  // parallel tasks.
+  Replayer(const Scene& scene, const CaptureRecorder& cap, size_t group, int threads)
+      : scene_(scene), threads_(threads) {
+    for (const ThreadCapture* t : cap.threads()) {
+      size_t chunks = 0, begin = 0;
+      for (size_t i = 0; i < t->batches.size(); ++i) {
+        const BatchRec& b = t->batches[i];
+        maxBatch_ = std::max<size_t>(maxBatch_, b.n);
+        const bool camera = !b.occlusion && (b.flags & RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
+        if (camera && chunks++ == group) {  // a group is full: it ends before this camera batch
+          tasks_.push_back({t, begin, i});
+          begin = i;
+          chunks = 1;
+        }
+      }
+      if (begin < t->batches.size()) tasks_.push_back({t, begin, t->batches.size()});
+    }
+  }
+
+  size_t tasks() const { return tasks_.size(); }
+
+  // One replay of every captured batch; returns wall seconds of the
+  // parallel loop (arena creation included, as in obscura::render).
+  double run(ReplayMode mode, ReplayTally& tally) {
+    for (auto& s : scratch_)
+      if (s) s->tally = {};
+    const auto t0 = std::chrono::steady_clock::now();
+    tbb::task_arena arena(threads_);
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<size_t>(0, tasks_.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
+        std::unique_ptr<Scratch>& slot = scratch_.local();
+        if (!slot) slot = std::make_unique<Scratch>(maxBatch_);
+        for (size_t t = r.begin(); t != r.end(); ++t) replayTask(tasks_[t], mode, *slot);
+      });
+    });
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    tally = {};
+    for (const auto& s : scratch_) {
+      if (!s) continue;
+      tally.rays += s->tally.rays;
+      tally.batches += s->tally.batches;
+      tally.mismatches += s->tally.mismatches;
+      tally.surfaces += s->tally.surfaces;
+      tally.sink += s->tally.sink;
+    }
+    return seconds;
+  }
+
+ private:
+  struct Task {
+    const ThreadCapture* capture;
+    size_t begin, end;  // batch indices
+  };
+  struct Scratch {
+    explicit Scratch(size_t n) : hit(std::max<size_t>(n, 1)), occ(std::max<size_t>(n, 1)) {}
+    AlignedArray<RTCRayHit> hit;
+    AlignedArray<RTCRay> occ;
+    ReplayTally tally;
+  };
+
+  static void fill(const RayIn& in, unsigned lane, RTCRay& r) {
+    r.org_x = in.org[0]; r.org_y = in.org[1]; r.org_z = in.org[2]; r.tnear = in.tnear;
+    r.dir_x = in.dir[0]; r.dir_y = in.dir[1]; r.dir_z = in.dir[2]; r.time = 0.0f;
+    r.tfar = in.tfar; r.mask = 0xffffffffU; r.id = lane; r.flags = 0;
+  }
+
+  static bool sameBits(float a, float b) { return std::bit_cast<uint32_t>(a) == std::bit_cast<uint32_t>(b); }
+
+  void replayTask(const Task& task, ReplayMode mode, Scratch& s) const {
+    const RTCScene scene = scene_.rtcScene();
+    for (size_t bi = task.begin; bi < task.end; ++bi) {
+      const BatchRec& b = task.capture->batches[bi];
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      ctx.flags = RTCIntersectContextFlags(b.flags);
+      if (b.occlusion) {
+        RTCRay* rays = s.occ.p;
+        for (unsigned i = 0; i < b.n; ++i) fill(b.rays[i], i, rays[i]);
+        rtcOccluded1M(scene, &ctx, rays, b.n, sizeof(RTCRay));
+        if (mode == ReplayMode::Check)
+          for (unsigned i = 0; i < b.n; ++i) s.tally.mismatches += sameBits(rays[i].tfar, b.hits[i].t) ? 0 : 1;
+      } else {
+        RTCRayHit* rays = s.hit.p;
+        for (unsigned i = 0; i < b.n; ++i) {
+          fill(b.rays[i], i, rays[i].ray);
+          rays[i].hit.geomID = kInvalid;
+          rays[i].hit.instID[0] = kInvalid;
+        }
+        rtcIntersect1M(scene, &ctx, rays, b.n, sizeof(RTCRayHit));
+        if (mode == ReplayMode::Check) {
+          for (unsigned i = 0; i < b.n; ++i) {
+            const RTCHit& h = rays[i].hit;
+            const HitOut& c = b.hits[i];
+            const bool same = h.geomID == c.geomID && sameBits(rays[i].ray.tfar, c.t) &&
+                              (h.geomID == kInvalid || (h.primID == c.primID && h.instID[0] == c.instID));
+            s.tally.mismatches += same ? 0 : 1;
+          }
+        } else if (mode == ReplayMode::Surface) {
+          SurfaceHit sh;
+          for (unsigned i = 0; i < b.n; ++i) {
+            const RTCRayHit& r = rays[i];
+            if (r.hit.geomID == kInvalid) continue;
+            computeSurfaceHit(scene_, r.hit.geomID, r.hit.primID, r.hit.instID[0], r.hit.u, r.hit.v, r.ray.tfar,
+                              Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), true, sh);
+            s.tally.sink += double(sh.albedo.x) + double(sh.eps);
+            ++s.tally.surfaces;
+          }
+        }
+      }
+      s.tally.rays += b.n;
+      ++s.tally.batches;
+    }
+  }
+
+  const Scene& scene_;
+  int threads_;
+  size_t maxBatch_ = 0;
+  std::vector<Task> tasks_;
+  tbb::enumerable_thread_specific<std::unique_ptr<Scratch>> scratch_;
+};
+
+// ---------------------------------------------------------------------------
+// The renderer side.
+
+struct RendererRun {
+  std::unique_ptr<Integrator> integrator;
+  IntegratorNeeds needs;
+
+  explicit RendererRun(const Config& c) {
+    const IntegratorDescriptor& d = IntegratorRegistry::instance().find(c.integrator);
+    ParamSet p(d.params, d.name);
+    for (const auto& [k, v] : c.params) p.set(k, v);
+    integrator = d.create(p);
+    needs = d.needs(p);
+  }
+  Film run(const BenchScene& bs, const RenderSettings& s, RenderStats& st) const {
+    return render(*bs.scene, bs.camera, *integrator, needs, s, st);
+  }
+};
+
+uint64_t totalRays(const RayCounters& c) { return c.camera + c.occlusion + c.closest; }
+
+// ---------------------------------------------------------------------------
+// One scene.
+
+struct Options : CommonOptions {
+  Options() {
+    res = "960x540";
+    spp = 8;
+  }
+  std::string configs = "transfer,transfer-step,transfer-d2,gi,gi-sigma";
+  double radiusFraction = 0.1;
+  double maxCaptureGiB = 6.0;
+  bool hookCheck = false;
+};
+
+// Variants of the timed runs.
+enum Variant { kRenderer, kRaw, kRawHit, kHooked, kVariants };
+const char* const kVariantNames[kVariants] = {"renderer", "raw", "raw+hit", "renderer+hook"};
+
+struct Result {
+  std::string scene;
+  Config config;
+  bool skipped = false;
+  std::string why;  // when skipped
+  RayCounters rays;
+  uint64_t captured = 0, malformed = 0, mismatches = 0, batches = 0;
+  bool filmsEqual = true;
+  double captureMiB = 0, captureSeconds = 0;
+  std::array<std::vector<double>, kVariants> wall, cpu;
+  std::array<double, kVariants> medWall{}, medCpu{}, mrays{}, mraysCpu{};
+};
+
+bool sameFilm(const Film& a, const Film& b) {
+  const size_t n = size_t(a.width()) * size_t(a.height());
+  for (int c : {kR, kG, kB, kA})
+    if (std::memcmp(a.plane(c), b.plane(c), n * sizeof(float)) != 0) return false;
+  return true;
+}
+
+Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int w, int h, int threads) {
+  Result res;
+  res.scene = bs.label;
+  res.config = c;
+  const RendererRun rr(c);
+  const RenderSettings s = benchRenderSettings(w, h, o.spp, threads);
+
+  // Warm-up (untimed): worker threads, per-thread scratch, textures.
+  {
+    RenderSettings ws = benchRenderSettings(std::min(w, 128), std::min(h, 128), 1, threads);
+    RenderStats st;
+    rr.run(bs, ws, st);
+  }
+
+  // 1. Capture.
+  CaptureRecorder cap(size_t(o.maxCaptureGiB * 1024.0 * 1024.0 * 1024.0));
+  RenderSettings cs = s;
+  cs.recorder = &cap;
+  RenderStats cst;
+  const Film captureFilm = rr.run(bs, cs, cst);
+  res.captureSeconds = cst.seconds;
+  res.captureMiB = double(cap.bytes()) / (1024.0 * 1024.0);
+  if (cap.overflowed()) {
+    res.skipped = true;
+    res.why = "capture over --max-capture-gib " + number(o.maxCaptureGiB) + " (lower --res or --spp)";
+    std::printf("   %-14s skipped: %s\n", c.name.c_str(), res.why.c_str());
+    return res;
+  }
+  res.rays = cst.rays;
+  res.captured = cap.rays();
+  res.malformed = cap.malformed();
+
+  // 2. Check: the replay finds the captured hits, bit for bit.
+  Replayer replay(*bs.scene, cap, size_t(o.spp), threads);
+  ReplayTally check;
+  replay.run(ReplayMode::Check, check);
+  res.mismatches = check.mismatches;
+  res.batches = check.batches;
+  if (check.rays != res.captured) throw Error("internal: replay traced a different number of rays");
+
+  // 3. Timed runs.
+  std::vector<int> variants = {kRenderer, kRaw, kRawHit};
+  if (o.hookCheck) variants.push_back(kHooked);
+  PassThroughRecorder pass;
+  const int nv = int(variants.size());
+  for (int r = 0; r < o.runs; ++r) {
+    for (int k = 0; k < nv; ++k) {
+      const int v = variants[size_t((k + r) % nv)];
+      const double c0 = processCpuSeconds();
+      double sec = 0;
+      if (v == kRenderer || v == kHooked) {
+        RenderSettings rs = s;
+        if (v == kHooked) rs.recorder = &pass;
+        RenderStats st;
+        const Film film = rr.run(bs, rs, st);
+        sec = st.seconds;
+        if (totalRays(st.rays) != totalRays(res.rays)) std::printf(" [renderer ray count changed between runs!]");
+        if (!sameFilm(film, captureFilm)) res.filmsEqual = false;
+      } else {
+        ReplayTally t;
+        sec = replay.run(v == kRaw ? ReplayMode::Raw : ReplayMode::Surface, t);
+      }
+      res.wall[size_t(v)].push_back(sec);
+      res.cpu[size_t(v)].push_back((processCpuSeconds() - c0) / threads);
+    }
+  }
+  const double rays = double(totalRays(res.rays));
+  for (int v : variants) {
+    res.medWall[size_t(v)] = median(res.wall[size_t(v)]);
+    res.medCpu[size_t(v)] = median(res.cpu[size_t(v)]);
+    res.mrays[size_t(v)] = rays / res.medWall[size_t(v)] * 1e-6;
+    res.mraysCpu[size_t(v)] = rays / res.medCpu[size_t(v)] * 1e-6;
+  }
+
+  std::printf("   %-14s %11llu rays (%5.2f / camera ray), capture %7.1f MiB, %5zu tasks, hits %s, films %s;", c.name.c_str(),
+              (unsigned long long)totalRays(res.rays),
+              rays / double(std::max<uint64_t>(res.rays.camera, 1)), res.captureMiB, replay.tasks(),
+              res.mismatches == 0 ? "bit-equal" : "DIFFER", res.filmsEqual ? "equal" : "DIFFER");
+  for (int v : variants) {
+    std::printf(" %s", kVariantNames[v]);
+    for (double x : res.wall[size_t(v)]) std::printf(" %.3f", x);
+    std::printf(";");
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+  return res;
+}
+
+std::vector<Result> benchScene(const std::string& which, const Options& o, const std::vector<std::string>& configs,
+                               int w, int h, int threads) {
+  std::printf("\n== scene: %s\n", which.c_str());
+  std::fflush(stdout);
+  const BenchScene bs = loadScene(which, float(w) / float(h));
+  const double R = o.radiusFraction * bs.diagonal;
+  const Vec3 cp = bs.camera.position();
+  std::printf("   source     %s\n", bs.source.c_str());
+  std::printf("   triangles  %zu, bbox diagonal %.4g -> R = %.4g, sigma = 1/R = %.4g\n", bs.triangles, bs.diagonal, R,
+              1.0 / R);
+  std::printf("   camera     '%s' at (%.4g, %.4g, %.4g), yfov %.3g rad\n", bs.camera.name.c_str(), cp.x, cp.y, cp.z,
+              bs.camera.yfov);
+  std::printf("   wall s of each run, in run order:\n");
+  std::fflush(stdout);
+  std::vector<Result> out;
+  for (const std::string& name : configs) out.push_back(benchConfig(bs, makeConfig(name, R), o, w, h, threads));
+  std::printf("   peak RSS of the process so far: %.0f MiB\n", peakRssMiB());
+  return out;
+}
+
+void printTable(const std::vector<Result>& results, bool hookCheck, int threads) {
+  std::printf("\n== results: Mrays/s = (camera + secondary rays) / median wall s; ratio = renderer / raw\n");
+  std::printf("   %-12s %-14s %11s %6s | %8s %8s %8s %6s | %7s %7s %7s | %6s %6s",
+              "scene", "config", "rays", "r/cam", "renderer", "raw", "raw+hit", "ratio", "rend s", "raw s",
+              "+hit s", "hit %", "rest %");
+  if (hookCheck) std::printf(" | %8s %6s", "hooked", "hook");
+  std::printf(" | %6s %5s\n", "ratio/c", "CPU");
+  for (const Result& r : results) {
+    if (r.skipped) {
+      std::printf("   %-12s %-14s skipped: %s\n", r.scene.c_str(), r.config.name.c_str(), r.why.c_str());
+      continue;
+    }
+    const double gap = r.medWall[kRenderer] - r.medWall[kRaw];
+    const double hit = r.medWall[kRawHit] - r.medWall[kRaw];
+    const double use = r.medCpu[kRenderer] / r.medWall[kRenderer];
+    std::printf("   %-12s %-14s %11llu %6.2f | %8.2f %8.2f %8.2f %5.1f%% | %7.3f %7.3f %7.3f | %5.0f%% %5.0f%%",
+                r.scene.c_str(), r.config.name.c_str(), (unsigned long long)totalRays(r.rays),
+                double(totalRays(r.rays)) / double(std::max<uint64_t>(r.rays.camera, 1)), r.mrays[kRenderer],
+                r.mrays[kRaw], r.mrays[kRawHit], 100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.medWall[kRenderer],
+                r.medWall[kRaw], r.medWall[kRawHit], gap > 0 ? 100.0 * hit / gap : 0.0,
+                gap > 0 ? 100.0 * (gap - hit) / gap : 0.0);
+    if (hookCheck)
+      std::printf(" | %8.2f %+5.1f%%", r.mrays[kHooked], 100.0 * (r.medWall[kHooked] / r.medWall[kRenderer] - 1.0));
+    std::printf(" | %5.1f%% %4.0f%%\n", 100.0 * r.mraysCpu[kRenderer] / r.mraysCpu[kRaw], 100.0 * use);
+  }
+  std::printf("   r/cam = rays per camera ray; raw+hit = raw replay + computeSurfaceHit (albedo) at every hit;\n"
+              "   hit %% / rest %% = shares of the gap (rend s - raw s) taken by hit reconstruction (+hit s - raw s)\n"
+              "   and by the rest (sampling, path bookkeeping, camera rays, film); ratio/c = the ratio from process\n"
+              "   CPU s / %d threads; CPU = the renderer's CPU s / (wall s x threads) (< 90%%: other processes took\n"
+              "   cores).%s\n",
+              threads,
+              hookCheck ? " hooked = the renderer with a pass-through recorder (null check + virtual call per\n"
+                          "   batch); hook = its median wall s relative to the plain renderer's."
+                        : "");
+}
+
+void printMarkdown(const std::vector<Result>& results, int w, int h, int spp, int threads, int runs) {
+  std::printf("\n== Markdown (%dx%d, %d spp, %d threads, median of %d runs)\n\n", w, h, spp, threads, runs);
+  std::printf("| scene | config | rays | renderer Mrays/s | raw Mrays/s | ratio | raw+hit Mrays/s | time s |\n");
+  std::printf("|---|---|---:|---:|---:|---:|---:|---:|\n");
+  for (const Result& r : results) {
+    if (r.skipped) continue;
+    std::printf("| %s | `%s` | %.1f M | %.2f | %.2f | %.0f %% | %.2f | %.3f |\n", r.scene.c_str(),
+                paramString(r.config).c_str(), double(totalRays(r.rays)) * 1e-6, r.mrays[kRenderer], r.mrays[kRaw],
+                100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.mrays[kRawHit], r.medWall[kRenderer]);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"obscura_bench_transfer: transfer and gi rays/s vs the same rays replayed through raw Embree"};
+  Options o;
+  addCommonOptions(app, o, "Smoke run: 320x180, 2 spp, 1 run unless given");
+  app.add_option("--configs", o.configs,
+                 "Comma list of transfer, transfer-step, transfer-d2, gi, gi-sigma (default: all)");
+  app.add_option("--radius-fraction", o.radiusFraction,
+                 "R as a fraction of the scene's bounding-box diagonal; sigma = 1/R (default 0.1)");
+  app.add_option("--max-capture-gib", o.maxCaptureGiB,
+                 "Memory cap of one configuration's captured rays and hits, GiB (default 6)");
+  app.add_flag("--hook-check", o.hookCheck,
+               "Also time the renderer with a pass-through recorder (the capture hook's cost)");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (o.quick) {
+      if (app.count("--res") == 0) o.res = "320x180";
+      if (app.count("--spp") == 0) o.spp = 2;
+      if (app.count("--runs") == 0) o.runs = 1;
+    }
+    const auto [width, height] = checkCommonOptions(o);
+    if (!(o.radiusFraction > 0) || !std::isfinite(o.radiusFraction))
+      throw Error("--radius-fraction must be a positive number");
+    if (!(o.maxCaptureGiB > 0)) throw Error("--max-capture-gib must be positive");
+    const std::vector<std::string> configs = splitCommaList(o.configs);
+    for (const std::string& c : configs) makeConfig(c, 1.0);  // validates the names
+
+    const ThreadLimit limit(o.threads);
+    const int threads = limit.threads();
+    std::printf("obscura_bench_transfer: transfer and gi, renderer vs its captured rays replayed through raw Embree\n");
+    printMachine(threads);
+    std::printf("   settings   %dx%d, %d spp, seed 0, box filter, tiles 16x16, AOVs off, R = %g x bbox diagonal\n",
+                width, height, o.spp, o.radiusFraction);
+    std::printf("   timing     median of %d run%s, variants interleaved (order rotated each run)\n", o.runs,
+                o.runs == 1 ? "" : "s");
+    std::fflush(stdout);
+
+    std::vector<Result> results;
+    for (const std::string& sc : o.scenes)
+      for (Result& r : benchScene(sc, o, configs, width, height, threads)) results.push_back(std::move(r));
+
+    printTable(results, o.hookCheck, threads);
+    printMarkdown(results, width, height, o.spp, threads, o.runs);
+    bool ok = true;
+    for (const Result& r : results)
+      if (!r.skipped && (r.mismatches || r.malformed || !r.filmsEqual || r.captured != totalRays(r.rays))) {
+        ok = false;
+        std::printf("\nCHECK FAILED: %s %s: captured %llu of %llu rays, %llu malformed, %llu replay hits differ, "
+                    "films %s\n",
+                    r.scene.c_str(), r.config.name.c_str(), (unsigned long long)r.captured,
+                    (unsigned long long)totalRays(r.rays), (unsigned long long)r.malformed,
+                    (unsigned long long)r.mismatches, r.filmsEqual ? "equal" : "differ");
+      }
+    if (ok)
+      std::printf("\nchecks: every captured ray count equals RenderStats.rays, every replayed hit is bit-equal to the "
+                  "captured one, and the capture render's image equals the timed renders'.\n");
+    std::printf("peak RSS %.0f MiB\n", peakRssMiB());
+    return ok ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "obscura_bench_transfer: error: %s\n", e.what());
+    return 1;
+  }
+}
