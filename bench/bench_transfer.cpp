@@ -39,10 +39,14 @@
 //      every hit of every intersect batch. The renderer rebuilds camera hits
 //      and hits that continue a path, and reads only the albedo of a path's
 //      last occluder, so this overstates reconstruction a little.
+//    - raw+hit+dir (diagnostic): raw+hit plus, at every hit, the next
+//      direction drawn as the path estimator draws it (Sobol' pair, shading
+//      frame, cosine warp, spawnOrigin, the below-the-surface test).
 //    The ratio renderer / raw is what the renderer keeps of Embree's speed;
-//    the gap splits into raw -> raw+hit (hit reconstruction and albedo
-//    lookup) and raw+hit -> renderer (camera ray generation, sampling,
-//    direction warps, path bookkeeping, accumulation and film).
+//    the gap (renderer s - raw s) splits into hit reconstruction and albedo
+//    (raw+hit - raw), direction sampling (raw+hit+dir - raw+hit) and the
+//    rest (camera ray generation, path state and bookkeeping, accumulation,
+//    film): shares of the gap, from medians, so they are approximate.
 //    Times are medians over --runs; process CPU s / threads is printed too
 //    (robust to other processes taking cores on a shared machine).
 //
@@ -84,7 +88,9 @@
 #include "core/error.h"
 #include "core/integrator.h"
 #include "core/render.h"
+#include "core/sampler.h"
 #include "core/surface.h"
+#include "core/warp.h"
 
 using namespace obscura;
 using namespace obscura::bench;
@@ -258,7 +264,7 @@ class PassThroughRecorder final : public RayRecorder {
 // ---------------------------------------------------------------------------
 // Replay.
 
-enum class ReplayMode { Raw, Check, Surface };
+enum class ReplayMode { Raw, Check, Surface, SurfaceSample };
 
 struct ReplayTally {
   uint64_t rays = 0;
@@ -368,7 +374,7 @@ class Replayer {
                               (h.geomID == kInvalid || (h.primID == c.primID && h.instID[0] == c.instID));
             s.tally.mismatches += same ? 0 : 1;
           }
-        } else if (mode == ReplayMode::Surface) {
+        } else if (mode != ReplayMode::Raw) {
           SurfaceHit sh;
           for (unsigned i = 0; i < b.n; ++i) {
             const RTCRayHit& r = rays[i];
@@ -377,6 +383,13 @@ class Replayer {
                               Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), true, sh);
             s.tally.sink += double(sh.albedo.x) + double(sh.eps);
             ++s.tally.surfaces;
+            if (mode != ReplayMode::SurfaceSample) continue;
+            // The next direction as the path estimator draws it (key and
+            // index stand in for the pixel's: the cost is the same).
+            const Sample2 u = Sampler::get2D(uint32_t(bi), i, kFirstIntegratorDim);
+            const Vec3 w = Frame::fromNormal(sh.ns).toWorld(squareToCosineHemisphere(u.u, u.v));
+            const Vec3 o = spawnOrigin(sh, w);
+            s.tally.sink += intoSurface(sh, w) ? 0.0 : double(o.x + w.y);
           }
         }
       }
@@ -428,8 +441,8 @@ struct Options : CommonOptions {
 };
 
 // Variants of the timed runs.
-enum Variant { kRenderer, kRaw, kRawHit, kHooked, kVariants };
-const char* const kVariantNames[kVariants] = {"renderer", "raw", "raw+hit", "renderer+hook"};
+enum Variant { kRenderer, kRaw, kRawHit, kRawHitSample, kHooked, kVariants };
+const char* const kVariantNames[kVariants] = {"renderer", "raw", "raw+hit", "raw+hit+dir", "renderer+hook"};
 
 struct Result {
   std::string scene;
@@ -492,7 +505,7 @@ Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int 
   if (check.rays != res.captured) throw Error("internal: replay traced a different number of rays");
 
   // 3. Timed runs.
-  std::vector<int> variants = {kRenderer, kRaw, kRawHit};
+  std::vector<int> variants = {kRenderer, kRaw, kRawHit, kRawHitSample};
   if (o.hookCheck) variants.push_back(kHooked);
   PassThroughRecorder pass;
   const int nv = int(variants.size());
@@ -511,7 +524,10 @@ Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int 
         if (!sameFilm(film, captureFilm)) res.filmsEqual = false;
       } else {
         ReplayTally t;
-        sec = replay.run(v == kRaw ? ReplayMode::Raw : ReplayMode::Surface, t);
+        sec = replay.run(v == kRaw      ? ReplayMode::Raw
+                         : v == kRawHit ? ReplayMode::Surface
+                                        : ReplayMode::SurfaceSample,
+                         t);
       }
       res.wall[size_t(v)].push_back(sec);
       res.cpu[size_t(v)].push_back((processCpuSeconds() - c0) / threads);
@@ -559,51 +575,67 @@ std::vector<Result> benchScene(const std::string& which, const Options& o, const
   return out;
 }
 
+// The renderer's loss against raw, split by the diagnostics: shares of
+// (renderer s - raw s) taken by hit reconstruction (raw+hit - raw), by
+// drawing the next direction (raw+hit+dir - raw+hit) and by the rest.
+struct Gap {
+  double hit = 0, dir = 0, rest = 0;
+};
+Gap gapOf(const Result& r) {
+  Gap g;
+  const double gap = r.medWall[kRenderer] - r.medWall[kRaw];
+  if (!(gap > 0)) return g;
+  g.hit = (r.medWall[kRawHit] - r.medWall[kRaw]) / gap;
+  g.dir = (r.medWall[kRawHitSample] - r.medWall[kRawHit]) / gap;
+  g.rest = 1.0 - g.hit - g.dir;
+  return g;
+}
+
 void printTable(const std::vector<Result>& results, bool hookCheck, int threads) {
   std::printf("\n== results: Mrays/s = (camera + secondary rays) / median wall s; ratio = renderer / raw\n");
-  std::printf("   %-12s %-14s %11s %6s | %8s %8s %8s %6s | %7s %7s %7s | %6s %6s",
-              "scene", "config", "rays", "r/cam", "renderer", "raw", "raw+hit", "ratio", "rend s", "raw s",
-              "+hit s", "hit %", "rest %");
+  std::printf("   %-12s %-14s %10s %5s | %8s %8s %6s | %7s %7s %7s %7s | %5s %5s %5s",
+              "scene", "config", "rays", "r/cam", "renderer", "raw", "ratio", "rend s", "raw s", "+hit s", "+dir s",
+              "hit", "dir", "rest");
   if (hookCheck) std::printf(" | %8s %6s", "hooked", "hook");
-  std::printf(" | %6s %5s\n", "ratio/c", "CPU");
+  std::printf(" | %7s %5s\n", "ratio/c", "CPU");
   for (const Result& r : results) {
     if (r.skipped) {
       std::printf("   %-12s %-14s skipped: %s\n", r.scene.c_str(), r.config.name.c_str(), r.why.c_str());
       continue;
     }
-    const double gap = r.medWall[kRenderer] - r.medWall[kRaw];
-    const double hit = r.medWall[kRawHit] - r.medWall[kRaw];
+    const Gap g = gapOf(r);
     const double use = r.medCpu[kRenderer] / r.medWall[kRenderer];
-    std::printf("   %-12s %-14s %11llu %6.2f | %8.2f %8.2f %8.2f %5.1f%% | %7.3f %7.3f %7.3f | %5.0f%% %5.0f%%",
+    std::printf("   %-12s %-14s %10llu %5.2f | %8.2f %8.2f %5.1f%% | %7.3f %7.3f %7.3f %7.3f | %4.0f%% %4.0f%% %4.0f%%",
                 r.scene.c_str(), r.config.name.c_str(), (unsigned long long)totalRays(r.rays),
                 double(totalRays(r.rays)) / double(std::max<uint64_t>(r.rays.camera, 1)), r.mrays[kRenderer],
-                r.mrays[kRaw], r.mrays[kRawHit], 100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.medWall[kRenderer],
-                r.medWall[kRaw], r.medWall[kRawHit], gap > 0 ? 100.0 * hit / gap : 0.0,
-                gap > 0 ? 100.0 * (gap - hit) / gap : 0.0);
+                r.mrays[kRaw], 100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.medWall[kRenderer], r.medWall[kRaw],
+                r.medWall[kRawHit], r.medWall[kRawHitSample], 100.0 * g.hit, 100.0 * g.dir, 100.0 * g.rest);
     if (hookCheck)
       std::printf(" | %8.2f %+5.1f%%", r.mrays[kHooked], 100.0 * (r.medWall[kHooked] / r.medWall[kRenderer] - 1.0));
-    std::printf(" | %5.1f%% %4.0f%%\n", 100.0 * r.mraysCpu[kRenderer] / r.mraysCpu[kRaw], 100.0 * use);
+    std::printf(" | %6.1f%% %4.0f%%\n", 100.0 * r.mraysCpu[kRenderer] / r.mraysCpu[kRaw], 100.0 * use);
   }
-  std::printf("   r/cam = rays per camera ray; raw+hit = raw replay + computeSurfaceHit (albedo) at every hit;\n"
-              "   hit %% / rest %% = shares of the gap (rend s - raw s) taken by hit reconstruction (+hit s - raw s)\n"
-              "   and by the rest (sampling, path bookkeeping, camera rays, film); ratio/c = the ratio from process\n"
-              "   CPU s / %d threads; CPU = the renderer's CPU s / (wall s x threads) (< 90%%: other processes took\n"
-              "   cores).%s\n",
+  std::printf("   r/cam = rays per camera ray; +hit s = raw replay + computeSurfaceHit (albedo) at every hit; +dir s =\n"
+              "   that + the next cosine direction and origin at every hit; hit / dir / rest = shares of the gap\n"
+              "   (rend s - raw s): hit reconstruction and albedo (+hit - raw), direction sampling (+dir - +hit), the\n"
+              "   rest (camera rays, path bookkeeping, accumulation, film); ratio/c = the ratio from process CPU s /\n"
+              "   %d threads; CPU = the renderer's CPU s / (wall s x threads) (< 90%%: other processes took cores).%s\n",
               threads,
-              hookCheck ? " hooked = the renderer with a pass-through recorder (null check + virtual call per\n"
-                          "   batch); hook = its median wall s relative to the plain renderer's."
+              hookCheck ? "\n   hooked = the renderer with a pass-through recorder (null check + virtual call per batch);\n"
+                          "   hook = its median wall s relative to the plain renderer's."
                         : "");
 }
 
 void printMarkdown(const std::vector<Result>& results, int w, int h, int spp, int threads, int runs) {
   std::printf("\n== Markdown (%dx%d, %d spp, %d threads, median of %d runs)\n\n", w, h, spp, threads, runs);
-  std::printf("| scene | config | rays | renderer Mrays/s | raw Mrays/s | ratio | raw+hit Mrays/s | time s |\n");
+  std::printf("| scene | config | rays | renderer Mrays/s | raw Mrays/s | ratio | time s | gap: hit / dir / rest |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|\n");
   for (const Result& r : results) {
     if (r.skipped) continue;
-    std::printf("| %s | `%s` | %.1f M | %.2f | %.2f | %.0f %% | %.2f | %.3f |\n", r.scene.c_str(),
+    const Gap g = gapOf(r);
+    std::printf("| %s | `%s` | %.2f M | %.2f | %.2f | %.0f %% | %.3f | %.0f / %.0f / %.0f %% |\n", r.scene.c_str(),
                 paramString(r.config).c_str(), double(totalRays(r.rays)) * 1e-6, r.mrays[kRenderer], r.mrays[kRaw],
-                100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.mrays[kRawHit], r.medWall[kRenderer]);
+                100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.medWall[kRenderer], 100.0 * g.hit, 100.0 * g.dir,
+                100.0 * g.rest);
   }
 }
 
@@ -652,21 +684,29 @@ int main(int argc, char** argv) {
 
     printTable(results, o.hookCheck, threads);
     printMarkdown(results, width, height, o.spp, threads, o.runs);
-    bool ok = true;
-    for (const Result& r : results)
-      if (!r.skipped && (r.mismatches || r.malformed || !r.filmsEqual || r.captured != totalRays(r.rays))) {
-        ok = false;
+    int checked = 0, skipped = 0, failed = 0;
+    for (const Result& r : results) {
+      if (r.skipped) {
+        ++skipped;
+        continue;
+      }
+      ++checked;
+      if (r.mismatches || r.malformed || !r.filmsEqual || r.captured != totalRays(r.rays)) {
+        ++failed;
         std::printf("\nCHECK FAILED: %s %s: captured %llu of %llu rays, %llu malformed, %llu replay hits differ, "
                     "films %s\n",
                     r.scene.c_str(), r.config.name.c_str(), (unsigned long long)r.captured,
                     (unsigned long long)totalRays(r.rays), (unsigned long long)r.malformed,
                     (unsigned long long)r.mismatches, r.filmsEqual ? "equal" : "differ");
       }
-    if (ok)
-      std::printf("\nchecks: every captured ray count equals RenderStats.rays, every replayed hit is bit-equal to the "
-                  "captured one, and the capture render's image equals the timed renders'.\n");
+    }
+    if (checked && !failed)
+      std::printf("\nchecks (%d configurations): every captured ray count equals RenderStats.rays, every replayed hit "
+                  "is bit-equal to the captured one, and the capture render's image equals the timed renders'.\n",
+                  checked);
+    if (skipped) std::printf("%d configurations skipped (capture over --max-capture-gib)\n", skipped);
     std::printf("peak RSS %.0f MiB\n", peakRssMiB());
-    return ok ? 0 : 1;
+    return failed || skipped ? 1 : 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "obscura_bench_transfer: error: %s\n", e.what());
     return 1;
