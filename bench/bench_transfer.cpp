@@ -47,8 +47,10 @@
 //    (raw+hit - raw), direction sampling (raw+hit+dir - raw+hit) and the
 //    rest (camera ray generation, path state and bookkeeping, accumulation,
 //    film): shares of the gap, from medians, so they are approximate.
-//    Times are medians over --runs; process CPU s / threads is printed too
-//    (robust to other processes taking cores on a shared machine).
+//    Times are medians over --runs. Process CPU s / threads is measured too:
+//    when other processes took cores in some run (CPU s < 90 % of wall s x
+//    threads), the table is printed again from CPU time, which such
+//    contention barely moves.
 //
 // Configurations (R = 10 % of the scene's bounding-box diagonal):
 //   transfer           depth=0 (the closed form), falloff=exponential sigma=1/R distance=inf
@@ -455,6 +457,8 @@ struct Result {
   double captureMiB = 0, captureSeconds = 0;
   std::array<std::vector<double>, kVariants> wall, cpu;
   std::array<double, kVariants> medWall{}, medCpu{}, mrays{}, mraysCpu{};
+  double minUse = 1;  // lowest CPU s / (wall s x threads) over all timed runs
+  bool busy() const { return minUse < 0.9; }  // other processes took cores in some run
 };
 
 bool sameFilm(const Film& a, const Film& b) {
@@ -539,6 +543,8 @@ Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int 
     res.medCpu[size_t(v)] = median(res.cpu[size_t(v)]);
     res.mrays[size_t(v)] = rays / res.medWall[size_t(v)] * 1e-6;
     res.mraysCpu[size_t(v)] = rays / res.medCpu[size_t(v)] * 1e-6;
+    for (size_t i = 0; i < res.wall[size_t(v)].size(); ++i)
+      res.minUse = std::min(res.minUse, res.cpu[size_t(v)][i] / res.wall[size_t(v)][i]);
   }
 
   std::printf("   %-14s %11llu rays (%5.2f / camera ray), capture %7.1f MiB, %5zu tasks, hits %s, films %s;", c.name.c_str(),
@@ -581,12 +587,13 @@ std::vector<Result> benchScene(const std::string& which, const Options& o, const
 struct Gap {
   double hit = 0, dir = 0, rest = 0;
 };
-Gap gapOf(const Result& r) {
+Gap gapOf(const Result& r, bool cpu) {
+  const auto& T = cpu ? r.medCpu : r.medWall;
   Gap g;
-  const double gap = r.medWall[kRenderer] - r.medWall[kRaw];
+  const double gap = T[kRenderer] - T[kRaw];
   if (!(gap > 0)) return g;
-  g.hit = (r.medWall[kRawHit] - r.medWall[kRaw]) / gap;
-  g.dir = (r.medWall[kRawHitSample] - r.medWall[kRawHit]) / gap;
+  g.hit = (T[kRawHit] - T[kRaw]) / gap;
+  g.dir = (T[kRawHitSample] - T[kRawHit]) / gap;
   g.rest = 1.0 - g.hit - g.dir;
   return g;
 }
@@ -603,8 +610,7 @@ void printTable(const std::vector<Result>& results, bool hookCheck, int threads)
       std::printf("   %-12s %-14s skipped: %s\n", r.scene.c_str(), r.config.name.c_str(), r.why.c_str());
       continue;
     }
-    const Gap g = gapOf(r);
-    const double use = r.medCpu[kRenderer] / r.medWall[kRenderer];
+    const Gap g = gapOf(r, false);
     std::printf("   %-12s %-14s %10llu %5.2f | %8.2f %8.2f %5.1f%% | %7.3f %7.3f %7.3f %7.3f | %4.0f%% %4.0f%% %4.0f%%",
                 r.scene.c_str(), r.config.name.c_str(), (unsigned long long)totalRays(r.rays),
                 double(totalRays(r.rays)) / double(std::max<uint64_t>(r.rays.camera, 1)), r.mrays[kRenderer],
@@ -612,30 +618,35 @@ void printTable(const std::vector<Result>& results, bool hookCheck, int threads)
                 r.medWall[kRawHit], r.medWall[kRawHitSample], 100.0 * g.hit, 100.0 * g.dir, 100.0 * g.rest);
     if (hookCheck)
       std::printf(" | %8.2f %+5.1f%%", r.mrays[kHooked], 100.0 * (r.medWall[kHooked] / r.medWall[kRenderer] - 1.0));
-    std::printf(" | %6.1f%% %4.0f%%\n", 100.0 * r.mraysCpu[kRenderer] / r.mraysCpu[kRaw], 100.0 * use);
+    std::printf(" | %6.1f%% %4.0f%%%s\n", 100.0 * r.mraysCpu[kRenderer] / r.mraysCpu[kRaw], 100.0 * r.minUse,
+                r.busy() ? " busy" : "");
   }
   std::printf("   r/cam = rays per camera ray; +hit s = raw replay + computeSurfaceHit (albedo) at every hit; +dir s =\n"
               "   that + the next cosine direction and origin at every hit; hit / dir / rest = shares of the gap\n"
               "   (rend s - raw s): hit reconstruction and albedo (+hit - raw), direction sampling (+dir - +hit), the\n"
               "   rest (camera rays, path bookkeeping, accumulation, film); ratio/c = the ratio from process CPU s /\n"
-              "   %d threads; CPU = the renderer's CPU s / (wall s x threads) (< 90%%: other processes took cores).%s\n",
+              "   %d threads; CPU = the lowest CPU s / (wall s x threads) of the configuration's timed runs (< 90%%,\n"
+              "   busy: other processes took cores, and the wall-clock columns measure them too).%s\n",
               threads,
               hookCheck ? "\n   hooked = the renderer with a pass-through recorder (null check + virtual call per batch);\n"
                           "   hook = its median wall s relative to the plain renderer's."
                         : "");
 }
 
-void printMarkdown(const std::vector<Result>& results, int w, int h, int spp, int threads, int runs) {
-  std::printf("\n== Markdown (%dx%d, %d spp, %d threads, median of %d runs)\n\n", w, h, spp, threads, runs);
+// cpu: times from process CPU s / threads instead of the wall clock.
+void printMarkdown(const std::vector<Result>& results, int w, int h, int spp, int threads, int runs, bool cpu) {
+  std::printf("\n== Markdown (%dx%d, %d spp, %d threads, median of %d runs%s)\n\n", w, h, spp, threads, runs,
+              cpu ? "; times = process CPU s / threads" : "");
   std::printf("| scene | config | rays | renderer Mrays/s | raw Mrays/s | ratio | time s | gap: hit / dir / rest |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|\n");
   for (const Result& r : results) {
     if (r.skipped) continue;
-    const Gap g = gapOf(r);
+    const auto& T = cpu ? r.medCpu : r.medWall;
+    const auto& M = cpu ? r.mraysCpu : r.mrays;
+    const Gap g = gapOf(r, cpu);
     std::printf("| %s | `%s` | %.2f M | %.2f | %.2f | %.0f %% | %.3f | %.0f / %.0f / %.0f %% |\n", r.scene.c_str(),
-                paramString(r.config).c_str(), double(totalRays(r.rays)) * 1e-6, r.mrays[kRenderer], r.mrays[kRaw],
-                100.0 * r.mrays[kRenderer] / r.mrays[kRaw], r.medWall[kRenderer], 100.0 * g.hit, 100.0 * g.dir,
-                100.0 * g.rest);
+                paramString(r.config).c_str(), double(totalRays(r.rays)) * 1e-6, M[kRenderer], M[kRaw],
+                100.0 * M[kRenderer] / M[kRaw], T[kRenderer], 100.0 * g.hit, 100.0 * g.dir, 100.0 * g.rest);
   }
 }
 
@@ -683,7 +694,13 @@ int main(int argc, char** argv) {
       for (Result& r : benchScene(sc, o, configs, width, height, threads)) results.push_back(std::move(r));
 
     printTable(results, o.hookCheck, threads);
-    printMarkdown(results, width, height, o.spp, threads, o.runs);
+    printMarkdown(results, width, height, o.spp, threads, o.runs, false);
+    if (std::any_of(results.begin(), results.end(), [](const Result& r) { return !r.skipped && r.busy(); })) {
+      std::printf("\nWARNING: other processes took cores during some timed runs (rows marked busy): their wall-clock\n"
+                  "figures measure the machine's load too. The same table from process CPU time (CPU s / %d threads):\n",
+                  threads);
+      printMarkdown(results, width, height, o.spp, threads, o.runs, true);
+    }
     int checked = 0, skipped = 0, failed = 0;
     for (const Result& r : results) {
       if (r.skipped) {
