@@ -59,7 +59,7 @@
 //   gi                 defaults: vacuum, unlimited depth, Russian roulette
 //   gi-sigma           sigma=1/R (the ambient medium)
 //
-// --hook-check adds a fourth variant: the renderer with a pass-through
+// --hook-check adds one more variant: the renderer with a pass-through
 // recorder (it only traces), which costs the hook's null check plus a
 // virtual call per batch, so it bounds what the null check alone costs.
 //
