@@ -79,7 +79,7 @@ std::string num(double v, int digits = 3) {
 
 // Distinguishable line colours (Okabe-Ito, then a few more).
 const char* kPalette[] = {"#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9",
-                          "#F0E442", "#000000", "#7F3C8D", "#11A579", "#3969AC", "#F2B701"};
+                          "#F0E442", "#8C564B", "#7F3C8D", "#11A579", "#3969AC", "#F2B701"};
 
 // Cells grouped by config, in first-appearance order, each by spp.
 std::vector<std::pair<std::string, std::vector<size_t>>> byConfig(const std::vector<ReportCell>& cells) {

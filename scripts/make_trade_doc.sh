@@ -40,6 +40,7 @@ others=("cornell_box_suzanne|$shared/cornell_box_suzanne/cornell-box.glb"
 scenes=("${documented[@]}")
 if [[ "${1:-}" != doc ]]; then scenes+=("${others[@]}"); fi
 
+mkdir -p "$out"
 for entry in "${scenes[@]}"; do
   name="${entry%%|*}"
   path="${entry#*|}"
