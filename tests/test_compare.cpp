@@ -283,6 +283,12 @@ TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
   for (size_t p = r2.stderrText.find("(kept)"); p != std::string::npos; p = r2.stderrText.find("(kept)", p + 1)) ++reused;
   EXPECT_EQ(reused, kept) << r2.stderrText;
   EXPECT_EQ(rows(), 18u);
+  // The finished run on the default scene wrote the whole report.
+  for (const char* file : {"results.json", "summary.md", "error_vs_time.svg", "contact_sheet.svg", "contact_sheet.png",
+                           "heatmaps/ao.png", "heatmaps/gi.png", "previews/reference.png", "passes/gi@256.exr"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + file)) << file;
+  const auto summary = readBytes(dir + "/out/summary.md");
+  EXPECT_NE(std::string(summary.begin(), summary.end()).find("fastest config reaching it"), std::string::npos);
 }
 
 }  // namespace
