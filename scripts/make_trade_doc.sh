@@ -9,7 +9,8 @@
 #   scripts/make_trade_doc.sh doc        # only the two documented scenes
 #
 # Environment: BUILD_DIR (default build), OUT (default out/trade),
-# RES (320x180), SPP (4,16,64,256), SEEDS (2), REFERENCE_SPP (2048).
+# RES (320x180), SPP (4,16,64,256), SEEDS (2), REFERENCE_SPP (2048),
+# DOC=0 to only run the comparisons (e.g. a quick check at small settings).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -52,6 +53,8 @@ for entry in "${scenes[@]}"; do
   "$build/obscura" compare "$path" -o "$out/$name" --res "$res" --spp "$spp" --seeds "$seeds" \
     --reference-spp "$refspp" "${configs[@]}"
 done
+
+if [[ "${DOC:-1}" == 0 ]]; then exit 0; fi
 
 # docs/trade.md from the two documented scenes.
 mkdir -p docs/trade

@@ -158,7 +158,6 @@ TEST(CompareEndToEnd, CavityRankingFollowsTheClosedForms) {
   const double alpha = 1.0471975511965976, f = 0.25;
   const float a = 0.85f;
   const std::string scene = writeCavityGltf(dir, alpha, a);
-  const double W = f / (1 - a * (1 - f));
   const std::vector<std::string> args = {"compare", scene, "-o", dir + "/out", "--res", "24x24", "--reference-spp", "256",
                                          "--seeds", "2", "--robust", "-q", "-c", "ao", "-c", "multibounce", "-c",
                                          "transfer:rays=4", "-c", "gi"};

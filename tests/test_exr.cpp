@@ -170,7 +170,9 @@ TEST(Exr, CliRendersEveryIntegratorOnEveryScene) {
         const float v = img.planes.at(c)[p];
         ASSERT_TRUE(std::isfinite(v)) << what;
         ASSERT_GE(v, 0.0f) << what;
-        if (bounded) ASSERT_LE(v, A[p]) << what << " channel " << c;
+        if (bounded) {
+          ASSERT_LE(v, A[p]) << what << " channel " << c;
+        }
       }
   }
 }

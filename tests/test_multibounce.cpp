@@ -127,7 +127,9 @@ TEST(MultiBounceIntegrator, OpenPlaneIsOne) {
     const Film film = renderWith(scene, cam, "multibounce", {m, "rays=4"}, passSettings(16, 16, 4));
     for (int y = 0; y < 16; ++y)
       for (int x = 0; x < 16; ++x)
-        if (film.at(kA, x, y) == 1.0f) ASSERT_EQ(film.at(kR, x, y), 1.0f) << m;
+        if (film.at(kA, x, y) == 1.0f) {
+          ASSERT_EQ(film.at(kR, x, y), 1.0f) << m;
+        }
   }
 }
 
