@@ -82,6 +82,21 @@ void loadPlugins(const std::vector<std::string>& paths) {
   for (const auto& p : paths) loadPlugin(p);
 }
 
+LoadOptions sceneOptions(const SceneArgs& a) {
+  LoadOptions o;
+  o.robust = a.robust;
+  if (a.subdiv == "catmull-clark") o.subdivision = true, o.scheme = SubdivisionScheme::CatmullClark;
+  else if (a.subdiv == "loop") o.subdivision = true, o.scheme = SubdivisionScheme::Loop;
+  else if (a.subdiv != "none") throw Error("--subdiv: expected none, catmull-clark or loop, got '" + a.subdiv + "'");
+  if (a.subdivLevel < 0 || a.subdivLevel > 10)
+    throw Error("--subdiv-level: must be in [0, 10], got " + std::to_string(a.subdivLevel));
+  if (!(a.maxMemoryGiB > 0) || !std::isfinite(a.maxMemoryGiB) || a.maxMemoryGiB > 1e6)
+    throw Error("--max-memory: expected a positive number of GiB");
+  o.subdivisionLevel = a.subdivLevel;
+  o.maxMemoryBytes = size_t(a.maxMemoryGiB * double(size_t(1) << 30));
+  return o;
+}
+
 ExrOptions passHeader(const PassInfo& i) {
   ExrOptions exr;
   const auto str = [&](const std::string& k, const std::string& v) { exr.attributes.push_back({k, v}); };

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "core/gltf_loader.h"
 #include "core/image_io.h"
 #include "core/integrator.h"
 #include "core/render.h"
@@ -20,6 +21,16 @@ Vec3 parseSky(const std::string& s);
 // --camera: a name, an index into the file's cameras, "auto", or empty
 // (the first camera, else auto).
 Camera selectCamera(const Scene& scene, const std::string& want, float aspect);
+// How scenes are loaded: the options `render` and `compare` share.
+struct SceneArgs {
+  bool robust = false;
+  std::string subdiv = "none";  // none | catmull-clark | loop (OBJ cages)
+  int subdivLevel = 2;
+  double maxMemoryGiB = 8;
+};
+// Checks them; throws obscura::Error naming the option.
+LoadOptions sceneOptions(const SceneArgs& a);
+
 // OBSCURA_PLUGIN_PATH, then each --plugin.
 void loadPlugins(const std::vector<std::string>& paths);
 

@@ -282,7 +282,7 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
-  std::unique_ptr<Scene> scene = loadGltf(a.scene, LoadOptions{.robust = a.robust});
+  std::unique_ptr<Scene> scene = loadScene(a.scene, sceneOptions(a));
   const Camera camera = selectCamera(*scene, a.camera, float(base.width) / float(base.height));
   std::error_code ec;
   fs::create_directories(dir / "passes", ec);

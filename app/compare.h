@@ -6,9 +6,11 @@
 #include <string>
 #include <vector>
 
+#include "app/cli_common.h"
+
 namespace obscura {
 
-struct CompareArgs {
+struct CompareArgs : SceneArgs {
   std::string scene;
   std::string output;               // DIR
   std::string reference;            // REF.exr, or empty: render (and cache) a gi reference
@@ -23,7 +25,6 @@ struct CompareArgs {
   long long seed = 0;
   std::string sky = "1,1,1";
   bool quiet = false;
-  bool robust = false;
   std::vector<std::string> plugins;
 };
 

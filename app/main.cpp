@@ -26,9 +26,16 @@ using namespace obscura;
 namespace {
 
 std::atomic<bool> gCancel{false};
+
+// Scene-loading options shared by render and compare.
+void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
+  cmd->add_option("--subdiv", a.subdiv, "Subdivide OBJ cages: none, catmull-clark or loop (OpenSubdiv, limit normals)");
+  cmd->add_option("--subdiv-level", a.subdivLevel, "Uniform subdivision level, 0..10 (each level: 4x the faces)");
+  cmd->add_option("--max-memory", a.maxMemoryGiB, "Refuse a subdivision that would need more than this many GiB");
+}
 extern "C" void onSignal(int) { gCancel.store(true); }
 
-struct RenderArgs {
+struct RenderArgs : SceneArgs {
   std::string scene = OBSCURA_DEFAULT_SCENE;
   std::string output;
   std::string integrator = "ao";
@@ -45,7 +52,6 @@ struct RenderArgs {
   bool half = false;
   bool noAovs = false;
   bool quiet = false;
-  bool robust = false;
   std::vector<std::string> plugins;
 };
 
@@ -87,7 +93,7 @@ int runRender(const RenderArgs& a) {
 
   auto integrator = desc.create(params);
   const IntegratorNeeds needs = desc.needs(params);
-  std::unique_ptr<Scene> scene = loadGltf(a.scene, LoadOptions{.robust = a.robust});
+  std::unique_ptr<Scene> scene = loadScene(a.scene, sceneOptions(a));
   const Camera camera = selectCamera(*scene, a.camera, float(s.width) / float(s.height));
 
   std::signal(SIGINT, onSignal);
@@ -128,7 +134,7 @@ int runIntegrators(const std::vector<std::string>& plugins) {
 }
 
 int runInfo(const std::string& path) {
-  std::unique_ptr<Scene> scene = loadGltf(path);
+  std::unique_ptr<Scene> scene = loadScene(path);
   const SceneStats st = scene->stats();
   const Bounds3& b = scene->bounds();
   std::printf("scene      %s\n", path.c_str());
@@ -188,6 +194,7 @@ int main(int argc, char** argv) {
   render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
   render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
+  addSceneOptions(render, r);
 
   CompareArgs cmp;
   cmp.scene = OBSCURA_DEFAULT_SCENE;
@@ -212,6 +219,7 @@ int main(int argc, char** argv) {
   compare->add_option("--sky", cmp.sky, "Sky radiance R,G,B (part of the view: the reference cache key)");
   compare->add_flag("-q,--quiet", cmp.quiet, "No progress (the summary table still goes to stdout)");
   compare->add_flag("--robust", cmp.robust, "Watertight Embree traversal");
+  addSceneOptions(compare, cmp);
   compare->add_option("--plugin", cmp.plugins, "Load an integrator plugin; repeatable");
 
   std::vector<std::string> listPlugins;

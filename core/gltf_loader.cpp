@@ -1,4 +1,5 @@
 #include "core/gltf_loader.h"
+#include "core/obj_loader.h"
 
 #include <tiny_gltf.h>
 
@@ -495,6 +496,13 @@ class Loader {
 
 std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options) {
   return Loader(path, options).load();
+}
+
+std::unique_ptr<Scene> loadScene(const std::string& path, const LoadOptions& options) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".obj") return loadObj(path, options);
+  return loadGltf(path, options);
 }
 
 }  // namespace obscura

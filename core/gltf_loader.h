@@ -13,13 +13,22 @@
 #include <string>
 
 #include "core/scene.h"
+#include "core/subdivision.h"
 
 namespace obscura {
 
 struct LoadOptions {
   bool robust = false;  // Scene::setRobust
+  // Subdivision of polygon cages (OBJ): off by default; the scheme and the
+  // uniform level when on, and the memory a refinement may take.
+  bool subdivision = false;
+  SubdivisionScheme scheme = SubdivisionScheme::CatmullClark;
+  int subdivisionLevel = 2;
+  size_t maxMemoryBytes = size_t(8) << 30;
 };
 
 std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options = {});
+// By extension: .obj (core/obj_loader.h), else glTF.
+std::unique_ptr<Scene> loadScene(const std::string& path, const LoadOptions& options = {});
 
 }  // namespace obscura

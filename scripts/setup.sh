@@ -22,7 +22,7 @@ jobs="${JOBS:-$(nproc)}"
 # --- 1. Debian packages (only the missing ones) -------------------------------
 packages=(build-essential cmake ninja-build pkg-config libembree-dev libopenimageio-dev
   openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev
-  libstb-dev libgtest-dev libcli11-dev)
+  libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev)
 missing=()
 for p in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
