@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "core/error.h"
@@ -449,9 +450,55 @@ class Loader {
         d.indices = std::move(idx);
       }
       if (d.indices.empty()) continue;
+      if (const auto sub = subdivisionOf(meshIndex)) subdividePrimitive(d, *sub, field);
       out.push_back(std::move(d));
     }
     return out;
+  }
+
+  // meshes[i].extras.obscura.subdivision = {"scheme": "catmull-clark"|"loop",
+  // "level": N} (README "Scenes"); none if absent.
+  struct SubdivisionRequest {
+    SubdivisionScheme scheme;
+    int level;
+  };
+  std::optional<SubdivisionRequest> subdivisionOf(int meshIndex) {
+    const tinygltf::Value& extras = model_.meshes[size_t(meshIndex)].extras;
+    if (!extras.IsObject() || !extras.Has("obscura")) return std::nullopt;
+    const std::string field = "meshes[" + std::to_string(meshIndex) + "].extras.obscura";
+    const tinygltf::Value& ob = extras.Get("obscura");
+    if (!ob.IsObject()) fail(field, "must be an object");
+    if (!ob.Has("subdivision")) return std::nullopt;
+    const tinygltf::Value& sub = ob.Get("subdivision");
+    if (!sub.IsObject()) fail(field + ".subdivision", "must be an object");
+    SubdivisionRequest r{SubdivisionScheme::CatmullClark, options_.subdivisionLevel};
+    if (sub.Has("scheme")) {
+      const tinygltf::Value& v = sub.Get("scheme");
+      const std::string name = v.IsString() ? v.Get<std::string>() : "";
+      if (name == "loop") r.scheme = SubdivisionScheme::Loop;
+      else if (name != "catmull-clark") fail(field + ".subdivision.scheme", "expected \"catmull-clark\" or \"loop\"");
+    }
+    if (sub.Has("level")) {
+      const tinygltf::Value& v = sub.Get("level");
+      if (!v.IsInt() || v.Get<int>() < 0 || v.Get<int>() > 10) fail(field + ".subdivision.level", "expected an integer in [0, 10]");
+      r.level = v.Get<int>();
+    }
+    return r;
+  }
+
+  // Replaces a triangle primitive by its subdivision limit surface (object
+  // space; limit normals). Texture coordinates are not carried through yet.
+  void subdividePrimitive(PrimData& d, const SubdivisionRequest& r, const std::string& field) {
+    SubdivisionCage cage;
+    cage.positions = d.positions;
+    cage.faceSizes.assign(d.indices.size() / 3, 3);
+    cage.faceIndices.assign(d.indices.begin(), d.indices.end());
+    if (!d.uvs.empty()) warn(field + ": texture coordinates of a subdivided mesh are not supported yet (texture ignored)");
+    const SubdividedMesh m = subdivide(cage, r.scheme, r.level, options_.maxMemoryBytes, path_ + ": " + field);
+    d.positions = m.positions;
+    d.normals = m.normals;
+    d.indices = m.triangles;
+    d.uvs.clear();
   }
 
   void buildGeometry() {

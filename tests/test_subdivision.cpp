@@ -10,6 +10,8 @@
 #include "core/error.h"
 #include "core/obj_loader.h"
 #include "core/subdivision.h"
+#include "core/gltf_loader.h"
+#include "tests/gltf_builder.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -175,6 +177,44 @@ TEST(Subdivision, SpotCageRendersAndBadObjIsRefused) {
   EXPECT_EQ(bad.exitCode, 1);
   EXPECT_NE(bad.stderrText.find("bad.obj: face 0 repeats vertex 1"), std::string::npos) << bad.stderrText;
   EXPECT_EQ(std::count(bad.stderrText.begin(), bad.stderrText.end(), '\n'), 1) << bad.stderrText;
+}
+
+// glTF meshes flagged with extras.obscura.subdivision are subdivided (the
+// triangle list is the cage); bad flags name the field.
+TEST(Subdivision, GltfExtrasFlagAMeshForSubdivision) {
+  const std::string dir = tempDir("subdiv_gltf");
+  const auto write = [&](const json& sub, const std::string& name) {
+    SubdivisionCage c = cube();
+    std::vector<uint32_t> tris;
+    for (size_t f = 0; f < 6; ++f) {
+      const int* q = &c.faceIndices[f * 4];
+      for (const int k : {0, 1, 2, 0, 2, 3}) tris.push_back(uint32_t(q[k]));
+    }
+    GltfBuilder g;
+    const json prim = {{"attributes", {{"POSITION", g.positions(c.positions)}}}, {"indices", g.indices(tris)}};
+    json mesh = {{"primitives", json::array({prim})}};
+    if (!sub.is_null()) mesh["extras"] = {{"obscura", {{"subdivision", sub}}}};
+    g.push("meshes", mesh);
+    g.scene({g.node({{"mesh", 0}})});
+    return g.writeGltf(dir, name);
+  };
+  const auto plain = loadGltf(write(nullptr, "plain"));
+  EXPECT_EQ(plain->stats().renderedTriangles, 12u);
+  const auto loop = loadGltf(write({{"scheme", "loop"}, {"level", 3}}, "loop"));
+  EXPECT_EQ(loop->stats().renderedTriangles, 12u * 64u);
+  const auto cc = loadGltf(write({{"level", 2}}, "cc"));  // catmull-clark: each triangle -> 3 quads -> x4
+  EXPECT_EQ(cc->stats().renderedTriangles, 12u * 3u * 4u * 2u);
+  for (const auto& [bad, needle] : std::vector<std::pair<json, std::string>>{
+           {{{"level", 11}}, "meshes[0].extras.obscura.subdivision.level: expected an integer in [0, 10]"},
+           {{{"scheme", "butterfly"}}, "meshes[0].extras.obscura.subdivision.scheme"},
+           {json(3), "meshes[0].extras.obscura.subdivision: must be an object"}}) {
+    try {
+      loadGltf(write(bad, "bad"));
+      ADD_FAILURE() << needle;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  }
 }
 
 }  // namespace
