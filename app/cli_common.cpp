@@ -93,6 +93,11 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   if (!(a.maxMemoryGiB > 0) || !std::isfinite(a.maxMemoryGiB) || a.maxMemoryGiB > 1e6)
     throw Error("--max-memory: expected a positive number of GiB");
   o.subdivisionLevel = a.subdivLevel;
+  if (!std::isfinite(a.displaceScale)) throw Error("--displace-scale: must be finite");
+  if (!std::isfinite(a.displaceMidlevel)) throw Error("--displace-midlevel: must be finite");
+  o.displacementMap = a.displace;
+  o.displacementScale = a.displaceScale;
+  o.displacementMidlevel = a.displaceMidlevel;
   o.maxMemoryBytes = size_t(a.maxMemoryGiB * double(size_t(1) << 30));
   return o;
 }

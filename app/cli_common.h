@@ -27,6 +27,8 @@ struct SceneArgs {
   std::string subdiv = "none";  // none | catmull-clark | loop (OBJ cages)
   int subdivLevel = 2;
   double maxMemoryGiB = 8;
+  std::string displace;  // height map
+  double displaceScale = 0.1, displaceMidlevel = 0.5;
 };
 // Checks them; throws obscura::Error naming the option.
 LoadOptions sceneOptions(const SceneArgs& a);

@@ -32,6 +32,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--subdiv", a.subdiv, "Subdivide OBJ cages: none, catmull-clark or loop (OpenSubdiv, limit normals)");
   cmd->add_option("--subdiv-level", a.subdivLevel, "Uniform subdivision level, 0..10 (each level: 4x the faces)");
   cmd->add_option("--max-memory", a.maxMemoryGiB, "Refuse a subdivision that would need more than this many GiB");
+  cmd->add_option("--displace", a.displace, "Height map (PNG/EXR/...) displacing a subdivided OBJ cage along its limit normals");
+  cmd->add_option("--displace-scale", a.displaceScale, "Displacement: scene units per unit of height");
+  cmd->add_option("--displace-midlevel", a.displaceMidlevel, "Displacement: the height that does not move the surface");
 }
 extern "C" void onSignal(int) { gCancel.store(true); }
 

@@ -25,6 +25,11 @@ struct LoadOptions {
   SubdivisionScheme scheme = SubdivisionScheme::CatmullClark;
   int subdivisionLevel = 2;
   size_t maxMemoryBytes = size_t(8) << 30;
+  // Displacement of subdivided OBJ cages: a height map, moved along the
+  // limit normal by scale * (h - midlevel) (scene units).
+  std::string displacementMap;
+  double displacementScale = 0.1;
+  double displacementMidlevel = 0.5;
 };
 
 std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options = {});

@@ -27,11 +27,17 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
   SubdivisionCage cage;
   for (size_t i = 0; i + 2 < attrib.vertices.size(); i += 3)
     cage.positions.emplace_back(attrib.vertices[i], attrib.vertices[i + 1], attrib.vertices[i + 2]);
+  cage.uvs.assign(attrib.texcoords.begin(), attrib.texcoords.end());
+  bool everyCornerHasUv = !cage.uvs.empty();
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     size_t k = 0;
     for (const unsigned char n : shape.mesh.num_face_vertices) {
       cage.faceSizes.push_back(int(n));
-      for (unsigned char j = 0; j < n; ++j) cage.faceIndices.push_back(shape.mesh.indices[k + j].vertex_index);
+      for (unsigned char j = 0; j < n; ++j) {
+        cage.faceIndices.push_back(shape.mesh.indices[k + j].vertex_index);
+        cage.uvIndices.push_back(shape.mesh.indices[k + j].texcoord_index);
+        everyCornerHasUv = everyCornerHasUv && shape.mesh.indices[k + j].texcoord_index >= 0;
+      }
       k += n;
     }
     // Crease tags ("t crease 2/1 a b sharpness").
@@ -44,6 +50,11 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
     }
   }
   if (cage.faceSizes.empty()) throw Error(path + ": no polygon faces");
+  if (!everyCornerHasUv) cage.uvs.clear(), cage.uvIndices.clear();
+  if (!options.displacementMap.empty()) {
+    if (!options.subdivision) throw Error(path + ": displacement (--displace) needs --subdiv");
+    if (!everyCornerHasUv) throw Error(path + ": displacement needs texture coordinates (vt) on every face corner");
+  }
 
   auto scene = std::make_unique<Scene>();
   scene->sourcePath = path;
@@ -51,7 +62,9 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
   scene->sourceMeshes = 1;
   scene->flattenedMeshes = 1;
   if (options.subdivision) {
-    const SubdividedMesh m = subdivide(cage, options.scheme, options.subdivisionLevel, options.maxMemoryBytes, path);
+    SubdividedMesh m = subdivide(cage, options.scheme, options.subdivisionLevel, options.maxMemoryBytes, path);
+    if (!options.displacementMap.empty())  // loaded only when used
+      displace(m, HeightMap(options.displacementMap), options.displacementScale, options.displacementMidlevel);
     scene->addWorldPrimitive(m.positions, m.triangles, m.normals, {}, -1);
   } else {
     // The cage as it is, after the same validation subdivision applies.

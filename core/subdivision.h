@@ -25,6 +25,10 @@ struct SubdivisionCage {
   std::vector<int> faceIndices;
   std::vector<int> creaseEdges;      // 2 per crease
   std::vector<float> creaseWeights;  // 1 per crease
+  // Texture coordinates, optional: uv values (2 floats each) and, parallel
+  // to faceIndices, the value of each face corner (face-varying).
+  std::vector<float> uvs;
+  std::vector<int> uvIndices;
 };
 
 // The refined surface, on the limit: one position and one unit normal per
@@ -33,7 +37,31 @@ struct SubdividedMesh {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;
   std::vector<uint32_t> triangles;
+  // 2 per vertex when the cage has uvs: the limit uv of the vertex's first
+  // face corner (a vertex on a uv seam keeps one side's uv, so that a
+  // displacement moves it once and opens no crack).
+  std::vector<float> uvs;
 };
+
+// A scalar height map read through OpenImageIO (PNG, EXR, TIFF, ...; 8/16-bit
+// or float; the first channel), sampled bilinearly with repeat wrapping,
+// v = 0 at the bottom row (OpenGL / OBJ convention).
+class HeightMap {
+ public:
+  explicit HeightMap(const std::string& path);  // throws obscura::Error naming the file
+  float sample(float u, float v) const;
+  int width() const { return w_; }
+  int height() const { return h_; }
+
+ private:
+  int w_ = 0, h_ = 0;
+  std::vector<float> texels_;
+};
+
+// Moves every vertex along its limit normal by scale * (h(uv) - midlevel),
+// then recomputes the normals from the displaced triangles (area-weighted),
+// so shading follows the displaced surface. Needs mesh.uvs.
+void displace(SubdividedMesh& mesh, const HeightMap& height, double scale, double midlevel);
 
 // Bytes the result of refining `cage` to `level` would take (an estimate
 // from the face count: each level multiplies faces by 4).

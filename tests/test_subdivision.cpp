@@ -1,6 +1,7 @@
 // Subdivision surfaces (core/subdivision.h, core/obj_loader.h) against
 // known limits: the Catmull-Clark limit of a cube's corner, convergence of
 // area and volume, closed surfaces staying closed, and bad cages refused.
+#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -177,6 +178,75 @@ TEST(Subdivision, SpotCageRendersAndBadObjIsRefused) {
   EXPECT_EQ(bad.exitCode, 1);
   EXPECT_NE(bad.stderrText.find("bad.obj: face 0 repeats vertex 1"), std::string::npos) << bad.stderrText;
   EXPECT_EQ(std::count(bad.stderrText.begin(), bad.stderrText.end(), '\n'), 1) << bad.stderrText;
+}
+
+// A height map h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 float texels.
+std::string writeRipples(const std::string& dir) {
+  const int w = 64, h = 4;
+  std::vector<float> px(size_t(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) px[size_t(y) * w + x] = float(0.5 + 0.5 * std::cos(4 * M_PI * (x + 0.5) / w));
+  const std::string path = dir + "/ripples.exr";
+  auto out = OIIO::ImageOutput::create(path);
+  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT)));
+  out->write_image(OIIO::TypeDesc::FLOAT, px.data());
+  out->close();
+  return path;
+}
+
+// Displacement moves each vertex along the limit normal by
+// scale (h(uv) - midlevel): on a flat cage (limit = the plane, normal +z)
+// z equals that at every vertex; the height map is sampled at texel centres
+// with v = 0 at the bottom, so it agrees with the analytic cos(4 pi u) to the
+// bilinear interpolation bound (1/64)^2 / 8 * max|h''| = 0.0024.
+TEST(Subdivision, DisplacementFollowsTheHeightMap) {
+  const std::string dir = tempDir("subdiv_displace");
+  const HeightMap hm(writeRipples(dir));
+  SubdivisionCage plane;
+  const int n = 4;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      plane.positions.emplace_back(float(x) / n, float(y) / n, 0.0f);
+      plane.uvs.insert(plane.uvs.end(), {float(x) / n, float(y) / n});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int a = y * (n + 1) + x;
+      for (const int i : {a, a + 1, a + n + 2, a + n + 1}) plane.faceIndices.push_back(i), plane.uvIndices.push_back(i);
+      plane.faceSizes.push_back(4);
+    }
+  SubdividedMesh m = subdivide(plane, SubdivisionScheme::CatmullClark, 4, kBudget, "plane");
+  ASSERT_EQ(m.uvs.size(), m.positions.size() * 2);
+  const std::vector<Vec3> before = m.positions;
+  displace(m, hm, 0.2, 0.5);
+  for (size_t i = 0; i < m.positions.size(); ++i) {
+    const float u = m.uvs[2 * i], v = m.uvs[2 * i + 1];
+    ASSERT_NEAR(u, before[i].x, 1e-6);  // the uv of a plane with uv = xy is xy
+    ASSERT_NEAR(v, before[i].y, 1e-6);
+    ASSERT_NEAR(m.positions[i].z, 0.2 * (hm.sample(u, v) - 0.5), 1e-6) << i;
+    EXPECT_NEAR(hm.sample(u, v), 0.5 + 0.5 * std::cos(4 * M_PI * u), 0.0025) << "u " << u;
+    EXPECT_GT(m.normals[i].z, 0.0f);
+  }
+}
+
+// A cube cage whose faces each have their own uvs (seams on every edge),
+// displaced: every vertex moves once, so no crack opens - from inside, AO is 0.
+TEST(Subdivision, DisplacedCageHasNoCracks) {
+  const std::string dir = tempDir("subdiv_cracks");
+  const HeightMap hm(writeRipples(dir));
+  SubdivisionCage c = cube();
+  c.uvs = {0, 0, 1, 0, 1, 1, 0, 1};
+  for (size_t f = 0; f < 6; ++f) c.uvIndices.insert(c.uvIndices.end(), {0, 1, 2, 3});
+  SubdividedMesh m = subdivide(c, SubdivisionScheme::CatmullClark, 4, kBudget, "cube");
+  displace(m, hm, 0.15, 0.5);
+  Scene scene;
+  scene.addWorldPrimitive(m.positions, m.triangles, m.normals, {}, -1);
+  scene.setRobust(true);
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(0.1f, -0.05f, 0.02f), Vec3(1, 0.3f, 0.2f), Vec3(0, 0, 1), 2.5f, "inside");
+  const Film f = renderWith(scene, cam, "ao", {"rays=8"}, passSettings(16, 16, 16));
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) ASSERT_EQ(f.at(kR, x, y), 0.0f);
 }
 
 // glTF meshes flagged with extras.obscura.subdivision are subdivided (the
