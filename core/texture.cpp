@@ -55,11 +55,10 @@ void Texture::decode() const {
         decodeError_ = stbi_failure_reason() ? stbi_failure_reason() : "decode failed";
         return;
       }
-      float table[256];
-      for (int i = 0; i < 256; ++i) table[i] = srgb_ ? srgbToLinear(i / 255.0f) : i / 255.0f;
-      texels_.resize(size_t(w) * size_t(h));
-      for (size_t i = 0; i < texels_.size(); ++i)
-        texels_[i] = Vec3(table[data[3 * i]], table[data[3 * i + 1]], table[data[3 * i + 2]]);
+      for (int i = 0; i < 256; ++i) lut_[i] = srgb_ ? srgbToLinear(i / 255.0f) : i / 255.0f;
+      bytes_.resize(size_t(w) * size_t(h));
+      for (size_t i = 0; i < bytes_.size(); ++i)
+        bytes_[i] = uint32_t(data[3 * i]) | uint32_t(data[3 * i + 1]) << 8 | uint32_t(data[3 * i + 2]) << 16;
       stbi_image_free(data);
     }
     width_ = w;
@@ -72,22 +71,27 @@ void Texture::decode() const {
 }
 
 namespace {
-// Integer texel index after applying a wrap mode (glTF 2.0 sampler semantics).
-inline int wrapIndex(int i, int n, WrapMode mode) {
-  switch (mode) {
-    case WrapMode::ClampToEdge:
-      return std::clamp(i, 0, n - 1);
-    case WrapMode::MirroredRepeat: {
-      const int period = 2 * n;
-      int m = i % period;
-      if (m < 0) m += period;
-      return m < n ? m : period - 1 - m;
-    }
-    case WrapMode::Repeat:
-    default: {
-      int m = i % n;
-      return m < 0 ? m + n : m;
-    }
+// The two texel indices a bilinear lookup reads along one axis: floor f and
+// f + 1 after the wrap mode (glTF 2.0 sampler semantics). f is an integer
+// held in a double (any magnitude); the repeat modes reduce it exactly, by
+// an integer remainder when it fits an int, else by fmod.
+inline void wrapPair(double f, int n, WrapMode mode, int& i0, int& i1) {
+  if (mode == WrapMode::ClampToEdge) {
+    const int i = int(std::clamp(f, -1.0, double(n)));
+    i0 = std::clamp(i, 0, n - 1);
+    i1 = std::clamp(i + 1, 0, n - 1);
+    return;
+  }
+  const int period = mode == WrapMode::MirroredRepeat ? 2 * n : n;
+  int m = std::abs(f) < 0x1p31 ? int(f) % period : int(std::fmod(f, double(period)));
+  if (m < 0) m += period;
+  const int m1 = m + 1 == period ? 0 : m + 1;
+  if (mode == WrapMode::MirroredRepeat) {
+    i0 = m < n ? m : period - 1 - m;
+    i1 = m1 < n ? m1 : period - 1 - m1;
+  } else {
+    i0 = m;
+    i1 = m1;
   }
 }
 }  // namespace
@@ -99,16 +103,9 @@ Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
   const double x = double(u) * width_ - 0.5, y = double(v) * height_ - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);
   const float tx = float(x - fx), ty = float(y - fy);
-  // Bring the integer coordinate into int range without changing what the
-  // wrap mode makes of it: clamp for ClampToEdge, residue modulo 2n (a period
-  // of both repeat modes) otherwise.
-  const auto reduce = [](double f, int n, WrapMode mode) {
-    if (mode == WrapMode::ClampToEdge) return int(std::clamp(f, -1.0, double(n)));
-    return int(std::fmod(f, 2.0 * n));
-  };
-  const int ix = reduce(fx, width_, wrapS), iy = reduce(fy, height_, wrapT);
-  const int x0 = wrapIndex(ix, width_, wrapS), x1 = wrapIndex(ix + 1, width_, wrapS);
-  const int y0 = wrapIndex(iy, height_, wrapT), y1 = wrapIndex(iy + 1, height_, wrapT);
+  int x0, x1, y0, y1;
+  wrapPair(fx, width_, wrapS, x0, x1);
+  wrapPair(fy, height_, wrapT, y0, y1);
   const Vec3 a = texel(x0, y0) * (1 - tx) + texel(x1, y0) * tx;
   const Vec3 b = texel(x0, y1) * (1 - tx) + texel(x1, y1) * tx;
   return a * (1 - ty) + b * ty;

@@ -33,12 +33,25 @@ class Texture {
   const std::string& source() const { return source_; }
 
  private:
-  Vec3 texel(int x, int y) const { return texels_[size_t(y) * size_t(width_) + size_t(x)]; }
+  // 8-bit images keep their bytes (RGB in the low 24 bits of a word) and the
+  // 256-entry table they decode through: the same floats as a float texel
+  // array, at a third of the memory (fewer cache misses for scattered
+  // lookups). 16-bit images keep float texels.
+  Vec3 texel(int x, int y) const {
+    const size_t i = size_t(y) * size_t(width_) + size_t(x);
+    if (texels_.empty()) {
+      const uint32_t c = bytes_[i];
+      return Vec3(lut_[c & 0xff], lut_[(c >> 8) & 0xff], lut_[(c >> 16) & 0xff]);
+    }
+    return texels_[i];
+  }
   mutable std::vector<unsigned char> encoded_;  // released after decoding
   std::string source_;
   bool srgb_;
   mutable std::once_flag once_;
-  mutable std::vector<Vec3> texels_;
+  mutable std::vector<Vec3> texels_;     // 16-bit images
+  mutable std::vector<uint32_t> bytes_;  // 8-bit images
+  mutable float lut_[256] = {};
   mutable int width_ = 0, height_ = 0;
   mutable std::string decodeError_;
   mutable std::atomic<bool> decodeAttempted_{false};
