@@ -30,7 +30,7 @@ inline uint32_t hashCombine(uint32_t seed, uint32_t v) {
   return mixBits32(seed ^ (v + 0x9e3779b9U + (seed << 6) + (seed >> 2)));
 }
 
-inline uint32_t reverseBits32(uint32_t x) {
+constexpr uint32_t reverseBits32(uint32_t x) {
   x = ((x >> 1) & 0x55555555U) | ((x & 0x55555555U) << 1);
   x = ((x >> 2) & 0x33333333U) | ((x & 0x33333333U) << 2);
   x = ((x >> 4) & 0x0f0f0f0fU) | ((x & 0x0f0f0f0fU) << 4);
@@ -85,6 +85,33 @@ inline uint32_t sobol1(uint32_t i) {
          detail::kSobol1.t[2][(i >> 16) & 0xff] ^ detail::kSobol1.t[3][i >> 24];
 }
 
+// reverseBits32(sobol1(i)): bit reversal is linear over XOR, so it is the
+// same table product with reversed columns.
+namespace detail {
+struct Sobol1ReversedTables {
+  uint32_t t[4][256];
+  constexpr Sobol1ReversedTables() : t{} {
+    for (int b = 0; b < 4; ++b)
+      for (int x = 0; x < 256; ++x) t[b][x] = reverseBits32(kSobol1.t[b][x]);
+  }
+};
+inline constexpr Sobol1ReversedTables kSobol1Reversed{};
+}  // namespace detail
+
+inline uint32_t sobol1Reversed(uint32_t i) {
+  return detail::kSobol1Reversed.t[0][i & 0xff] ^ detail::kSobol1Reversed.t[1][(i >> 8) & 0xff] ^
+         detail::kSobol1Reversed.t[2][(i >> 16) & 0xff] ^ detail::kSobol1Reversed.t[3][i >> 24];
+}
+
+// reverseBits32 of both halves of a 64-bit word at once.
+inline uint64_t reverseBits32x2(uint64_t x) {
+  x = ((x >> 1) & 0x5555555555555555ULL) | ((x & 0x5555555555555555ULL) << 1);
+  x = ((x >> 2) & 0x3333333333333333ULL) | ((x & 0x3333333333333333ULL) << 2);
+  x = ((x >> 4) & 0x0f0f0f0f0f0f0f0fULL) | ((x & 0x0f0f0f0f0f0f0f0fULL) << 4);
+  x = ((x >> 8) & 0x00ff00ff00ff00ffULL) | ((x & 0x00ff00ff00ff00ffULL) << 8);
+  return ((x >> 16) & 0x0000ffff0000ffffULL) | ((x & 0x0000ffff0000ffffULL) << 16);
+}
+
 // Map 32 random bits to [0,1): 24 high bits, exact in float, never 1.
 inline float bitsToUnitFloat(uint32_t x) { return float(x >> 8) * 0x1p-24f; }
 
@@ -103,18 +130,24 @@ class Sampler {
   }
 
   // The 2D sample `index` of dimension pair `dim` of the pixel with `key`.
+  //   x = nestedUniformScramble(sobol0(i), sx), y = nestedUniformScramble(sobol1(i), sy)
+  // computed with fewer bit reversals (the same bits): sobol0 is a reversal,
+  // so the scramble of it is reverse(LK(i, sx)); reverse(sobol1(i)) comes
+  // from reversed tables; the last two reversals are done as one 64-bit one.
   static Sample2 get2D(uint32_t key, uint32_t index, uint32_t dim) {
     const uint32_t s = hashCombine(key, dim);
     const uint32_t i = nestedUniformScramble(index, s);
-    const uint32_t x = nestedUniformScramble(sobol0(i), hashCombine(s, 0xa511e9b3U));
-    const uint32_t y = nestedUniformScramble(sobol1(i), hashCombine(s, 0x63d83595U));
-    return {bitsToUnitFloat(x), bitsToUnitFloat(y)};
+    const uint32_t px = laineKarrasPermutation(i, hashCombine(s, 0xa511e9b3U));
+    const uint32_t py = laineKarrasPermutation(sobol1Reversed(i), hashCombine(s, 0x63d83595U));
+    const uint64_t xy = reverseBits32x2(uint64_t(px) | uint64_t(py) << 32);
+    return {bitsToUnitFloat(uint32_t(xy)), bitsToUnitFloat(uint32_t(xy >> 32))};
   }
 
+  // nestedUniformScramble(sobol0(i), seed) = reverse(LK(i, seed)), as above.
   static float get1D(uint32_t key, uint32_t index, uint32_t dim) {
     const uint32_t s = hashCombine(key, dim ^ 0x80000000U);
     const uint32_t i = nestedUniformScramble(index, s);
-    return bitsToUnitFloat(nestedUniformScramble(sobol0(i), hashCombine(s, 0x2c1b3c6dU)));
+    return bitsToUnitFloat(reverseBits32(laineKarrasPermutation(i, hashCombine(s, 0x2c1b3c6dU))));
   }
 
  private:
