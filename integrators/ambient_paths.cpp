@@ -18,12 +18,13 @@ struct PathState {
   Rgb sum;           // S = Sum throughput * mu
   Rgb absorbed;      // A = Sum throughput * (1 - mu) * (1 - a)  (tail=closed only)
   uint32_t owner;    // index of the camera hit
+  bool self;         // this bounce's direction is below x's geometric plane
 };
 
 // Per-thread storage that keeps its memory between batches: the hot loop
 // allocates nothing once warm.
 struct Scratch {
-  std::vector<PathState> paths, next;
+  std::vector<PathState> paths;
   std::vector<Rgb> num, den;  // per camera hit
 };
 thread_local Scratch tlsScratch;
@@ -73,23 +74,25 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
     const bool last = bounce >= std::min(depth, kMaxBounces);
     const uint32_t dim = kFirstIntegratorDim + 4 * bounce;
     IntersectBatch& batch = ctx.intersectBatch(s.paths.size());
-    for (const PathState& p : s.paths) {
+    for (PathState& p : s.paths) {
       const Sample2 u = Sampler::get2D(p.x.pixelKey, p.x.sampleIndex, dim);
       const Vec3 w = Frame::fromNormal(p.x.ns).toWorld(squareToCosineHemisphere(u.u, u.v));
       float tfar = mu.tfar();
       if (estimator == Estimator::Occlusion && !mu.zeroRadius())
         tfar = mu.segment(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 1));
-      if (tfar > 0.0f && !intoSurface(p.x, w))
+      p.self = intoSurface(p.x, w);
+      if (tfar > 0.0f && !p.self)
         batch.push(spawnOrigin(p.x, w), w, 0.0f, tfar);
       else  // blocked by the surface itself, or an empty segment: not traced
         batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f);
     }
     ctx.trace(batch);
 
-    s.next.clear();
+    // Paths that go on are compacted to the front, in order.
+    size_t kept = 0;
     for (size_t r = 0; r < s.paths.size(); ++r) {
       PathState& p = s.paths[r];
-      const bool self = intoSurface(p.x, batch.dir(r));
+      const bool self = p.self;
       // mu of this segment: the surface itself (d = 0) gives 0; a miss
       // (escape, beyond R, open segment, inactive ray) gives 1.
       double m = 0.0;
@@ -133,9 +136,10 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
         }
         for (double& t : p.throughput.c) t /= q;
       }
-      s.next.push_back(p);
+      if (kept != r) s.paths[kept] = p;
+      ++kept;
     }
-    std::swap(s.paths, s.next);
+    s.paths.resize(kept);
   }
 
   // Per camera sample: the means over its paths. Without roulette every
