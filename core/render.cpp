@@ -89,13 +89,14 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     // pixel's sampler key is hashed once per pixel.
     uint32_t pix = 0, si = 0;
     uint32_t key = sampler.pixelKey(uint32_t(x0), uint32_t(y0));
+    Sampler::Seeds2 filterSeeds = Sampler::seeds2D(key, kDimPixelFilter);
     int px = x0, py = y0;
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
       IntersectBatch& cam = ts.camera;
       cam.clear();
       for (size_t l = 0; l < n; ++l) {
-        const Sample2 f = Sampler::get2D(key, si, kDimPixelFilter);
+        const Sample2 f = Sampler::get2D(filterSeeds, si);
         float ox, oy;
         if (s.filter == PixelFilter::Box) {
           ox = f.u;
@@ -113,6 +114,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
           ++pix;
           if (++px == x0 + tw) px = x0, ++py;
           key = sampler.pixelKey(uint32_t(px), uint32_t(py));
+          filterSeeds = Sampler::seeds2D(key, kDimPixelFilter);
         }
       }
       tracer.intersect(cam, RayCoherence::Coherent);

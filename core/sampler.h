@@ -134,11 +134,22 @@ class Sampler {
   // computed with fewer bit reversals (the same bits): sobol0 is a reversal,
   // so the scramble of it is reverse(LK(i, sx)); reverse(sobol1(i)) comes
   // from reversed tables; the last two reversals are done as one 64-bit one.
-  static Sample2 get2D(uint32_t key, uint32_t index, uint32_t dim) {
+  static Sample2 get2D(uint32_t key, uint32_t index, uint32_t dim) { return get2D(seeds2D(key, dim), index); }
+
+  // The scramble seeds of dimension pair `dim` of the pixel with `key`: what
+  // all of that pixel's samples of the pair share (hashed once per pixel by
+  // a caller that draws many of them).
+  struct Seeds2 {
+    uint32_t index, x, y;
+  };
+  static Seeds2 seeds2D(uint32_t key, uint32_t dim) {
     const uint32_t s = hashCombine(key, dim);
-    const uint32_t i = nestedUniformScramble(index, s);
-    const uint32_t px = laineKarrasPermutation(i, hashCombine(s, 0xa511e9b3U));
-    const uint32_t py = laineKarrasPermutation(sobol1Reversed(i), hashCombine(s, 0x63d83595U));
+    return {s, hashCombine(s, 0xa511e9b3U), hashCombine(s, 0x63d83595U)};
+  }
+  static Sample2 get2D(const Seeds2& s, uint32_t index) {
+    const uint32_t i = nestedUniformScramble(index, s.index);
+    const uint32_t px = laineKarrasPermutation(i, s.x);
+    const uint32_t py = laineKarrasPermutation(sobol1Reversed(i), s.y);
     const uint64_t xy = reverseBits32x2(uint64_t(px) | uint64_t(py) << 32);
     return {bitsToUnitFloat(uint32_t(xy)), bitsToUnitFloat(uint32_t(xy >> 32))};
   }
