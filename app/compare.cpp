@@ -178,23 +178,6 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
   return cells;
 }
 
-// Writes text atomically (temporary sibling, then rename).
-void writeTextFile(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path + ": cannot write");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error(path + ": cannot write: " + ec.message());
-}
 
 // A pass image as a film (for the EXR writer): RGBA only.
 Film filmFromPass(const PassImage& p) {
@@ -389,7 +372,7 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
   const auto save = [&] {
     std::string csv = std::string(kCsvHeader) + "\n";
     for (const Cell& c : cells) csv += csvRow(c) + "\n";
-    writeTextFile(csvPath, csv);
+    writeTextAtomically(csvPath, csv);
   };
   const size_t total = configs.size() * spps.size();
   size_t done = 0;

@@ -14,6 +14,18 @@
 namespace obscura {
 namespace fs = std::filesystem;
 
+void writeTextAtomically(const fs::path& path, const std::string& text) {
+  const fs::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    if (!out) throw Error(path.string() + ": cannot write");
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw Error(path.string() + ": cannot write: " + ec.message());
+}
+
 std::string safeFileName(const std::string& s) {
   std::string out;
   for (const char c : s)
@@ -47,17 +59,6 @@ std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, doub
 
 namespace {
 
-void writeText(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out) throw Error(path.string() + ": cannot write");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error(path.string() + ": cannot write: " + ec.message());
-}
 
 std::string xmlEscape(const std::string& s) {
   std::string o;
@@ -300,7 +301,7 @@ void writeCompareReport(const CompareReport& r) {
         << "</text><text x=\"" << x << "\" y=\"" << y + h + 28 << "\" fill=\"#555\">" << xmlEscape(line2) << "</text>\n";
     }
     s << "</svg>\n";
-    writeText(dir / "contact_sheet.svg", s.str());
+    writeTextAtomically(dir / "contact_sheet.svg", s.str());
     // The same grid as one PNG (without the labels; their order is the
     // SVG's and results.json's "contactSheet").
     const int W = cols * (w + 4) + 4, H = rows * (h + 4) + 4;
@@ -317,7 +318,7 @@ void writeCompareReport(const CompareReport& r) {
     writePngRgb8((dir / "contact_sheet.png").string(), W, H, px.data());
   }
 
-  writeText(dir / "error_vs_time.svg", errorVersusTimeSvg(r));
+  writeTextAtomically(dir / "error_vs_time.svg", errorVersusTimeSvg(r));
 
   nlohmann::json j;
   j["scene"] = r.scene;
@@ -352,10 +353,10 @@ void writeCompareReport(const CompareReport& r) {
     j["targets"].push_back(e);
   }
   j["heatmapScale"] = scale;
-  writeText(dir / "summary.md", summaryMarkdown(r));
+  writeTextAtomically(dir / "summary.md", summaryMarkdown(r));
   j["contactSheet"] = nlohmann::json::array({"reference"});
   for (const auto& [i, img] : finest) j["contactSheet"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
-  writeText(dir / "results.json", j.dump(2) + "\n");
+  writeTextAtomically(dir / "results.json", j.dump(2) + "\n");
 }
 
 void printCompareSummary(const CompareReport& r, FILE* out) {

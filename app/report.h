@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,6 +38,10 @@ struct CompareReport {
 std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells);
 // For an RMSE target, the fastest cell that reaches it, if any.
 std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target);
+
+// Writes text to a temporary sibling, then renames it over path: readers
+// never see half a file. Throws obscura::Error naming the path.
+void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 
 // A name safe in a file name: [A-Za-z0-9.=-] kept, the rest '_'.
 std::string safeFileName(const std::string& s);

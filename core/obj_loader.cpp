@@ -68,7 +68,7 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
     scene->addWorldPrimitive(m.positions, m.triangles, m.normals, {}, -1);
   } else {
     // The cage as it is, after the same validation subdivision applies.
-    (void)subdivide(cage, SubdivisionScheme::CatmullClark, 0, options.maxMemoryBytes, path);
+    validateCage(cage, SubdivisionScheme::CatmullClark, path);
     std::vector<uint32_t> tris;
     size_t k = 0;
     for (const int n : cage.faceSizes) {

@@ -29,7 +29,9 @@ struct OsdPoint {
   }
 };
 
-void validate(const SubdivisionCage& c, SubdivisionScheme scheme, const std::string& what) {
+}  // namespace
+
+void validateCage(const SubdivisionCage& c, SubdivisionScheme scheme, const std::string& what) {
   const size_t nv = c.positions.size();
   for (size_t i = 0; i < nv; ++i) {
     const Vec3& p = c.positions[i];
@@ -66,7 +68,6 @@ void validate(const SubdivisionCage& c, SubdivisionScheme scheme, const std::str
     if (i < 0 || size_t(i) >= nv) throw Error(what + ": a crease refers to vertex " + std::to_string(i));
 }
 
-}  // namespace
 
 size_t subdividedBytes(const SubdivisionCage& cage, int level) {
   // Each face becomes n quads at level 1 (Catmull-Clark) or 4 triangles
@@ -83,7 +84,7 @@ size_t subdividedBytes(const SubdivisionCage& cage, int level) {
 SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, int level, size_t maxBytes,
                          const std::string& what) {
   if (level < 0 || level > 10) throw Error(what + ": subdivision level " + std::to_string(level) + " is outside [0, 10]");
-  validate(cage, scheme, what);
+  validateCage(cage, scheme, what);
   const size_t bytes = subdividedBytes(cage, level);
   if (bytes > maxBytes)
     throw Error(what + ": subdivision level " + std::to_string(level) + " needs about " +

@@ -63,6 +63,9 @@ class HeightMap {
 // so shading follows the displaced surface. Needs mesh.uvs.
 void displace(SubdividedMesh& mesh, const HeightMap& height, double scale, double midlevel);
 
+// Throws obscura::Error, naming `what`, for a malformed cage (see subdivide).
+void validateCage(const SubdivisionCage& cage, SubdivisionScheme scheme, const std::string& what);
+
 // Bytes the result of refining `cage` to `level` would take (an estimate
 // from the face count: each level multiplies faces by 4).
 size_t subdividedBytes(const SubdivisionCage& cage, int level);
