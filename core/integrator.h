@@ -87,7 +87,7 @@ class IntegratorContext {
   // evaluates the material, which needs IntegratorNeeds::albedo.
   void surfaceAt(const IntersectBatch& b, size_t i, bool albedo, uint32_t pixelKey, uint32_t sampleIndex,
                  SurfaceHit& out) const {
-    computeSurfaceHit(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i), b.t(i), b.dir(i), albedo, out);
+    computeSurfaceHit(scene_, b.data()[i], albedo, out);
     out.pixelKey = pixelKey;
     out.sampleIndex = sampleIndex;
   }
@@ -95,6 +95,8 @@ class IntegratorContext {
   Vec3 albedoAt(const IntersectBatch& b, size_t i) const {
     return surfaceAlbedo(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i));
   }
+  // The texture parametrization at a hit (see surfaceUvFrame).
+  bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
   RayCounters counters;
 
  private:

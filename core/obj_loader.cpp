@@ -65,7 +65,7 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
     SubdividedMesh m = subdivide(cage, options.scheme, options.subdivisionLevel, options.maxMemoryBytes, path);
     if (!options.displacementMap.empty())  // loaded only when used
       displace(m, HeightMap(options.displacementMap), options.displacementScale, options.displacementMidlevel);
-    scene->addWorldPrimitive(m.positions, m.triangles, m.normals, {}, -1);
+    scene->addWorldPrimitive(m.positions, m.triangles, m.normals, std::move(m.uvs), -1);
   } else {
     // The cage as it is, after the same validation subdivision applies.
     validateCage(cage, SubdivisionScheme::CatmullClark, path);

@@ -128,8 +128,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
         }
         ts.laneHit[l] = int32_t(ts.hits.size());
         SurfaceHit& h = ts.hits.emplace_back();
-        computeSurfaceHit(scene, cam.geomID(l), cam.primID(l), cam.instID(l), cam.u(l), cam.v(l), cam.t(l),
-                          cam.dir(l), wantAlbedo, h);
+        computeSurfaceHit(scene, cam.data()[l], wantAlbedo, h);
         h.pixelKey = ts.laneKey[l];
         h.sampleIndex = ts.laneSample[l];
       }

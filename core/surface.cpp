@@ -49,6 +49,8 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   const float w = 1.0f - u - v;
   out.p = v0 * w + v1 * u + v2 * v;
   out.t = t;
+  out.geomID = geomID, out.primID = primID, out.instID = instID;
+  out.hitU = u, out.hitV = v;
 
   // Offset scale from the magnitudes that bound the hit point's error.
   const auto absMax = [](Vec3 a) { return std::max(std::abs(a.x), std::max(std::abs(a.y), std::abs(a.z))); };
@@ -77,6 +79,39 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   out.ns = ns;
 
   if (albedo) out.albedo = primitiveAlbedo(scene, prim, tri, u, v);
+}
+
+void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, SurfaceHit& out) {
+  computeSurfaceHit(scene, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar,
+                    Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), albedo, out);
+}
+
+bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
+  const Affine* toWorld = nullptr;
+  const Primitive& prim = scene.primitiveOf(h.geomID, h.instID, &toWorld);
+  if (prim.uvs.empty() || !prim.indices) return false;
+  const uint32_t* tri = prim.indices + size_t(h.primID) * 3;
+  const auto vertex = [&](int k) {
+    const float* q = prim.positions + size_t(tri[k]) * 3;
+    const Vec3 p(q[0], q[1], q[2]);
+    return toWorld ? toWorld->point(p) : p;
+  };
+  const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
+  const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
+  const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
+  const float w = 1.0f - h.hitU - h.hitV;
+  out.u = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV;
+  out.v = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  // Solve [dp1 dp2] = [dpdu dpdv] [duv1 duv2] for the two derivatives.
+  const Vec3 p0 = vertex(0), dp1 = vertex(1) - p0, dp2 = vertex(2) - p0;
+  const double du1 = double(t1[0]) - t0[0], dv1 = double(t1[1]) - t0[1];
+  const double du2 = double(t2[0]) - t0[0], dv2 = double(t2[1]) - t0[1];
+  const double det = du1 * dv2 - dv1 * du2;
+  if (!(std::abs(det) > 1e-20) || !std::isfinite(det)) return false;
+  const float inv = float(1.0 / det);
+  out.dpdu = (dp1 * float(dv2) - dp2 * float(dv1)) * inv;
+  out.dpdv = (dp2 * float(du1) - dp1 * float(du2)) * inv;
+  return isFinite(out.dpdu) && isFinite(out.dpdv);
 }
 
 }  // namespace obscura

@@ -20,7 +20,24 @@ struct SurfaceHit {
   float t;       // distance along the incoming ray
   uint32_t pixelKey;     // Sampler key of the pixel
   uint32_t sampleIndex;  // the camera sample's index within its pixel
+  // Where on the scene: Embree's ids and the primitive-local coordinates
+  // (triangle barycentrics, or a subdivision face's patch u, v), for the
+  // lookups few integrators need (surfaceUvFrame).
+  uint32_t geomID, primID, instID;
+  float hitU, hitV;
 };
+
+// The surface's texture parametrization at a hit: uv, and the world-space
+// derivatives dP/du, dP/dv of the (undisplaced) surface that carries it.
+struct UvFrame {
+  float u, v;
+  Vec3 dpdu, dpdv;
+};
+
+// Fills `out` for h when its primitive has texture coordinates and they are
+// not degenerate there; false otherwise. dP/du, dP/dv are constant over a
+// triangle (the linear map taking uv differences to edge vectors).
+bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out);
 
 // Fills `out` (all but pixelKey/sampleIndex) from an Embree hit.
 //   dir     : the incoming ray's direction (any length)
@@ -28,6 +45,9 @@ struct SurfaceHit {
 //   albedo  : also evaluate the material (decodes textures on first use)
 void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID,
                        float u, float v, float t, Vec3 dir, bool albedo, SurfaceHit& out);
+// The same from a traced RTCRayHit, for every kind of primitive (triangle
+// lists and Embree subdivision surfaces, whose hit point is the ray's).
+void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, SurfaceHit& out);
 
 // The material albedo at barycentrics (u, v) of a hit (decodes textures on
 // first use): what computeSurfaceHit(albedo = true) stores, alone.

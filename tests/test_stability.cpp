@@ -143,7 +143,7 @@ TEST(Stability, WhiteCreaseIsAWhiteFurnaceAtEveryScale) {
     scene.commit();
     const Camera cam = makeLookAtCamera(Vec3(6 * s, -5 * s, 4 * s), Vec3(2 * s, 0, 1 * s), Vec3(0, 0, 1), 0.9f, "crease");
     const int w = 32, h = 24;
-    for (const std::vector<std::string> p : {std::vector<std::string>{"depth=0"}, {"depth=3"},
+    for (const std::vector<std::string>& p : {std::vector<std::string>{"depth=0"}, {"depth=3"},
                                               {"falloff=exponential", "sigma=1e-30"},
                                               {"falloff=exponential", "sigma=1e30", "estimator=occlusion"}}) {
       const Film f = renderWith(scene, cam, "transfer", p, passSettings(w, h, 8));
