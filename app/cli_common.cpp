@@ -93,6 +93,13 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   if (!(a.maxMemoryGiB > 0) || !std::isfinite(a.maxMemoryGiB) || a.maxMemoryGiB > 1e6)
     throw Error("--max-memory: expected a positive number of GiB");
   o.subdivisionLevel = a.subdivLevel;
+  if (a.subdivBackend == "osd") o.backend = SubdivisionBackend::OpenSubdiv;
+  else if (a.subdivBackend == "embree") o.backend = SubdivisionBackend::Embree;
+  else throw Error("--subdiv-backend: expected osd or embree, got '" + a.subdivBackend + "'");
+  if (!(a.subdivEdge >= 0) || !std::isfinite(a.subdivEdge))
+    throw Error("--subdiv-edge: expected a non-negative number of pixels");
+  if (a.subdivEdge > 0 && a.subdivEdge < 0.05) throw Error("--subdiv-edge: below 0.05 pixels (use a larger value)");
+  o.maxEdgePixels = a.subdivEdge;
   if (!std::isfinite(a.displaceScale)) throw Error("--displace-scale: must be finite");
   if (!std::isfinite(a.displaceMidlevel)) throw Error("--displace-midlevel: must be finite");
   o.displacementMap = a.displace;
@@ -100,6 +107,25 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   o.displacementMidlevel = a.displaceMidlevel;
   o.maxMemoryBytes = size_t(a.maxMemoryGiB * double(size_t(1) << 30));
   return o;
+}
+
+std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string& path, const std::string& want, int width,
+                                          int height, Camera& camera) {
+  LoadOptions o = sceneOptions(a);
+  const float aspect = float(width) / float(height);
+  if (o.maxEdgePixels > 0) {
+    LoadOptions probe = o;
+    probe.subdivision = false;
+    probe.subdivisionLevel = 0;
+    probe.maxEdgePixels = 0;
+    probe.displacementMap.clear();
+    probe.backend = SubdivisionBackend::OpenSubdiv;
+    o.camera = selectCamera(*loadScene(path, probe), want, aspect);
+    o.imageWidth = width, o.imageHeight = height;
+  }
+  std::unique_ptr<Scene> scene = loadScene(path, o);
+  camera = o.camera ? *o.camera : selectCamera(*scene, want, aspect);
+  return scene;
 }
 
 ExrOptions passHeader(const PassInfo& i) {

@@ -2,6 +2,7 @@
 // options, camera selection, plugin loading and the EXR header of a pass.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,13 +26,21 @@ Camera selectCamera(const Scene& scene, const std::string& want, float aspect);
 struct SceneArgs {
   bool robust = false;
   std::string subdiv = "none";  // none | catmull-clark | loop (OBJ cages)
+  std::string subdivBackend = "osd";  // osd | embree
   int subdivLevel = 2;
+  double subdivEdge = 0;  // > 0: adaptive, max edge length in pixels
   double maxMemoryGiB = 8;
   std::string displace;  // height map
   double displaceScale = 0.1, displaceMidlevel = 0.5;
 };
 // Checks them; throws obscura::Error naming the option.
 LoadOptions sceneOptions(const SceneArgs& a);
+
+// Loads `path` and selects its camera (--camera `want`) for a width x height
+// image. Adaptive subdivision measures edges from that camera, so then the
+// scene is first read with its cages unrefined (cheap) to find the camera.
+std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string& path, const std::string& want, int width,
+                                          int height, Camera& camera);
 
 // OBSCURA_PLUGIN_PATH, then each --plugin.
 void loadPlugins(const std::vector<std::string>& paths);

@@ -265,8 +265,8 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
-  std::unique_ptr<Scene> scene = loadScene(a.scene, sceneOptions(a));
-  const Camera camera = selectCamera(*scene, a.camera, float(base.width) / float(base.height));
+  Camera camera;
+  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, base.width, base.height, camera);
   std::error_code ec;
   fs::create_directories(dir / "passes", ec);
   if (ec) throw Error(a.output + ": cannot create: " + ec.message());

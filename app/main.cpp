@@ -31,6 +31,10 @@ std::atomic<bool> gCancel{false};
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--subdiv", a.subdiv, "Subdivide OBJ cages: none, catmull-clark or loop (OpenSubdiv, limit normals)");
   cmd->add_option("--subdiv-level", a.subdivLevel, "Uniform subdivision level, 0..10 (each level: 4x the faces)");
+  cmd->add_option("--subdiv-backend", a.subdivBackend,
+                  "osd: OpenSubdiv refines to triangles at load; embree: Embree's subdivision surfaces (Catmull-Clark), tessellated while the BVH builds");
+  cmd->add_option("--subdiv-edge", a.subdivEdge,
+                  "Adaptive refinement instead of --subdiv-level: longest refined edge in pixels from the render camera (osd: per mesh, embree: per edge)");
   cmd->add_option("--max-memory", a.maxMemoryGiB, "Refuse a subdivision that would need more than this many GiB");
   cmd->add_option("--displace", a.displace, "Height map (PNG/EXR/...) displacing a subdivided OBJ cage along its limit normals");
   cmd->add_option("--displace-scale", a.displaceScale, "Displacement: scene units per unit of height");
@@ -96,8 +100,8 @@ int runRender(const RenderArgs& a) {
 
   auto integrator = desc.create(params);
   const IntegratorNeeds needs = desc.needs(params);
-  std::unique_ptr<Scene> scene = loadScene(a.scene, sceneOptions(a));
-  const Camera camera = selectCamera(*scene, a.camera, float(s.width) / float(s.height));
+  Camera camera;
+  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, s.width, s.height, camera);
 
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);

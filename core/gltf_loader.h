@@ -12,25 +12,12 @@
 #include <memory>
 #include <string>
 
+#include "core/load_options.h"
 #include "core/scene.h"
-#include "core/subdivision.h"
 
 namespace obscura {
 
-struct LoadOptions {
-  bool robust = false;  // Scene::setRobust
-  // Subdivision of polygon cages (OBJ): off by default; the scheme and the
-  // uniform level when on, and the memory a refinement may take.
-  bool subdivision = false;
-  SubdivisionScheme scheme = SubdivisionScheme::CatmullClark;
-  int subdivisionLevel = 2;
-  size_t maxMemoryBytes = size_t(8) << 30;
-  // Displacement of subdivided OBJ cages: a height map, moved along the
-  // limit normal by scale * (h - midlevel) (scene units).
-  std::string displacementMap;
-  double displacementScale = 0.1;
-  double displacementMidlevel = 0.5;
-};
+
 
 std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options = {});
 // By extension: .obj (core/obj_loader.h), else glTF.

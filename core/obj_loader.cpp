@@ -4,6 +4,7 @@
 
 #include <filesystem>
 
+#include "core/cage.h"
 #include "core/error.h"
 #include "core/subdivision.h"
 
@@ -62,10 +63,12 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
   scene->sourceMeshes = 1;
   scene->flattenedMeshes = 1;
   if (options.subdivision) {
-    SubdividedMesh m = subdivide(cage, options.scheme, options.subdivisionLevel, options.maxMemoryBytes, path);
-    if (!options.displacementMap.empty())  // loaded only when used
-      displace(m, HeightMap(options.displacementMap), options.displacementScale, options.displacementMidlevel);
-    scene->addWorldPrimitive(m.positions, m.triangles, m.normals, std::move(m.uvs), -1);
+    CageDisplacement disp;
+    if (!options.displacementMap.empty()) {  // loaded only when used
+      disp.map = std::make_shared<HeightMap>(options.displacementMap);
+      disp.scale = options.displacementScale, disp.midlevel = options.displacementMidlevel;
+    }
+    addCage(*scene, cage, options, disp, -1, path);
   } else {
     // The cage as it is, after the same validation subdivision applies.
     validateCage(cage, SubdivisionScheme::CatmullClark, path);

@@ -1,5 +1,6 @@
 #include "core/scene.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 
@@ -70,6 +71,94 @@ int Scene::addWorldPrimitive(const std::vector<Vec3>& positions, const std::vect
   return int(worldPrimitives_.size()) - 1;
 }
 
+namespace {
+// Embree's displacement callback: moves the tessellation's points along the
+// limit normal Embree passes (unit length), by the height map at the
+// points' cage uv.
+void displaceSubdivision(const RTCDisplacementFunctionNArguments* a) {
+  const auto* s = static_cast<const SubdivisionSurface*>(a->geometryUserPtr);
+  for (unsigned i = 0; i < a->N; ++i) {
+    const float d = s->displacement(a->primID, a->u[i], a->v[i]);
+    a->P_x[i] += d * a->Ng_x[i];
+    a->P_y[i] += d * a->Ng_y[i];
+    a->P_z[i] += d * a->Ng_z[i];
+  }
+}
+}  // namespace
+
+int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<float>& edgeLevels,
+                                 std::shared_ptr<const HeightMap> height, float scale, float midlevel, int material) {
+  auto surface = std::make_shared<SubdivisionSurface>();
+  const size_t corners = cage.faceIndices.size(), faces = cage.faceSizes.size();
+  if (edgeLevels.size() != 1 && edgeLevels.size() != corners) throw Error("internal: edge levels do not match the cage");
+  const auto level = [&](size_t k) { return std::clamp(edgeLevels.size() == 1 ? edgeLevels[0] : edgeLevels[k], 1.0f, 4096.0f); };
+  surface->faceRate.resize(faces);
+  for (size_t f = 0, k = 0; f < faces; ++f) {
+    float r = 1;
+    for (int j = 0; j < cage.faceSizes[f]; ++j, ++k) r = std::max(r, level(k));
+    surface->faceRate[f] = r;
+  }
+  if (height) {
+    surface->uvs = CageUvs(cage);
+    surface->height = std::move(height);
+    surface->scale = scale;
+    surface->midlevel = midlevel;
+  }
+
+  RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_SUBDIVISION);
+  auto* fb = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_FACE, 0, RTC_FORMAT_UINT, sizeof(uint32_t), faces));
+  auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, sizeof(uint32_t), corners));
+  // Stride 16 with w = 0: Embree's patch evaluation loads whole SSE
+  // vectors and (in Debian's build, which keeps assertions) checks every lane
+  // is a valid number, padding included.
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 4 * sizeof(float),
+                                                         cage.positions.size()));
+  auto* lb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_LEVEL, 0, RTC_FORMAT_FLOAT, sizeof(float), corners));
+  if (!fb || !ib || !vb || !lb) {
+    rtcReleaseGeometry(g);
+    throw Error("out of memory building a subdivision surface");
+  }
+  for (size_t f = 0; f < faces; ++f) fb[f] = uint32_t(cage.faceSizes[f]);
+  for (size_t k = 0; k < corners; ++k) ib[k] = uint32_t(cage.faceIndices[k]), lb[k] = level(k);
+  for (size_t i = 0; i < cage.positions.size(); ++i)
+    vb[4 * i] = cage.positions[i].x, vb[4 * i + 1] = cage.positions[i].y, vb[4 * i + 2] = cage.positions[i].z, vb[4 * i + 3] = 0;
+  if (!cage.creaseWeights.empty()) {
+    auto* ci = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_EDGE_CREASE_INDEX, 0, RTC_FORMAT_UINT2,
+                                                              2 * sizeof(uint32_t), cage.creaseWeights.size()));
+    auto* cw = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_EDGE_CREASE_WEIGHT, 0, RTC_FORMAT_FLOAT,
+                                                           sizeof(float), cage.creaseWeights.size()));
+    for (size_t i = 0; i < cage.creaseWeights.size(); ++i) {
+      ci[2 * i] = uint32_t(cage.creaseEdges[2 * i]), ci[2 * i + 1] = uint32_t(cage.creaseEdges[2 * i + 1]);
+      // OpenSubdiv's sharpness >= 10 is infinitely sharp; Embree takes infinity.
+      cw[i] = cage.creaseWeights[i] >= 10.0f ? kInfinity : cage.creaseWeights[i];
+    }
+  }
+  // Boundaries as the OpenSubdiv backend has them (VTX_BOUNDARY_EDGE_AND_CORNER):
+  // boundary edges are B-spline curves, corners stay where the cage puts them.
+  rtcSetGeometrySubdivisionMode(g, 0, RTC_SUBDIVISION_MODE_PIN_CORNERS);
+  if (surface->height) {
+    rtcSetGeometryUserData(g, surface.get());
+    rtcSetGeometryDisplacementFunction(g, displaceSubdivision);
+  }
+  rtcCommitGeometry(g);
+  const unsigned id = rtcAttachGeometry(top_, g);
+  rtcReleaseGeometry(g);
+
+  Primitive p;
+  p.geometry = g;
+  p.material = material;
+  p.faceCount = uint32_t(faces);
+  p.subdivision = std::move(surface);
+  // Bounds: the limit lies in the cage's hull, but displacement can leave
+  // it; commit() takes Embree's bounds of the tessellated surface.
+  for (const Vec3& v : cage.positions) bounds_.extend(v);
+  hasSubdivision_ = true;
+  if (topLevel_.size() <= id) topLevel_.resize(id + 1);
+  topLevel_[id].primitive = int(worldPrimitives_.size());
+  worldPrimitives_.push_back(std::move(p));
+  return int(worldPrimitives_.size()) - 1;
+}
+
 int Scene::addInstancedMesh(std::string name) {
   InstancedMesh m;
   m.name = std::move(name);
@@ -123,6 +212,12 @@ void Scene::commit() {
   const RTCError err = rtcGetDeviceError(device_);
   if (err == RTC_ERROR_OUT_OF_MEMORY) throw Error("out of memory building the BVH");
   if (err != RTC_ERROR_NONE) throw Error("Embree failed to build the BVH (error " + std::to_string(int(err)) + ")");
+  if (hasSubdivision_) {
+    RTCBounds b;
+    rtcGetSceneBounds(top_, &b);
+    bounds_.extend(Vec3(b.lower_x, b.lower_y, b.lower_z));
+    bounds_.extend(Vec3(b.upper_x, b.upper_y, b.upper_z));
+  }
   committed_ = true;
 }
 
@@ -133,6 +228,7 @@ SceneStats Scene::stats() const {
   s.instances = instances_.size();
   s.primitives = worldPrimitives_.size();
   for (const auto& p : worldPrimitives_) {
+    s.subdivisionFaces += p.faceCount;
     s.uniqueTriangles += p.triangleCount;
     s.renderedTriangles += p.triangleCount;
   }

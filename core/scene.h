@@ -17,6 +17,7 @@
 
 #include "core/camera.h"
 #include "core/math.h"
+#include "core/subdivision.h"
 #include "core/texture.h"
 
 namespace obscura {
@@ -28,7 +29,23 @@ struct Material {
   WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
 };
 
-// One triangle list (a glTF primitive). Positions live in Embree's buffer.
+// An Embree subdivision surface's own data: what its displacement callback
+// and the hit reconstruction read.
+struct SubdivisionSurface {
+  CageUvs uvs;                             // the displacement's parametrization
+  std::shared_ptr<const HeightMap> height;  // null: not displaced
+  float scale = 0, midlevel = 0;
+  std::vector<float> faceRate;  // per face, the finest tessellation rate of its edges
+  // scale * (h(uv) - midlevel) at patch coordinates (u, v) of face f.
+  float displacement(uint32_t face, float u, float v) const {
+    float s, t;
+    uvs.at(face, u, v, s, t);
+    return scale * (height->sample(s, t) - midlevel);
+  }
+};
+
+// One triangle list (a glTF primitive), or one Embree subdivision surface.
+// Triangle positions live in Embree's buffer.
 struct Primitive {
   RTCGeometry geometry = nullptr;     // owned by the Embree scene it is attached to
   const float* positions = nullptr;  // xyz, stride 3 floats, in Embree's vertex buffer
@@ -37,6 +54,10 @@ struct Primitive {
   std::vector<Vec3> normals;  // per vertex, empty if the file has none
   std::vector<float> uvs;     // 2 per vertex, empty if none
   int material = -1;          // -1 = default material (albedo 1)
+  // Set for an Embree subdivision surface (positions, indices, normals and
+  // uvs are then empty: hits are evaluated on the patches).
+  std::shared_ptr<const SubdivisionSurface> subdivision;
+  uint32_t faceCount = 0;     // subdivision faces
 };
 
 // A mesh placed more than once: its own Embree scene, shared by instances.
@@ -62,7 +83,7 @@ struct TopLevelGeometry {
 // Counts for `obscura info` and the EXR header.
 struct SceneStats {
   size_t meshes = 0, primitives = 0, uniqueTriangles = 0, renderedTriangles = 0,
-         instances = 0, flattenedMeshes = 0;
+         instances = 0, flattenedMeshes = 0, subdivisionFaces = 0;
 };
 
 class Scene {
@@ -89,6 +110,13 @@ class Scene {
   // Adds a world-space triangle list to the top-level scene.
   int addWorldPrimitive(const std::vector<Vec3>& positions, const std::vector<uint32_t>& indices,
                         std::vector<Vec3> normals, std::vector<float> uvs, int material);
+  // Adds a Catmull-Clark cage as an Embree subdivision surface in world
+  // space. edgeLevels: the tessellation rate of each face corner's outgoing
+  // edge (parallel to cage.faceIndices; shared edges must agree, or cracks
+  // open), or one value for all. With a height map (cage.uvs needed) the
+  // surface is displaced along its limit normal by scale * (h - midlevel).
+  int addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<float>& edgeLevels,
+                            std::shared_ptr<const HeightMap> height, float scale, float midlevel, int material);
   // Adds an instanced mesh (object space) and returns its index.
   int addInstancedMesh(std::string name);
   void addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions,
@@ -138,6 +166,7 @@ class Scene {
   double buildSeconds_ = 0;
   bool committed_ = false;
   bool robust_ = false;
+  bool hasSubdivision_ = false;
 };
 
 }  // namespace obscura

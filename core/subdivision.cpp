@@ -4,7 +4,9 @@
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 
 #include "core/error.h"
@@ -109,8 +111,9 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
     desc.fvarChannels = &uvChannel;
   }
   Sdc::Options sdc;
-  // uvs: smooth inside, linear along seams and boundaries' corners.
-  sdc.SetFVarLinearInterpolation(Sdc::Options::FVAR_LINEAR_CORNERS_ONLY);
+  // uvs: bilinear over each cage face (CageUvs), the parametrization the
+  // Embree backend displaces with too, so both backends move a point alike.
+  sdc.SetFVarLinearInterpolation(Sdc::Options::FVAR_LINEAR_ALL);
   // Open boundaries are interpolated - boundary edges and corner vertices
   // stay where the cage puts them ("edge and corner", the usual modelling
   // default), so a flat cage's limit is the cage itself.
@@ -183,6 +186,100 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
       out.triangles.insert(out.triangles.end(), {uint32_t(v[0]), uint32_t(v[k]), uint32_t(v[k + 1])});
   }
   return out;
+}
+
+CageUvs::CageUvs(const SubdivisionCage& c) {
+  faceStart_.reserve(c.faceSizes.size() + 1);
+  uint32_t k = 0;
+  for (const int n : c.faceSizes) faceStart_.push_back(k), k += uint32_t(n);
+  faceStart_.push_back(k);
+  const auto uvOf = [&](uint32_t corner, int a) { return c.uvs[size_t(c.uvIndices[corner]) * 2 + size_t(a)]; };
+  cornerUv_.resize(size_t(k) * 2);
+  for (uint32_t i = 0; i < k; ++i) cornerUv_[2 * i] = uvOf(i, 0), cornerUv_[2 * i + 1] = uvOf(i, 1);
+  // Canonical uvs: the first face (in order) to use a vertex or an edge.
+  std::vector<int64_t> vertexCorner(c.positions.size(), -1);
+  std::map<std::pair<int, int>, uint32_t> edgeCorner;  // (lo, hi) -> first corner whose edge it is
+  vertexUv_.resize(size_t(k) * 2);
+  edgeUv_.resize(size_t(k) * 4);
+  for (size_t f = 0; f < c.faceSizes.size(); ++f) {
+    const uint32_t first = faceStart_[f], n = faceStart_[f + 1] - first;
+    for (uint32_t j = 0; j < n; ++j) {
+      const uint32_t corner = first + j, next = first + (j + 1) % n;
+      const int a = c.faceIndices[corner], b = c.faceIndices[next];
+      if (vertexCorner[size_t(a)] < 0) vertexCorner[size_t(a)] = corner;
+      edgeCorner.emplace(std::minmax(a, b), corner);
+    }
+  }
+  for (size_t f = 0; f < c.faceSizes.size(); ++f) {
+    const uint32_t first = faceStart_[f], n = faceStart_[f + 1] - first;
+    for (uint32_t j = 0; j < n; ++j) {
+      const uint32_t corner = first + j, next = first + (j + 1) % n;
+      const int a = c.faceIndices[corner], b = c.faceIndices[next];
+      const uint32_t vc = uint32_t(vertexCorner[size_t(a)]);
+      vertexUv_[2 * corner] = cornerUv_[2 * vc], vertexUv_[2 * corner + 1] = cornerUv_[2 * vc + 1];
+      // The canonical corner ca runs either a -> b or b -> a.
+      const uint32_t ca = edgeCorner.at(std::minmax(a, b));
+      const uint32_t cf = uint32_t(std::upper_bound(faceStart_.begin(), faceStart_.end(), ca) - faceStart_.begin()) - 1;
+      const uint32_t cn = faceStart_[cf] + (ca - faceStart_[cf] + 1) % (faceStart_[cf + 1] - faceStart_[cf]);
+      const bool same = c.faceIndices[ca] == a;
+      const uint32_t atA = same ? ca : cn, atB = same ? cn : ca;
+      float* e = &edgeUv_[size_t(corner) * 4];
+      e[0] = cornerUv_[2 * atA], e[1] = cornerUv_[2 * atA + 1], e[2] = cornerUv_[2 * atB], e[3] = cornerUv_[2 * atB + 1];
+    }
+  }
+}
+
+void CageUvs::onEdge(uint32_t k, float x, float& s, float& t) const {
+  if (x <= 0.0f) {
+    s = vertexUv_[2 * k], t = vertexUv_[2 * k + 1];
+    return;
+  }
+  const uint32_t face = uint32_t(std::upper_bound(faceStart_.begin(), faceStart_.end(), k) - faceStart_.begin()) - 1;
+  const uint32_t n = faceStart_[face + 1] - faceStart_[face], next = faceStart_[face] + (k - faceStart_[face] + 1) % n;
+  if (x >= 1.0f) {
+    s = vertexUv_[2 * next], t = vertexUv_[2 * next + 1];
+    return;
+  }
+  const float* e = &edgeUv_[size_t(k) * 4];
+  s = (1 - x) * e[0] + x * e[2];
+  t = (1 - x) * e[1] + x * e[3];
+}
+
+void CageUvs::at(uint32_t face, float u, float v, float& s, float& t) const {
+  // Points within this much of a cage edge (in patch coordinates) lie on it;
+  // Embree generates boundary points at exactly 0 or 1, up to rounding.
+  constexpr float kOnEdge = 1e-6f;
+  const uint32_t first = faceStart_[face], n = faceStart_[face + 1] - first;
+  const float* c = &cornerUv_[size_t(first) * 2];
+  if (n == 4) {
+    if (v <= kOnEdge) return onEdge(first, u, s, t);
+    if (u >= 1 - kOnEdge) return onEdge(first + 1, v, s, t);
+    if (v >= 1 - kOnEdge) return onEdge(first + 2, 1 - u, s, t);
+    if (u <= kOnEdge) return onEdge(first + 3, 1 - v, s, t);
+    const float a = (1 - u) * (1 - v), b = u * (1 - v), cc = u * v, d = (1 - u) * v;
+    s = a * c[0] + b * c[2] + cc * c[4] + d * c[6];
+    t = a * c[1] + b * c[3] + cc * c[5] + d * c[7];
+    return;
+  }
+  // Sub-quad i and its local coordinates, decoded as Embree documents.
+  const float hu = 0.5f * u, hv = 0.5f * v;
+  const uint32_t i = std::min(4 * uint32_t(std::max(std::floor(hv), 0.0f)) + uint32_t(std::max(std::floor(hu), 0.0f)), n - 1);
+  const float lu = 2.0f * (hu - std::floor(hu)) - 0.5f, lv = 2.0f * (hv - std::floor(hv)) - 0.5f;
+  // The sub-quad's edges on the cage face's boundary: lv = 0 is the first
+  // half of edge i, lu = 0 the second half of edge i - 1.
+  if (lv <= kOnEdge) return onEdge(first + i, 0.5f * lu, s, t);
+  if (lu <= kOnEdge) return onEdge(first + (i + n - 1) % n, 1.0f - 0.5f * lv, s, t);
+  float centre[2] = {0, 0};
+  for (uint32_t k = 0; k < n; ++k) centre[0] += c[2 * k], centre[1] += c[2 * k + 1];
+  centre[0] /= float(n), centre[1] /= float(n);
+  const float* p0 = c + 2 * i;
+  const float* pn = c + 2 * ((i + 1) % n);
+  const float* pp = c + 2 * ((i + n - 1) % n);
+  for (int a = 0; a < 2; ++a) {
+    const float q0 = p0[a], q1 = 0.5f * (p0[a] + pn[a]), q2 = centre[a], q3 = 0.5f * (p0[a] + pp[a]);
+    const float r = (1 - lu) * (1 - lv) * q0 + lu * (1 - lv) * q1 + lu * lv * q2 + (1 - lu) * lv * q3;
+    (a == 0 ? s : t) = r;
+  }
 }
 
 HeightMap::HeightMap(const std::string& path) {

@@ -16,6 +16,12 @@ namespace obscura {
 
 enum class SubdivisionScheme { CatmullClark, Loop };
 
+// Who refines the surface: OpenSubdiv into a triangle mesh at load time
+// (core/subdivision.cpp), or Embree's own subdivision geometry, tessellated
+// into grids while the BVH is built, displaced through a callback
+// (Scene::addSubdivisionSurface). Embree implements Catmull-Clark only.
+enum class SubdivisionBackend { OpenSubdiv, Embree };
+
 // A polygon cage: faceSizes[f] vertices per face, their indices
 // concatenated in faceIndices. Creases: sharpness per edge (pairs of vertex
 // indices), 0 = smooth, >= 10 = infinitely sharp.
@@ -56,6 +62,42 @@ class HeightMap {
  private:
   int w_ = 0, h_ = 0;
   std::vector<float> texels_;
+};
+
+// The texture coordinates of a cage, bilinear over each face: the
+// parametrization both backends displace with (OpenSubdiv interpolates
+// face-varying uvs linearly, FVAR_LINEAR_ALL; Embree hands the displacement
+// callback patch coordinates, mapped here). Quads use Embree's patch
+// coordinates (p0 base, u towards p1, v towards p3); other faces are split
+// into the n quads one subdivision step makes - corner i, the midpoint of
+// edge (i, i+1), the face centre, the midpoint of edge (i-1, i) - and Embree
+// encodes the sub-quad and the position in it in (u, v) (see
+// RTC_GEOMETRY_TYPE_SUBDIVISION, "Parametrization").
+//
+// Where a uv seam runs along an edge, the two faces map the edge to
+// different texels, and a displacement taken from each face's own uvs would
+// move the edge's points apart: a crack. Points on a cage edge therefore take
+// the uvs of one canonical face of that edge (the lowest-numbered), and cage
+// vertices those of their lowest-numbered face, so every face agrees on the
+// displaced boundary; the seam's jump happens inside the first tessellation
+// step (as the OpenSubdiv backend, whose seam vertices keep one side's uv).
+class CageUvs {
+ public:
+  CageUvs() = default;
+  explicit CageUvs(const SubdivisionCage& cage);  // cage.uvIndices must cover every corner
+  bool empty() const { return faceStart_.empty(); }
+  uint32_t faceSize(uint32_t face) const { return faceStart_[face + 1] - faceStart_[face]; }
+  // uv of face f at Embree patch coordinates (u, v).
+  void at(uint32_t face, float u, float v, float& s, float& t) const;
+
+ private:
+  // uv at parameter x along face corner k's outgoing edge, from the
+  // canonical face's uvs (x = 0 and 1: the canonical vertex uvs).
+  void onEdge(uint32_t k, float x, float& s, float& t) const;
+  std::vector<uint32_t> faceStart_;  // first corner of each face, plus one past the end
+  std::vector<float> cornerUv_;      // 2 per face corner
+  std::vector<float> edgeUv_;        // 4 per face corner: canonical uv at its edge's two ends
+  std::vector<float> vertexUv_;      // 2 per face corner: canonical uv of its vertex
 };
 
 // Moves every vertex along its limit normal by scale * (h(uv) - midlevel),

@@ -6,6 +6,83 @@
 namespace obscura {
 
 namespace {
+// A subdivision surface's albedo: its material's factor (textures need uvs,
+// which subdivision surfaces do not carry to the hit).
+Vec3 materialFactor(const Scene& scene, const Primitive& prim) {
+  const Material* m = scene.materialOf(prim);
+  return m ? m->baseColorFactor : Vec3(1, 1, 1);
+}
+
+float absMax(Vec3 a) { return std::max(std::abs(a.x), std::max(std::abs(a.y), std::abs(a.z))); }
+
+// The limit surface of an Embree subdivision face at patch coordinates
+// (u, v): position and (unnormalized) normal dP/du x dP/dv.
+void limitAt(const Primitive& prim, unsigned face, float u, float v, Vec3& p, Vec3& n) {
+  float P[3], du[3], dv[3];
+  rtcInterpolate1(prim.geometry, face, u, v, RTC_BUFFER_TYPE_VERTEX, 0, P, du, dv, 3);
+  p = Vec3(P[0], P[1], P[2]);
+  n = cross(Vec3(du[0], du[1], du[2]), Vec3(dv[0], dv[1], dv[2]));
+}
+
+// The displaced surface at (u, v): the limit point moved along the unit
+// limit normal, as the displacement callback moves the tessellation.
+Vec3 displacedAt(const Primitive& prim, unsigned face, float u, float v) {
+  Vec3 p, n;
+  limitAt(prim, face, u, v, p, n);
+  const float len = length(n);
+  if (!(len > 0.0f) || !std::isfinite(len)) return p;
+  return p + n * (prim.subdivision->displacement(face, u, v) / len);
+}
+
+// A hit on an Embree subdivision surface. The point is the ray's (o + t d):
+// the tessellation Embree intersected is not the limit surface, so a point
+// re-evaluated on the limit could lie on the far side of it. The geometric
+// normal is the tessellation's; the shading normal the limit's or, when
+// displaced, the displaced surface's by central differences over one
+// tessellation step (the scale the traced surface resolves).
+void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& rh, bool albedo, SurfaceHit& out) {
+  const Vec3 org(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z), dir(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z);
+  const unsigned face = rh.hit.primID;
+  const float u = rh.hit.u, v = rh.hit.v;
+  out.t = rh.ray.tfar;
+  out.p = org + dir * out.t;
+  out.geomID = rh.hit.geomID, out.primID = face, out.instID = rh.hit.instID[0];
+  out.hitU = u, out.hitV = v;
+  // o + t d errs by ulps of |o| and of t|d|; the grid test by ulps of |p|.
+  const float mag = std::max(absMax(out.p), absMax(org) + out.t * absMax(dir));
+  out.eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
+  Vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  const float ngLen = length(ng);
+  ng = (ngLen > 0.0f && std::isfinite(ngLen)) ? ng * (1.0f / ngLen) : normalize(-dir);
+  if (dot(ng, dir) > 0.0f) ng = -ng;
+  out.ng = ng;
+
+  const SubdivisionSurface& s = *prim.subdivision;
+  Vec3 n;
+  if (!s.height) {
+    Vec3 p;
+    limitAt(prim, face, u, v, p, n);
+  } else {
+    // Quads' patch coordinates span [0, 1]; other faces' encode a sub-quad
+    // whose local coordinates may step 0.5 outside it (Embree's
+    // parametrization), so only quads clamp.
+    const float h = 0.5f / s.faceRate[face];
+    const bool quad = s.uvs.faceSize(face) == 4;
+    const float u0 = quad ? std::max(u - h, 0.0f) : u - h, u1 = quad ? std::min(u + h, 1.0f) : u + h;
+    const float v0 = quad ? std::max(v - h, 0.0f) : v - h, v1 = quad ? std::min(v + h, 1.0f) : v + h;
+    n = cross(displacedAt(prim, face, u1, v) - displacedAt(prim, face, u0, v),
+              displacedAt(prim, face, u, v1) - displacedAt(prim, face, u, v0));
+  }
+  const float len = length(n);
+  Vec3 ns = ng;
+  if (len > 0.0f && std::isfinite(len)) {
+    n = n * (1.0f / len);
+    ns = dot(n, ng) < 0.0f ? -n : n;
+  }
+  out.ns = ns;
+  if (albedo) out.albedo = materialFactor(scene, prim);
+}
+
 Vec3 primitiveAlbedo(const Scene& scene, const Primitive& prim, const uint32_t* tri, float u, float v) {
   const Material* m = scene.materialOf(prim);
   if (!m) return Vec3(1, 1, 1);
@@ -27,6 +104,7 @@ Vec3 primitiveAlbedo(const Scene& scene, const Primitive& prim, const uint32_t* 
 Vec3 surfaceAlbedo(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID, float u, float v) {
   const Affine* toWorld = nullptr;
   const Primitive& prim = scene.primitiveOf(geomID, instID, &toWorld);
+  if (prim.subdivision) return materialFactor(scene, prim);
   return primitiveAlbedo(scene, prim, prim.indices + size_t(primID) * 3, u, v);
 }
 
@@ -53,7 +131,6 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   out.hitU = u, out.hitV = v;
 
   // Offset scale from the magnitudes that bound the hit point's error.
-  const auto absMax = [](Vec3 a) { return std::max(std::abs(a.x), std::max(std::abs(a.y), std::abs(a.z))); };
   const float mag = std::max(absMax(out.p), std::max(absMax(v0), std::max(absMax(v1), absMax(v2))));
   out.eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
 
@@ -82,6 +159,9 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
 }
 
 void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, SurfaceHit& out) {
+  const Affine* toWorld = nullptr;
+  const Primitive& prim = scene.primitiveOf(rh.hit.geomID, rh.hit.instID[0], &toWorld);
+  if (prim.subdivision) return subdivisionHit(scene, prim, rh, albedo, out);
   computeSurfaceHit(scene, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar,
                     Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), albedo, out);
 }
@@ -89,7 +169,7 @@ void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, Sur
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
   const Affine* toWorld = nullptr;
   const Primitive& prim = scene.primitiveOf(h.geomID, h.instID, &toWorld);
-  if (prim.uvs.empty() || !prim.indices) return false;
+  if (prim.subdivision || prim.uvs.empty() || !prim.indices) return false;
   const uint32_t* tri = prim.indices + size_t(h.primID) * 3;
   const auto vertex = [&](int k) {
     const float* q = prim.positions + size_t(tri[k]) * 3;

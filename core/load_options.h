@@ -1,0 +1,37 @@
+// How a scene file is turned into a Scene: the options every loader takes.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+
+#include "core/camera.h"
+#include "core/subdivision.h"
+
+namespace obscura {
+
+struct LoadOptions {
+  bool robust = false;  // Scene::setRobust
+  // Subdivision of polygon cages (OBJ): off by default; the scheme and the
+  // uniform level when on, and the memory a refinement may take.
+  bool subdivision = false;
+  SubdivisionScheme scheme = SubdivisionScheme::CatmullClark;
+  SubdivisionBackend backend = SubdivisionBackend::OpenSubdiv;
+  int subdivisionLevel = 2;
+  size_t maxMemoryBytes = size_t(8) << 30;
+  // Adaptive refinement instead of the uniform level, when > 0: no edge of
+  // the refined surface longer than this many pixels seen from `camera` at
+  // imageWidth x imageHeight (the cage's edges are measured; OpenSubdiv
+  // refines uniformly to the level the longest one needs, Embree
+  // tessellates each edge to its own rate).
+  double maxEdgePixels = 0;
+  std::optional<Camera> camera;
+  int imageWidth = 0, imageHeight = 0;
+  // Displacement of subdivided OBJ cages: a height map, moved along the
+  // limit normal by scale * (h - midlevel) (scene units).
+  std::string displacementMap;
+  double displacementScale = 0.1;
+  double displacementMidlevel = 0.5;
+};
+
+}  // namespace obscura

@@ -1,0 +1,309 @@
+// The Embree subdivision backend (Scene::addSubdivisionSurface, core/cage.h)
+// against the OpenSubdiv one and against Embree's own interpolation: the same
+// limit surface, the same displacement, no cracks, adaptive rates from the
+// camera, and the budget.
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "core/cage.h"
+#include "core/error.h"
+#include "core/subdivision.h"
+#include "tests/support.h"
+
+namespace obscura::test {
+namespace {
+
+constexpr size_t kBudget = size_t(1) << 30;
+
+// The cube [-1, 1]^3 as six outward quads, each face with the whole [0,1]^2
+// of uv (a seam along every edge) when `uvs`.
+SubdivisionCage cube(bool uvs) {
+  SubdivisionCage c;
+  for (int i = 0; i < 8; ++i) c.positions.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);
+  c.faceIndices = {0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 0, 4, 6, 2, 1, 3, 7, 5};
+  c.faceSizes.assign(6, 4);
+  if (uvs) {
+    c.uvs = {0, 0, 1, 0, 1, 1, 0, 1};
+    for (size_t f = 0; f < 6; ++f) c.uvIndices.insert(c.uvIndices.end(), {0, 1, 2, 3});
+  }
+  return c;
+}
+
+// An open, bumpy cage with a pentagon, a triangle and quads around a centre
+// vertex, uv = xy (no seams).
+SubdivisionCage mixedCage() {
+  SubdivisionCage c;
+  c.positions = {{0, 0, 0.3f}, {1, 0, 0}, {1.2f, 0.9f, 0.1f}, {0.2f, 1.3f, 0}, {-0.9f, 0.8f, -0.1f},
+                 {-1, -0.4f, 0}, {-0.2f, -1.1f, 0.2f}};
+  c.faceSizes = {5, 3, 4};
+  c.faceIndices = {0, 1, 2, 3, 4, 0, 4, 5, 0, 5, 6, 1};  // pentagon, triangle, quad 0-5-6-1
+  for (const Vec3& p : c.positions) c.uvs.insert(c.uvs.end(), {0.5f + 0.3f * p.x, 0.5f + 0.3f * p.y});
+  c.uvIndices = c.faceIndices;
+  return c;
+}
+
+struct Hit {
+  bool hit = false;
+  float t = 0, u = 0, v = 0;
+  unsigned primID = 0;
+};
+Hit trace(const Scene& scene, Vec3 org, Vec3 dir) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh;
+  std::memset(&rh, 0, sizeof rh);
+  rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
+  rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
+  rh.ray.tfar = kInfinity;
+  rh.ray.mask = ~0u;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene.rtcScene(), &ctx, &rh);
+  return {rh.hit.geomID != RTC_INVALID_GEOMETRY_ID, rh.ray.tfar, rh.hit.u, rh.hit.v, rh.hit.primID};
+}
+
+std::unique_ptr<Scene> build(const SubdivisionCage& c, SubdivisionBackend backend, int level,
+                             const CageDisplacement& d = {}) {
+  auto scene = std::make_unique<Scene>();
+  LoadOptions o;
+  o.subdivision = true;
+  o.backend = backend;
+  o.subdivisionLevel = level;
+  o.maxMemoryBytes = kBudget;
+  addCage(*scene, c, o, d, -1, "cage");
+  scene->setRobust(true);
+  scene->commit();
+  return scene;
+}
+
+// Rays from a sphere of radius 4 towards points near the origin: pairs of
+// (origin, unit direction), deterministic.
+std::vector<std::pair<Vec3, Vec3>> probeRays(int n) {
+  std::vector<std::pair<Vec3, Vec3>> r;
+  for (int i = 0; i < n; ++i) {
+    const double z = 1 - 2 * (i + 0.5) / n, phi = 2.399963 * i, s = std::sqrt(1 - z * z);
+    const Vec3 o(float(4 * s * std::cos(phi)), float(4 * s * std::sin(phi)), float(4 * z));
+    const Vec3 target(float(0.3 * std::sin(3.0 * i)), float(0.3 * std::cos(5.0 * i)), float(0.2 * std::sin(7.0 * i)));
+    r.emplace_back(o, normalize(target - o));
+  }
+  return r;
+}
+
+// A float height map of w x h texels from f(u, v) at texel centres.
+template <class F>
+std::shared_ptr<const HeightMap> heightMap(const std::string& dir, const std::string& name, int w, int h, F f) {
+  std::vector<float> px(size_t(w) * size_t(h));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) px[size_t(y) * size_t(w) + size_t(x)] = float(f((x + 0.5) / w, 1.0 - (y + 0.5) / h));
+  const std::string path = dir + "/" + name + ".exr";
+  auto out = OIIO::ImageOutput::create(path);
+  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT)));
+  out->write_image(OIIO::TypeDesc::FLOAT, px.data());
+  out->close();
+  return std::make_shared<HeightMap>(path);
+}
+
+// CageUvs maps Embree patch coordinates - including the sub-quad encoding of
+// pentagons and triangles - to the uv that Embree's own linear interpolation
+// (a second topology in PIN_ALL mode: linear subdivision) gives. On quads
+// that is the bilinear map everywhere. On other faces Embree's pinned patch
+// is linear along the sub-quad's sides but not bilinear inside it (it departs
+// by up to 3e-3 there, and by up to 5e-5 along its lu = 0 side, measured),
+// so those are checked, to 1e-4, where linear
+// subdivision fixes the value: the sub-quad's corners (cage corner, edge
+// midpoints, centre) and its two sides on the cage's edges - which is what
+// pins down the sub-quad order and orientation, the convention the
+// displacement depends on.
+TEST(EmbreeSubdivision, PatchUvsMatchEmbreeLinearInterpolation) {
+  const SubdivisionCage c = mixedCage();
+  const CageUvs uvs(c);
+  Scene scene;  // for its device only
+  RTCGeometry g = rtcNewGeometry(scene.device(), RTC_GEOMETRY_TYPE_SUBDIVISION);
+  auto* fb = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_FACE, 0, RTC_FORMAT_UINT, 4, c.faceSizes.size()));
+  auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, 4, c.faceIndices.size()));
+  auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 16, c.positions.size()));
+  rtcSetGeometryTopologyCount(g, 2);
+  auto* ib1 = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 1, RTC_FORMAT_UINT, 4, c.uvIndices.size()));
+  rtcSetGeometrySubdivisionMode(g, 1, RTC_SUBDIVISION_MODE_PIN_ALL);
+  rtcSetGeometryVertexAttributeCount(g, 1);
+  rtcSetGeometryVertexAttributeTopology(g, 0, 1);
+  // Padded to 4 floats: Embree evaluates SSE vectors and asserts every lane is valid.
+  auto* ub = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX_ATTRIBUTE, 0, RTC_FORMAT_FLOAT4, 16, c.uvs.size() / 2));
+  for (size_t f = 0; f < c.faceSizes.size(); ++f) fb[f] = uint32_t(c.faceSizes[f]);
+  for (size_t k = 0; k < c.faceIndices.size(); ++k) ib[k] = uint32_t(c.faceIndices[k]), ib1[k] = uint32_t(c.uvIndices[k]);
+  for (size_t i = 0; i < c.positions.size(); ++i)
+    vb[4 * i] = c.positions[i].x, vb[4 * i + 1] = c.positions[i].y, vb[4 * i + 2] = c.positions[i].z, vb[4 * i + 3] = 0;
+  for (size_t i = 0; i < c.uvs.size() / 2; ++i) ub[4 * i] = c.uvs[2 * i], ub[4 * i + 1] = c.uvs[2 * i + 1], ub[4 * i + 2] = ub[4 * i + 3] = 0;
+  rtcCommitGeometry(g);
+  RTCScene s = rtcNewScene(scene.device());
+  rtcAttachGeometry(s, g);
+  rtcCommitScene(s);
+  int checked = 0;
+  for (uint32_t f = 0; f < 3; ++f) {
+    const int n = c.faceSizes[f];
+    for (int i = 0; i < (n == 4 ? 1 : n); ++i)
+      for (const float a : {0.0f, 0.13f, 0.5f, 0.77f, 1.0f})
+        for (const float b : {0.0f, 0.21f, 0.5f, 0.9f, 1.0f}) {
+          // Patch coordinates: a quad's own, or sub-quad i's encoded.
+          const float u = n == 4 ? a : float(2 * (i % 4)) + 0.5f + a;
+          const float v = n == 4 ? b : float(2 * (i / 4)) + 0.5f + b;
+          float ref[4];
+          rtcInterpolate1(g, f, u, v, RTC_BUFFER_TYPE_VERTEX_ATTRIBUTE, 0, ref, nullptr, nullptr, 4);
+          float s0, t0;
+          uvs.at(f, u, v, s0, t0);
+          const bool fixedByLinear = n == 4 || a == 0 || b == 0 || ((a == 0 || a == 1) && (b == 0 || b == 1));
+          if (!fixedByLinear) continue;
+          const double tol = n == 4 ? 2e-6 : 1e-4;
+          EXPECT_NEAR(s0, ref[0], tol) << "face " << f << " sub " << i << " at " << a << "," << b;
+          EXPECT_NEAR(t0, ref[1], tol) << "face " << f << " sub " << i << " at " << a << "," << b;
+          ++checked;
+        }
+  }
+  EXPECT_EQ(checked, 25 + (5 + 3) * 10);
+  rtcReleaseScene(s);
+  rtcReleaseGeometry(g);
+}
+
+// Both backends tessellate the same Catmull-Clark limit, so a ray meets
+// both within the two tessellations' chord errors: a smooth surface's chord
+// error is at most kappa h^2 / 8 for edge length h and curvature kappa; at
+// 2^6 segments per cage edge of length <= 2, h <= 2/64 and the rounded cube
+// and the bumpy cage bend with kappa < 4 (radius > 1/4), so each is within
+// 4 (1/32)^2 / 8 = 4.9e-4, along the ray within that over the cosine of the
+// incidence (rays hitting at < 75 degrees: / 0.26): 3.8e-3 for the pair.
+// Boundaries too: Embree's PIN_CORNERS mode is OpenSubdiv's EDGE_AND_CORNER.
+TEST(EmbreeSubdivision, LimitSurfaceMatchesOpenSubdiv) {
+  for (const SubdivisionCage& c : {cube(false), mixedCage()}) {
+    const auto osd = build(c, SubdivisionBackend::OpenSubdiv, 6);
+    const auto emb = build(c, SubdivisionBackend::Embree, 6);
+    int hits = 0;
+    for (const auto& [o, d] : probeRays(400)) {
+      const Hit a = trace(*osd, o, d), b = trace(*emb, o, d);
+      ASSERT_EQ(a.hit, b.hit) << "ray from " << o.x << "," << o.y << "," << o.z;
+      if (!a.hit) continue;
+      SurfaceHit h{};
+      RTCRayHit rh{};
+      rh.ray.org_x = o.x, rh.ray.org_y = o.y, rh.ray.org_z = o.z;
+      rh.ray.dir_x = d.x, rh.ray.dir_y = d.y, rh.ray.dir_z = d.z, rh.ray.tfar = b.t;
+      rh.hit.geomID = 0, rh.hit.primID = b.primID, rh.hit.u = b.u, rh.hit.v = b.v, rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+      computeSurfaceHit(*emb, rh, false, h);
+      if (std::abs(dot(h.ns, d)) < 0.26f) continue;  // grazing: the bound does not hold
+      EXPECT_NEAR(a.t, b.t, 3.8e-3) << "ray from " << o.x << "," << o.y << "," << o.z;
+      ++hits;
+    }
+    EXPECT_GT(hits, 100);
+  }
+}
+
+// Displacement moves both backends' surfaces alike: a constant height of 1
+// with midlevel 0 and scale 0.1 offsets the limit surface by 0.1 along its
+// normal - outwards on the cube - and the two offset surfaces meet a ray
+// within the chord bound above (the offset surface of the rounded cube
+// bends less than the cube's limit).
+TEST(EmbreeSubdivision, DisplacementMatchesOpenSubdiv) {
+  const std::string dir = tempDir("embree_displace");
+  CageDisplacement d;
+  d.map = heightMap(dir, "one", 2, 2, [](double, double) { return 1.0; });
+  d.scale = 0.1, d.midlevel = 0.0;
+  const auto plain = build(cube(true), SubdivisionBackend::Embree, 6);
+  const auto osd = build(cube(true), SubdivisionBackend::OpenSubdiv, 6, d);
+  const auto emb = build(cube(true), SubdivisionBackend::Embree, 6, d);
+  // Along the x axis the limit's face centre is met head-on: exactly 0.1 earlier.
+  const Vec3 o(4, 0, 0), minusX(-1, 0, 0);
+  EXPECT_NEAR(trace(*plain, o, minusX).t - trace(*emb, o, minusX).t, 0.1, 1e-4);
+  for (const auto& [o, dir3] : probeRays(200)) {
+    const Hit a = trace(*osd, o, dir3), b = trace(*emb, o, dir3), p = trace(*plain, o, dir3);
+    ASSERT_EQ(a.hit, b.hit);
+    if (!a.hit || !p.hit) continue;
+    EXPECT_NEAR(a.t, b.t, 3.8e-3);
+    EXPECT_LT(b.t, p.t);  // outwards: met earlier
+  }
+}
+
+// A displaced closed cage whose faces each have their own uvs (a seam on
+// every edge): the canonical edge uvs keep the surface closed, at uniform
+// and at camera-adaptive rates, so from inside no AO ray escapes.
+TEST(EmbreeSubdivision, DisplacedClosedCageHasNoCracks) {
+  const std::string dir = tempDir("embree_cracks");
+  CageDisplacement d;
+  d.map = heightMap(dir, "ripples", 64, 64, [](double u, double v) { return 0.5 + 0.5 * std::cos(4 * M_PI * u) * std::cos(2 * M_PI * v); });
+  d.scale = 0.15, d.midlevel = 0.5;
+  for (const bool adaptive : {false, true}) {
+    Scene scene;
+    LoadOptions o;
+    o.subdivision = true;
+    o.backend = SubdivisionBackend::Embree;
+    o.subdivisionLevel = 4;
+    if (adaptive) {
+      o.maxEdgePixels = 2;
+      o.camera = makeLookAtCamera(Vec3(5, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.6f, "view");
+      o.imageWidth = 320, o.imageHeight = 240;
+    }
+    addCage(scene, cube(true), o, d, -1, "cube");
+    scene.setRobust(true);
+    scene.commit();
+    const Camera cam = makeLookAtCamera(Vec3(0.1f, -0.05f, 0.02f), Vec3(1, 0.3f, 0.2f), Vec3(0, 0, 1), 2.5f, "inside");
+    const Film f = renderWith(scene, cam, "ao", {"rays=8"}, passSettings(16, 16, 16));
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x) ASSERT_EQ(f.at(kR, x, y), 0.0f) << "adaptive " << adaptive << " pixel " << x << "," << y;
+  }
+}
+
+// Edge lengths in pixels: with a 90-degree vertical field of view on a
+// 100-pixel-high image, a pixel at distance z spans z / 50; a unit edge
+// facing the camera at distance 10 spans 5 pixels (measured from its nearer
+// end, at sqrt(10^2 + 0.5^2): 4.994), so 1-pixel edges need level 3
+// (2^3 = 8 >= 5 > 4). Both half-edges of an edge agree.
+TEST(EmbreeSubdivision, EdgeLengthsInPixelsFromTheCamera) {
+  SubdivisionCage c;
+  c.positions = {{-0.5f, 0, -10}, {0.5f, 0, -10}, {0.5f, 1, -10}, {-0.5f, 1, -10}, {0.5f, 2, -10}, {-0.5f, 2, -10}};
+  c.faceSizes = {4, 4};
+  c.faceIndices = {0, 1, 2, 3, 3, 2, 4, 5};
+  const Camera cam = makeLookAtCamera(Vec3(0, 0, 0), Vec3(0, 0, -1), Vec3(0, 1, 0), float(M_PI / 2), "front");
+  const std::vector<float> px = edgePixelLengths(c, cam, 200, 100);
+  ASSERT_EQ(px.size(), 8u);
+  EXPECT_NEAR(px[0], 1.0 / (std::sqrt(100.25) / 50.0), 1e-4);  // edge 0-1, its ends at distance sqrt(10^2 + 0.5^2)
+  EXPECT_EQ(px[2], px[4]);                                   // edge 2-3 from both faces
+  EXPECT_NEAR(px[2], 1.0 / (std::sqrt(100.25 + 1) / 50), 1e-3);  // its nearer end at (0.5, 1, -10)
+  EXPECT_EQ(levelForEdgeLength(px, 1.0), 3);
+  EXPECT_EQ(levelForEdgeLength(px, 5.5), 0);
+  EXPECT_EQ(levelForEdgeLength({1e30f}, 1e-3), 10);
+}
+
+// What the Embree backend refuses, naming the cage: Loop, faces over 15
+// vertices, and tessellations over the memory budget.
+TEST(EmbreeSubdivision, RefusesWhatItCannotDo) {
+  const auto expectError = [](const SubdivisionCage& c, LoadOptions o, const std::string& needle) {
+    Scene scene;
+    try {
+      addCage(scene, c, o, {}, -1, "cage.obj");
+      ADD_FAILURE() << "accepted: " << needle;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind("cage.obj: ", 0), 0u) << e.what();
+    }
+  };
+  LoadOptions o;
+  o.subdivision = true;
+  o.backend = SubdivisionBackend::Embree;
+  LoadOptions loop = o;
+  loop.scheme = SubdivisionScheme::Loop;
+  expectError(cube(false), loop, "Catmull-Clark only");
+  SubdivisionCage big;
+  for (int i = 0; i < 16; ++i) {
+    big.positions.emplace_back(float(std::cos(i * M_PI / 8)), float(std::sin(i * M_PI / 8)), 0.0f);
+    big.faceIndices.push_back(i);
+  }
+  big.faceSizes = {16};
+  expectError(big, o, "has 16 vertices");
+  LoadOptions tight = o;
+  tight.subdivisionLevel = 10;
+  tight.maxMemoryBytes = size_t(64) << 20;
+  expectError(cube(false), tight, "--max-memory");
+}
+
+}  // namespace
+}  // namespace obscura::test
