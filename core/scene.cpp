@@ -14,12 +14,24 @@ void embreeErrorCallback(void*, RTCError code, const char* str) {
   // user-facing error at the next check, the rest into warnings.
   Log::warn(std::string("Embree: ") + (str ? str : "unknown error"));
 }
+// Embree's memory monitor: called once per allocation (bytes > 0) or free
+// (bytes < 0), before or after it; never refusing, so every call counts.
+bool embreeMemoryMonitor(void* user, ssize_t bytes, bool /*post*/) {
+  auto* c = static_cast<std::atomic<int64_t>*>(user);
+  const int64_t now = c[0].fetch_add(int64_t(bytes), std::memory_order_relaxed) + int64_t(bytes);
+  int64_t peak = c[1].load(std::memory_order_relaxed);
+  while (now > peak && !c[1].compare_exchange_weak(peak, now, std::memory_order_relaxed)) {
+  }
+  return true;
+}
 }  // namespace
 
 Scene::Scene() {
   device_ = rtcNewDevice(nullptr);
   if (!device_) throw Error("cannot create the Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   rtcSetDeviceErrorFunction(device_, embreeErrorCallback, nullptr);
+  static_assert(sizeof(MemoryCounter) == 2 * sizeof(std::atomic<int64_t>));
+  rtcSetDeviceMemoryMonitorFunction(device_, embreeMemoryMonitor, &memory_->current);
   top_ = rtcNewScene(device_);
 }
 
@@ -219,6 +231,18 @@ void Scene::commit() {
     bounds_.extend(Vec3(b.upper_x, b.upper_y, b.upper_z));
   }
   committed_ = true;
+}
+
+size_t Scene::attributeBytes() const {
+  size_t b = 0;
+  const auto add = [&](const Primitive& p) {
+    b += p.normals.size() * sizeof(Vec3) + p.uvs.size() * sizeof(float);
+    if (p.subdivision) b += p.subdivision->uvs.bytes() + p.subdivision->faceRate.size() * sizeof(float);
+  };
+  for (const auto& p : worldPrimitives_) add(p);
+  for (const auto& m : meshes_)
+    for (const auto& p : m.primitives) add(p);
+  return b;
 }
 
 SceneStats Scene::stats() const {

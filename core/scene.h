@@ -10,6 +10,8 @@
 
 #include <embree3/rtcore.h>
 
+#include <atomic>
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -105,6 +107,10 @@ class Scene {
   // Builds the BVHs. Called once after all geometry is added.
   void commit();
   double buildSeconds() const { return buildSeconds_; }
+  // Memory Embree holds for this scene (geometry buffers, tessellation,
+  // BVHs), from its memory monitor: now and at most so far.
+  int64_t embreeBytes() const { return memory_->current.load(std::memory_order_relaxed); }
+  int64_t embreePeakBytes() const { return memory_->peak.load(std::memory_order_relaxed); }
 
   // Geometry construction (used by the glTF loader and by tests).
   // Adds a world-space triangle list to the top-level scene.
@@ -132,6 +138,9 @@ class Scene {
   size_t flattenedMeshes = 0;  // meshes used once and baked into world space
 
   const Bounds3& bounds() const { return bounds_; }
+  // Bytes of the per-vertex attributes kept beside Embree's buffers
+  // (normals, uvs, subdivision surfaces' corner uvs).
+  size_t attributeBytes() const;
   SceneStats stats() const;
 
   // Hit lookup: the primitive a hit refers to and, for instances, its
@@ -156,6 +165,10 @@ class Scene {
   Primitive makePrimitive(RTCScene target, const std::vector<Vec3>& positions,
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
                           std::vector<float> uvs, int material, unsigned* geomID);
+  struct MemoryCounter {
+    std::atomic<int64_t> current{0}, peak{0};
+  };
+  std::unique_ptr<MemoryCounter> memory_ = std::make_unique<MemoryCounter>();
   RTCDevice device_ = nullptr;
   RTCScene top_ = nullptr;
   std::vector<Primitive> worldPrimitives_;

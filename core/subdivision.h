@@ -87,6 +87,9 @@ class CageUvs {
   explicit CageUvs(const SubdivisionCage& cage);  // cage.uvIndices must cover every corner
   bool empty() const { return faceStart_.empty(); }
   uint32_t faceSize(uint32_t face) const { return faceStart_[face + 1] - faceStart_[face]; }
+  size_t bytes() const {
+    return (faceStart_.size() + cornerUv_.size() + edgeUv_.size() + vertexUv_.size()) * sizeof(float);
+  }
   // uv of face f at Embree patch coordinates (u, v).
   void at(uint32_t face, float u, float v, float& s, float& t) const;
 
