@@ -104,6 +104,29 @@ double meanCovered(const Film& film, int channel, size_t* count) {
   return n ? sum / double(n) : NAN;
 }
 
+SubdivisionCage cubeCage() {
+  SubdivisionCage c;
+  for (int i = 0; i < 8; ++i) c.positions.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);
+  c.faceIndices = {0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 0, 4, 6, 2, 1, 3, 7, 5};
+  c.faceSizes.assign(6, 4);
+  return c;
+}
+
+void expectNoRayEscapes(const Scene& scene, Vec3 eye, Vec3 target) {
+  const Camera cam = makeLookAtCamera(eye, target, Vec3(0, 0, 1), 2.5f, "inside");
+  const Film f = renderWith(scene, cam, "ao", {"rays=8"}, passSettings(16, 16, 16));
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) ASSERT_EQ(f.at(kR, x, y), 0.0f) << "pixel " << x << "," << y;
+}
+
+void expectNoRayEscapes(const SubdividedMesh& m) {
+  Scene scene;
+  scene.addWorldPrimitive(m.positions, m.triangles, m.normals, {}, -1);
+  scene.setRobust(true);
+  scene.commit();
+  expectNoRayEscapes(scene);
+}
+
 // --- files ------------------------------------------------------------------
 
 std::vector<unsigned char> readBytes(const std::string& path) {
@@ -118,6 +141,23 @@ void writeBytes(const std::string& path, const void* data, size_t n) {
 }
 
 void writeText(const std::string& path, const std::string& text) { writeBytes(path, text.data(), text.size()); }
+
+std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double, double)>& f) {
+  std::vector<float> px(size_t(w) * size_t(h));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) px[size_t(y) * size_t(w) + size_t(x)] = float(f((x + 0.5) / w, 1.0 - (y + 0.5) / h));
+  auto out = OIIO::ImageOutput::create(path);
+  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT))) << path;
+  if (out) {
+    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data())) << path;
+    out->close();
+  }
+  return path;
+}
+
+std::string writeRipples(const std::string& dir) {
+  return writeHeightMap(dir + "/ripples.exr", 64, 4, [](double u, double) { return 0.5 + 0.5 * std::cos(4 * M_PI * u); });
+}
 
 ReadBack readExr(const std::string& path) {
   ReadBack r;

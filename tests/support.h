@@ -9,6 +9,7 @@
 #include <sys/types.h>
 
 #include <cmath>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -19,6 +20,7 @@
 #include "core/integrator.h"
 #include "core/render.h"
 #include "core/scene.h"
+#include "core/subdivision.h"
 
 namespace obscura::test {
 
@@ -56,6 +58,16 @@ double meanCovered(const Film& film, int channel, size_t* count = nullptr);
 // Standard error of the mean of n Bernoulli(p) draws.
 inline double bernoulliStdErr(double p, double n) { return std::sqrt(std::max(p * (1 - p), 1e-12) / n); }
 
+// The cube [-1, 1]^3 as a cage of six outward quads.
+SubdivisionCage cubeCage();
+
+// From a point inside a closed surface no AO ray escapes (watertight
+// traversal, so `scene` should be robust): every pixel of a render from
+// `eye` towards `target` is exactly 0.
+void expectNoRayEscapes(const Scene& scene, Vec3 eye = Vec3(0.1f, -0.05f, 0.02f), Vec3 target = Vec3(1, 0.3f, 0.2f));
+// The same for a refined mesh, as one robust world-space primitive.
+void expectNoRayEscapes(const SubdividedMesh& m);
+
 // --- files ------------------------------------------------------------------
 
 // The whole file (empty if it cannot be read).
@@ -74,6 +86,13 @@ struct ReadBack {
   std::map<std::string, std::vector<float>> planes;  // by channel name
 };
 ReadBack readExr(const std::string& path);
+
+// Writes a one-channel float EXR of w x h texels holding f(u, v) at the
+// texel centres in HeightMap's convention (u = (x + 0.5) / w, v = 0 at the
+// bottom row); returns `path`.
+std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double u, double v)>& f);
+// dir/ripples.exr: h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 texels.
+std::string writeRipples(const std::string& dir);
 
 // --- warnings -----------------------------------------------------------------
 

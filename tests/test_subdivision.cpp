@@ -18,14 +18,7 @@
 namespace obscura::test {
 namespace {
 
-// The cube [-1, 1]^3 as six outward quads.
-SubdivisionCage cube() {
-  SubdivisionCage c;
-  for (int i = 0; i < 8; ++i) c.positions.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);
-  c.faceIndices = {0, 2, 3, 1, 4, 5, 7, 6, 0, 1, 5, 4, 2, 6, 7, 3, 0, 4, 6, 2, 1, 3, 7, 5};
-  c.faceSizes.assign(6, 4);
-  return c;
-}
+SubdivisionCage cube() { return cubeCage(); }
 
 constexpr size_t kBudget = size_t(1) << 30;
 
@@ -86,19 +79,6 @@ TEST(Subdivision, AreaAndVolumeConverge) {
   // The limit is inside the cage (convex hull property) and not degenerate.
   EXPECT_LT(refV, 8.0);
   EXPECT_GT(refV, 4.0 / 3.0 * M_PI * 0.5 * 0.5 * 0.5);
-}
-
-// From a point inside a closed surface no AO ray escapes (watertight
-// traversal): every pixel is exactly 0.
-void expectNoRayEscapes(const SubdividedMesh& m) {
-  Scene scene;
-  scene.addWorldPrimitive(m.positions, m.triangles, m.normals, {}, -1);
-  scene.setRobust(true);
-  scene.commit();
-  const Camera cam = makeLookAtCamera(Vec3(0.1f, -0.05f, 0.02f), Vec3(1, 0.3f, 0.2f), Vec3(0, 0, 1), 2.5f, "inside");
-  const Film f = renderWith(scene, cam, "ao", {"rays=8"}, passSettings(16, 16, 16));
-  for (int y = 0; y < 16; ++y)
-    for (int x = 0; x < 16; ++x) ASSERT_EQ(f.at(kR, x, y), 0.0f) << "pixel " << x << "," << y;
 }
 
 // A closed cage gives a closed triangle mesh (every edge in exactly two
@@ -184,20 +164,6 @@ TEST(Subdivision, SpotCageRendersAndBadObjIsRefused) {
   EXPECT_EQ(bad.exitCode, 1);
   EXPECT_NE(bad.stderrText.find("bad.obj: face 0 repeats vertex 1"), std::string::npos) << bad.stderrText;
   EXPECT_EQ(std::count(bad.stderrText.begin(), bad.stderrText.end(), '\n'), 1) << bad.stderrText;
-}
-
-// A height map h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 float texels.
-std::string writeRipples(const std::string& dir) {
-  const int w = 64, h = 4;
-  std::vector<float> px(size_t(w) * h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) px[size_t(y) * w + x] = float(0.5 + 0.5 * std::cos(4 * M_PI * (x + 0.5) / w));
-  const std::string path = dir + "/ripples.exr";
-  auto out = OIIO::ImageOutput::create(path);
-  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT)));
-  out->write_image(OIIO::TypeDesc::FLOAT, px.data());
-  out->close();
-  return path;
 }
 
 // Displacement moves each vertex along the limit normal by
