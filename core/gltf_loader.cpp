@@ -197,6 +197,7 @@ class Loader {
     int mesh;
     Matrix4d world;
     std::string node;
+    int nodeIndex;
   };
 
   void visit(int index, const Matrix4d& parent, std::vector<int>& stack) {
@@ -214,7 +215,7 @@ class Loader {
     if (n.skin >= 0) warn("skinned meshes render in their bind pose");
     if (n.mesh >= 0) {
       if (size_t(n.mesh) >= model_.meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
-      uses_.push_back({n.mesh, world, n.name.empty() ? field : n.name});
+      uses_.push_back({n.mesh, world, n.name.empty() ? field : n.name, index});
     }
     if (n.camera >= 0) addCamera(n, n.camera, world, field);
     stack.push_back(index);
@@ -397,8 +398,12 @@ class Loader {
     int material = -1;
   };
 
-  std::vector<PrimData> readMesh(int meshIndex) {
+  // The primitives of meshes[meshIndex], subdivided and displaced when its
+  // extras (or the using node's, `nodeIndex`, -1 for none) say so.
+  std::vector<PrimData> readMesh(int meshIndex, int nodeIndex) {
     const auto& mesh = model_.meshes[size_t(meshIndex)];
+    const std::optional<SubdivisionRequest> sub = subdivisionOf(meshIndex);
+    const std::optional<DisplacementRequest> disp = displacementOf(meshIndex, nodeIndex, sub.has_value());
     std::vector<PrimData> out;
     for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
       const auto& gp = mesh.primitives[pi];
@@ -421,15 +426,17 @@ class Loader {
       if (gp.material >= 0) {
         if (size_t(gp.material) >= scene_->materials.size()) fail(field + ".material", "material " + std::to_string(gp.material) + " does not exist");
         d.material = gp.material;
-        if (scene_->materials[size_t(gp.material)].texture >= 0) {
-          if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end()) {
-            d.uvs = readVec2(t->second, field + ".attributes.TEXCOORD_0");
-            if (d.uvs.size() != 2 * d.positions.size()) fail(field + ".attributes.TEXCOORD_0", "count differs from POSITION");
-          } else {
-            warn(field + ": textured material without TEXCOORD_0 (texture ignored)");
-          }
-        }
+        if (scene_->materials[size_t(gp.material)].texture >= 0 && !gp.attributes.count("TEXCOORD_0"))
+          warn(field + ": textured material without TEXCOORD_0 (texture ignored)");
       }
+      // Texture coordinates serve a texture and, on a subdivided mesh, the
+      // displacement and integrators that work in texture space.
+      const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
+      if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end() && (textured || sub)) {
+        d.uvs = readVec2(t->second, field + ".attributes.TEXCOORD_0");
+        if (d.uvs.size() != 2 * d.positions.size()) fail(field + ".attributes.TEXCOORD_0", "count differs from POSITION");
+      }
+      if (disp && d.uvs.empty()) fail(field + ".attributes", "TEXCOORD_0 is missing; " + disp->field + " needs it");
       std::vector<uint32_t> idx;
       if (gp.indices >= 0) {
         idx = readIndices(gp.indices, field + ".indices", d.positions.size());
@@ -450,10 +457,19 @@ class Loader {
         d.indices = std::move(idx);
       }
       if (d.indices.empty()) continue;
-      if (const auto sub = subdivisionOf(meshIndex)) subdividePrimitive(d, *sub, field);
+      if (sub) subdividePrimitive(d, *sub, disp ? &*disp : nullptr, field);
       out.push_back(std::move(d));
     }
     return out;
+  }
+
+  // The object `extras.obscura` of a mesh or node (`owner` names it in
+  // errors), or null if there is none.
+  const tinygltf::Value* obscuraExtras(const tinygltf::Value& extras, const std::string& owner) const {
+    if (!extras.IsObject() || !extras.Has("obscura")) return nullptr;
+    const tinygltf::Value& ob = extras.Get("obscura");
+    if (!ob.IsObject()) fail(owner + ".extras.obscura", "must be an object");
+    return &ob;
   }
 
   // meshes[i].extras.obscura.subdivision = {"scheme": "catmull-clark"|"loop",
@@ -463,13 +479,11 @@ class Loader {
     int level;
   };
   std::optional<SubdivisionRequest> subdivisionOf(int meshIndex) {
-    const tinygltf::Value& extras = model_.meshes[size_t(meshIndex)].extras;
-    if (!extras.IsObject() || !extras.Has("obscura")) return std::nullopt;
-    const std::string field = "meshes[" + std::to_string(meshIndex) + "].extras.obscura";
-    const tinygltf::Value& ob = extras.Get("obscura");
-    if (!ob.IsObject()) fail(field, "must be an object");
-    if (!ob.Has("subdivision")) return std::nullopt;
-    const tinygltf::Value& sub = ob.Get("subdivision");
+    const std::string owner = "meshes[" + std::to_string(meshIndex) + "]";
+    const tinygltf::Value* ob = obscuraExtras(model_.meshes[size_t(meshIndex)].extras, owner);
+    if (!ob || !ob->Has("subdivision")) return std::nullopt;
+    const std::string field = owner + ".extras.obscura";
+    const tinygltf::Value& sub = ob->Get("subdivision");
     if (!sub.IsObject()) fail(field + ".subdivision", "must be an object");
     SubdivisionRequest r{SubdivisionScheme::CatmullClark, options_.subdivisionLevel};
     if (sub.Has("scheme")) {
@@ -486,30 +500,158 @@ class Loader {
     return r;
   }
 
+  // A height map displacing a subdivided mesh: from the using node's
+  // extras.obscura.displacement, else the mesh's, else the CLI's --displace
+  // (README "Scenes"). `field` names where it came from, for errors.
+  struct DisplacementRequest {
+    std::string map;  // path as written (relative to the .gltf) or as given to --displace
+    std::string path;  // the file to read
+    double scale, midlevel;
+    std::string field;
+  };
+
+  // {"map": path, "scale": s, "midlevel": m} at owner.extras.obscura.displacement.
+  std::optional<DisplacementRequest> parseDisplacement(const tinygltf::Value& extras, const std::string& owner) const {
+    const tinygltf::Value* ob = obscuraExtras(extras, owner);
+    if (!ob || !ob->Has("displacement")) return std::nullopt;
+    DisplacementRequest r{"", "", options_.displacementScale, options_.displacementMidlevel,
+                          owner + ".extras.obscura.displacement"};
+    const tinygltf::Value& d = ob->Get("displacement");
+    if (!d.IsObject()) fail(r.field, "must be an object");
+    const tinygltf::Value& map = d.Get("map");  // a null value when absent
+    if (!map.IsString() || map.Get<std::string>().empty()) fail(r.field + ".map", "expected the path of a height map");
+    r.map = map.Get<std::string>();
+    const fs::path mp(r.map);
+    r.path = mp.is_absolute() ? r.map : (fs::path(path_).parent_path() / mp).string();
+    for (const auto& [key, value] : {std::pair{"scale", &r.scale}, std::pair{"midlevel", &r.midlevel}}) {
+      if (!d.Has(key)) continue;
+      const tinygltf::Value& v = d.Get(key);
+      if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) fail(r.field + "." + key, "expected a finite number");
+      *value = v.GetNumberAsDouble();
+    }
+    return r;
+  }
+
+  std::optional<DisplacementRequest> displacementOf(int meshIndex, int nodeIndex, bool subdivided) {
+    const std::string mesh = "meshes[" + std::to_string(meshIndex) + "]";
+    std::optional<DisplacementRequest> r;
+    if (nodeIndex >= 0) r = parseDisplacement(model_.nodes[size_t(nodeIndex)].extras, "nodes[" + std::to_string(nodeIndex) + "]");
+    // The mesh's own is checked even when a node overrides it.
+    std::optional<DisplacementRequest> own = parseDisplacement(model_.meshes[size_t(meshIndex)].extras, mesh);
+    if (!r) r = std::move(own);
+    if (r && !subdivided) fail(r->field, "needs a subdivided mesh (" + mesh + ".extras.obscura.subdivision)");
+    if (!r && subdivided && !options_.displacementMap.empty()) {
+      r = DisplacementRequest{options_.displacementMap, options_.displacementMap, options_.displacementScale,
+                              options_.displacementMidlevel, "--displace"};
+      cliDisplacementUsed_ = true;
+    }
+    return r;
+  }
+
+  // Each file is read once, on first use, however many meshes share it.
+  const HeightMap& heightMap(const DisplacementRequest& r) {
+    const std::string key = fs::absolute(r.path).lexically_normal().string();
+    auto it = heightMaps_.find(key);
+    if (it != heightMaps_.end()) return *it->second;
+    try {
+      it = heightMaps_.emplace(key, std::make_unique<HeightMap>(r.path)).first;
+    } catch (const Error& e) {
+      if (r.field == "--displace") throw;  // already names the file, as given
+      std::string why = e.what();
+      if (why.rfind(r.path + ": ", 0) == 0) why.erase(0, r.path.size() + 2);
+      fail(r.field + ".map", r.map + ": " + why);
+    }
+    return *it->second;
+  }
+
   // Replaces a triangle primitive by its subdivision limit surface (object
-  // space; limit normals). Texture coordinates are not carried through yet.
-  void subdividePrimitive(PrimData& d, const SubdivisionRequest& r, const std::string& field) {
+  // space; limit normals), then displaces it if asked.
+  //
+  // glTF splits a vertex wherever an attribute differs (a uv seam, a hard
+  // normal): taken as they are, those copies would make the cage open along
+  // every seam and the refined surface would tear there. So corners at equal
+  // positions (every coordinate ==; +0 and -0 alike) are welded into one
+  // cage vertex, while each corner keeps its own uv (face-varying). A
+  // welded vertex takes one side's uv on the refined mesh (SubdividedMesh),
+  // so displacement moves it once and opens no crack.
+  void subdividePrimitive(PrimData& d, const SubdivisionRequest& r, const DisplacementRequest* disp,
+                          const std::string& field) {
+    const size_t n = d.positions.size();
+    std::vector<uint32_t> order(n);
+    for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
+    const auto less = [&](uint32_t a, uint32_t b) {
+      const Vec3 &p = d.positions[a], &q = d.positions[b];
+      return p.x != q.x ? p.x < q.x : p.y != q.y ? p.y < q.y : p.z < q.z;
+    };
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return less(a, b) || (!less(b, a) && a < b); });
+    // representative[i]: the first glTF vertex at i's position.
+    std::vector<uint32_t> representative(n);
+    for (size_t k = 0; k < n; ++k)
+      representative[order[k]] = k > 0 && !less(order[k - 1], order[k]) ? representative[order[k - 1]] : order[k];
+    // Cage vertices in the order of their first glTF vertex.
+    std::vector<int> cageIndex(n, -1);
     SubdivisionCage cage;
-    cage.positions = d.positions;
+    for (size_t i = 0; i < n; ++i)
+      if (representative[i] == i) cageIndex[i] = int(cage.positions.size()), cage.positions.push_back(d.positions[i]);
     cage.faceSizes.assign(d.indices.size() / 3, 3);
-    cage.faceIndices.assign(d.indices.begin(), d.indices.end());
-    if (!d.uvs.empty()) warn(field + ": texture coordinates of a subdivided mesh are not supported yet (texture ignored)");
-    const SubdividedMesh m = subdivide(cage, r.scheme, r.level, options_.maxMemoryBytes, path_ + ": " + field);
-    d.positions = m.positions;
-    d.normals = m.normals;
-    d.indices = m.triangles;
-    d.uvs.clear();
+    cage.faceIndices.reserve(d.indices.size());
+    for (size_t t = 0; t < d.indices.size(); t += 3) {
+      for (size_t k = 0; k < 3; ++k) {
+        const uint32_t a = d.indices[t + k], b = d.indices[t + (k + 1) % 3];
+        if (representative[a] == representative[b])
+          fail(field + ".indices", "triangle " + std::to_string(t / 3) + " is degenerate (vertices " + std::to_string(a) +
+                                       " and " + std::to_string(b) + (a == b ? " repeated" : " at the same position") +
+                                       "); a subdivision cage needs three distinct corners");
+        cage.faceIndices.push_back(cageIndex[representative[a]]);
+      }
+    }
+    if (!d.uvs.empty()) {
+      cage.uvs = d.uvs;
+      cage.uvIndices.assign(d.indices.begin(), d.indices.end());
+      const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
+      if (textured)
+        for (size_t i = 0; i < n; ++i)
+          if (d.uvs[2 * i] != d.uvs[2 * representative[i]] || d.uvs[2 * i + 1] != d.uvs[2 * representative[i] + 1]) {
+            warn(field + ": the subdivided mesh has uv seams; its texture is looked up with one side's uv on the "
+                         "refined vertices along a seam (triangles there may smear the texture)");
+            break;
+          }
+    }
+    SubdividedMesh m = subdivide(cage, r.scheme, r.level, options_.maxMemoryBytes, path_ + ": " + field);
+    if (disp) {
+      // glTF's v runs down the image (v = 0 at the top row, as a
+      // baseColorTexture is read) while HeightMap puts v = 0 at the bottom
+      // (OBJ): the lookup uses (u, 1 - v), so a height map lines up with a
+      // texture of the same image. The mesh keeps its uvs as the file has them.
+      std::vector<float> uvs = m.uvs;
+      for (size_t i = 1; i < m.uvs.size(); i += 2) m.uvs[i] = 1.0f - m.uvs[i];
+      displace(m, heightMap(*disp), disp->scale, disp->midlevel);
+      m.uvs = std::move(uvs);
+    }
+    d.positions = std::move(m.positions);
+    d.normals = std::move(m.normals);
+    d.indices = std::move(m.triangles);
+    d.uvs = std::move(m.uvs);
   }
 
   void buildGeometry() {
-    std::map<int, int> useCount;
-    for (const auto& u : uses_) ++useCount[u.mesh];
-    std::map<int, int> instanced;  // glTF mesh -> Scene instanced mesh
+    // A node with a displacement of its own gets its own copy of the mesh:
+    // geometry is keyed by (mesh, that node), -1 for the mesh as the file has it.
+    const auto key = [&](const MeshUse& u) {
+      const tinygltf::Value& extras = model_.nodes[size_t(u.nodeIndex)].extras;
+      const std::string owner = "nodes[" + std::to_string(u.nodeIndex) + "]";
+      const tinygltf::Value* ob = obscuraExtras(extras, owner);
+      return std::pair{u.mesh, ob && ob->Has("displacement") ? u.nodeIndex : -1};
+    };
+    std::map<std::pair<int, int>, int> useCount;
+    for (const auto& u : uses_) ++useCount[key(u)];
+    std::map<std::pair<int, int>, int> instanced;  // (glTF mesh, node) -> Scene instanced mesh
     for (const auto& u : uses_) {
       const Affine xf = Affine::fromColumnMajor4x4(u.world.data());
-      if (useCount[u.mesh] == 1) {
+      const auto k = key(u);
+      if (useCount[k] == 1) {
         // Used once: bake into world space; no instance traversal at render.
-        std::vector<PrimData> prims = readMesh(u.mesh);
+        std::vector<PrimData> prims = readMesh(u.mesh, k.second);
         for (PrimData& p : prims) {
           for (Vec3& v : p.positions) v = xf.point(v);
           for (Vec3& n : p.normals) n = xf.normal(n);
@@ -518,16 +660,19 @@ class Loader {
         if (!prims.empty()) ++scene_->flattenedMeshes;
         continue;
       }
-      auto it = instanced.find(u.mesh);
+      auto it = instanced.find(k);
       if (it == instanced.end()) {
-        std::vector<PrimData> prims = readMesh(u.mesh);
+        std::vector<PrimData> prims = readMesh(u.mesh, k.second);
         const int m = prims.empty() ? -1 : scene_->addInstancedMesh(model_.meshes[size_t(u.mesh)].name);
         for (PrimData& p : prims)
           scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
-        it = instanced.emplace(u.mesh, m).first;
+        it = instanced.emplace(k, m).first;
       }
       if (it->second >= 0) scene_->addInstance(it->second, xf, u.node);
     }
+    if (!options_.displacementMap.empty() && !cliDisplacementUsed_)
+      warn("--displace applies to subdivided meshes (extras.obscura.subdivision) without a displacement of their own; "
+           "none here (height map unused)");
   }
 
   std::string path_;
@@ -537,6 +682,8 @@ class Loader {
   std::unique_ptr<Scene> scene_;
   std::vector<MeshUse> uses_;
   std::vector<char> visited_;
+  std::map<std::string, std::unique_ptr<HeightMap>> heightMaps_;  // by absolute path
+  bool cliDisplacementUsed_ = false;
 };
 
 }  // namespace

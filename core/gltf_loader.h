@@ -3,7 +3,9 @@
 // Supported: the node hierarchy (matrix or TRS), triangle primitives
 // (TRIANGLES, TRIANGLE_STRIP, TRIANGLE_FAN; indexed or not), POSITION,
 // NORMAL, TEXCOORD_0, perspective cameras, and the diffuse albedo
-// baseColorFactor x baseColorTexture (sRGB decoded, sampler wrap modes).
+// baseColorFactor x baseColorTexture (sRGB decoded, sampler wrap modes),
+// and Obscura's mesh/node extras: subdivision (with uvs) and displacement
+// (README "Scenes").
 // Everything else in the file is reported once as a warning and ignored.
 // Malformed data (bad indices, out-of-range accessors, NaN, missing files)
 // throws obscura::Error naming the file and the field.
@@ -16,7 +18,6 @@
 #include "core/scene.h"
 
 namespace obscura {
-
 
 
 std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& options = {});

@@ -27,8 +27,10 @@ struct LoadOptions {
   double maxEdgePixels = 0;
   std::optional<Camera> camera;
   int imageWidth = 0, imageHeight = 0;
-  // Displacement of subdivided OBJ cages: a height map, moved along the
-  // limit normal by scale * (h - midlevel) (scene units).
+  // Displacement of subdivided OBJ cages, and of subdivided glTF meshes
+  // without a displacement in their extras: a height map, moved along the
+  // limit normal by scale * (h - midlevel) (scene units). Also the defaults
+  // of a glTF displacement's scale and midlevel.
   std::string displacementMap;
   double displacementScale = 0.1;
   double displacementMidlevel = 0.5;
