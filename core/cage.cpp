@@ -77,14 +77,14 @@ void addCage(Scene& scene, const SubdivisionCage& cage, const LoadOptions& o, co
     const size_t bytes = embreeSubdivisionBytes(cage, rates);
     if (bytes > o.maxMemoryBytes)
       throw Error(what + ": Embree's tessellation needs about " + std::to_string(bytes >> 20) + " MiB" + budget);
-    scene.addSubdivisionSurface(cage, rates, disp.map, float(disp.scale), float(disp.midlevel), material);
+    scene.addSubdivisionSurface(cage, rates, disp.map, float(disp.scale), float(disp.midlevel), disp.flipV, material);
     return;
   }
   const int level = adaptive ? levelForEdgeLength(edgePixelLengths(cage, *o.camera, o.imageWidth, o.imageHeight),
                                                   o.maxEdgePixels)
                              : o.subdivisionLevel;
   SubdividedMesh m = subdivide(cage, o.scheme, level, o.maxMemoryBytes, what);
-  if (disp.map) displace(m, *disp.map, disp.scale, disp.midlevel);
+  if (disp.map) displace(m, *disp.map, disp.scale, disp.midlevel, disp.flipV);
   scene.addWorldPrimitive(m.positions, m.triangles, std::move(m.normals), std::move(m.uvs), material);
 }
 

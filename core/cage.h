@@ -17,6 +17,7 @@ namespace obscura {
 struct CageDisplacement {
   std::shared_ptr<const HeightMap> map;  // null: none
   double scale = 0, midlevel = 0;
+  bool flipV = false;  // look up (u, 1 - v): glTF's v runs down the image
 };
 
 // Length in pixels of each cage edge (the edge from face corner k to the

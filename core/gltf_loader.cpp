@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 
+#include "core/cage.h"
 #include "core/error.h"
 
 namespace obscura {
@@ -391,11 +392,21 @@ class Loader {
   }
 
   // One primitive, in object space.
+  struct SubdivisionRequest {
+    SubdivisionScheme scheme;
+    int level;
+  };
   struct PrimData {
     std::vector<Vec3> positions, normals;
     std::vector<float> uvs;
     std::vector<uint32_t> indices;
     int material = -1;
+    // A subdivided primitive: its cage (object space), how to refine it and
+    // what displaces it; refined per use, in world space (buildGeometry).
+    std::optional<SubdivisionCage> cage;
+    SubdivisionRequest sub{};
+    CageDisplacement displacement;
+    std::string field;
   };
 
   // The primitives of meshes[meshIndex], subdivided and displaced when its
@@ -457,7 +468,7 @@ class Loader {
         d.indices = std::move(idx);
       }
       if (d.indices.empty()) continue;
-      if (sub) subdividePrimitive(d, *sub, disp ? &*disp : nullptr, field);
+      if (sub) cagePrimitive(d, *sub, disp ? &*disp : nullptr, field);
       out.push_back(std::move(d));
     }
     return out;
@@ -474,10 +485,6 @@ class Loader {
 
   // meshes[i].extras.obscura.subdivision = {"scheme": "catmull-clark"|"loop",
   // "level": N} (README "Scenes"); none if absent.
-  struct SubdivisionRequest {
-    SubdivisionScheme scheme;
-    int level;
-  };
   std::optional<SubdivisionRequest> subdivisionOf(int meshIndex) {
     const std::string owner = "meshes[" + std::to_string(meshIndex) + "]";
     const tinygltf::Value* ob = obscuraExtras(model_.meshes[size_t(meshIndex)].extras, owner);
@@ -549,23 +556,23 @@ class Loader {
   }
 
   // Each file is read once, on first use, however many meshes share it.
-  const HeightMap& heightMap(const DisplacementRequest& r) {
+  std::shared_ptr<const HeightMap> heightMap(const DisplacementRequest& r) {
     const std::string key = fs::absolute(r.path).lexically_normal().string();
     auto it = heightMaps_.find(key);
-    if (it != heightMaps_.end()) return *it->second;
+    if (it != heightMaps_.end()) return it->second;
     try {
-      it = heightMaps_.emplace(key, std::make_unique<HeightMap>(r.path)).first;
+      it = heightMaps_.emplace(key, std::make_shared<const HeightMap>(r.path)).first;
     } catch (const Error& e) {
       if (r.field == "--displace") throw;  // already names the file, as given
       std::string why = e.what();
       if (why.rfind(r.path + ": ", 0) == 0) why.erase(0, r.path.size() + 2);
       fail(r.field + ".map", r.map + ": " + why);
     }
-    return *it->second;
+    return it->second;
   }
 
-  // Replaces a triangle primitive by its subdivision limit surface (object
-  // space; limit normals), then displaces it if asked.
+  // Turns a triangle primitive into a subdivision cage (object space), to be
+  // refined and displaced per use (buildGeometry).
   //
   // glTF splits a vertex wherever an attribute differs (a uv seam, a hard
   // normal): taken as they are, those copies would make the cage open along
@@ -574,7 +581,7 @@ class Loader {
   // cage vertex, while each corner keeps its own uv (face-varying). A
   // welded vertex takes one side's uv on the refined mesh (SubdividedMesh),
   // so displacement moves it once and opens no crack.
-  void subdividePrimitive(PrimData& d, const SubdivisionRequest& r, const DisplacementRequest* disp,
+  void cagePrimitive(PrimData& d, const SubdivisionRequest& r, const DisplacementRequest* disp,
                           const std::string& field) {
     const size_t n = d.positions.size();
     std::vector<uint32_t> order(n);
@@ -617,21 +624,38 @@ class Loader {
             break;
           }
     }
-    SubdividedMesh m = subdivide(cage, r.scheme, r.level, options_.maxMemoryBytes, path_ + ": " + field);
+    validateCage(cage, r.scheme, path_ + ": " + field);
+    d.sub = r;
+    d.field = field;
     if (disp) {
       // glTF's v runs down the image (v = 0 at the top row, as a
       // baseColorTexture is read) while HeightMap puts v = 0 at the bottom
       // (OBJ): the lookup uses (u, 1 - v), so a height map lines up with a
       // texture of the same image. The mesh keeps its uvs as the file has them.
-      std::vector<float> uvs = m.uvs;
-      for (size_t i = 1; i < m.uvs.size(); i += 2) m.uvs[i] = 1.0f - m.uvs[i];
-      displace(m, heightMap(*disp), disp->scale, disp->midlevel);
-      m.uvs = std::move(uvs);
+      d.displacement.map = heightMap(*disp);
+      d.displacement.scale = disp->scale, d.displacement.midlevel = disp->midlevel;
+      d.displacement.flipV = true;
     }
-    d.positions = std::move(m.positions);
-    d.normals = std::move(m.normals);
-    d.indices = std::move(m.triangles);
-    d.uvs = std::move(m.uvs);
+    d.cage = std::move(cage);
+    d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear();
+  }
+
+  // A subdivided primitive's cage, placed by `xf` and refined as the
+  // request and the load options say (core/cage.h). Displacement scales are
+  // in the mesh's units: they follow the transform's scale (the cube root
+  // of its determinant, exact for rotation + uniform scale).
+  void addSubdivided(PrimData& p, const Affine& xf) {
+    SubdivisionCage c = std::move(*p.cage);
+    for (Vec3& v : c.positions) v = xf.point(v);
+    LoadOptions o = options_;
+    o.scheme = p.sub.scheme;
+    o.subdivisionLevel = p.sub.level;
+    CageDisplacement d = p.displacement;
+    const double det = xf.m[0][0] * (xf.m[1][1] * xf.m[2][2] - xf.m[1][2] * xf.m[2][1]) -
+                       xf.m[0][1] * (xf.m[1][0] * xf.m[2][2] - xf.m[1][2] * xf.m[2][0]) +
+                       xf.m[0][2] * (xf.m[1][0] * xf.m[2][1] - xf.m[1][1] * xf.m[2][0]);
+    d.scale *= std::cbrt(std::abs(det));
+    addCage(*scene_, c, o, d, p.material, path_ + ": " + p.field);
   }
 
   void buildGeometry() {
@@ -645,6 +669,11 @@ class Loader {
     };
     std::map<std::pair<int, int>, int> useCount;
     for (const auto& u : uses_) ++useCount[key(u)];
+    // A subdivided mesh is refined per use, in world space - adaptive
+    // refinement and displacement depend on where it is - so it is never
+    // instanced.
+    for (const auto& u : uses_)
+      if (subdivisionOf(u.mesh)) useCount[key(u)] = 1;
     std::map<std::pair<int, int>, int> instanced;  // (glTF mesh, node) -> Scene instanced mesh
     for (const auto& u : uses_) {
       const Affine xf = Affine::fromColumnMajor4x4(u.world.data());
@@ -653,6 +682,10 @@ class Loader {
         // Used once: bake into world space; no instance traversal at render.
         std::vector<PrimData> prims = readMesh(u.mesh, k.second);
         for (PrimData& p : prims) {
+          if (p.cage) {
+            addSubdivided(p, xf);
+            continue;
+          }
           for (Vec3& v : p.positions) v = xf.point(v);
           for (Vec3& n : p.normals) n = xf.normal(n);
           scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
@@ -682,7 +715,7 @@ class Loader {
   std::unique_ptr<Scene> scene_;
   std::vector<MeshUse> uses_;
   std::vector<char> visited_;
-  std::map<std::string, std::unique_ptr<HeightMap>> heightMaps_;  // by absolute path
+  std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;
 };
 

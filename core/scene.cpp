@@ -99,7 +99,8 @@ void displaceSubdivision(const RTCDisplacementFunctionNArguments* a) {
 }  // namespace
 
 int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<float>& edgeLevels,
-                                 std::shared_ptr<const HeightMap> height, float scale, float midlevel, int material) {
+                                 std::shared_ptr<const HeightMap> height, float scale, float midlevel, bool flipV,
+                                 int material) {
   auto surface = std::make_shared<SubdivisionSurface>();
   const size_t corners = cage.faceIndices.size(), faces = cage.faceSizes.size();
   if (edgeLevels.size() != 1 && edgeLevels.size() != corners) throw Error("internal: edge levels do not match the cage");
@@ -115,6 +116,7 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
     surface->height = std::move(height);
     surface->scale = scale;
     surface->midlevel = midlevel;
+    surface->flipV = flipV;
   }
 
   RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_SUBDIVISION);

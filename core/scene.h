@@ -37,12 +37,13 @@ struct SubdivisionSurface {
   CageUvs uvs;                             // the displacement's parametrization
   std::shared_ptr<const HeightMap> height;  // null: not displaced
   float scale = 0, midlevel = 0;
+  bool flipV = false;           // look up (u, 1 - v)
   std::vector<float> faceRate;  // per face, the finest tessellation rate of its edges
   // scale * (h(uv) - midlevel) at patch coordinates (u, v) of face f.
   float displacement(uint32_t face, float u, float v) const {
     float s, t;
     uvs.at(face, u, v, s, t);
-    return scale * (height->sample(s, t) - midlevel);
+    return scale * (height->sample(s, flipV ? 1.0f - t : t) - midlevel);
   }
 };
 
@@ -122,7 +123,8 @@ class Scene {
   // open), or one value for all. With a height map (cage.uvs needed) the
   // surface is displaced along its limit normal by scale * (h - midlevel).
   int addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<float>& edgeLevels,
-                            std::shared_ptr<const HeightMap> height, float scale, float midlevel, int material);
+                            std::shared_ptr<const HeightMap> height, float scale, float midlevel, bool flipV,
+                            int material);
   // Adds an instanced mesh (object space) and returns its index.
   int addInstancedMesh(std::string name);
   void addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions,

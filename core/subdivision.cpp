@@ -307,10 +307,11 @@ float HeightMap::sample(float u, float v) const {
                (at(ix, iy + 1) * (1 - ax) + at(ix + 1, iy + 1) * ax) * ay);
 }
 
-void displace(SubdividedMesh& m, const HeightMap& height, double scale, double midlevel) {
+void displace(SubdividedMesh& m, const HeightMap& height, double scale, double midlevel, bool flipV) {
   if (m.uvs.size() != m.positions.size() * 2) throw Error("displacement needs texture coordinates on the cage");
   for (size_t i = 0; i < m.positions.size(); ++i) {
-    const double d = scale * (double(height.sample(m.uvs[2 * i], m.uvs[2 * i + 1])) - midlevel);
+    const float v = flipV ? 1.0f - m.uvs[2 * i + 1] : m.uvs[2 * i + 1];
+    const double d = scale * (double(height.sample(m.uvs[2 * i], v)) - midlevel);
     m.positions[i] = m.positions[i] + m.normals[i] * float(d);
   }
   // Normals of the displaced surface: area-weighted triangle normals,

@@ -106,7 +106,8 @@ class CageUvs {
 // Moves every vertex along its limit normal by scale * (h(uv) - midlevel),
 // then recomputes the normals from the displaced triangles (area-weighted),
 // so shading follows the displaced surface. Needs mesh.uvs.
-void displace(SubdividedMesh& mesh, const HeightMap& height, double scale, double midlevel);
+// flipV: the map is looked up at (u, 1 - v) (glTF's uv convention).
+void displace(SubdividedMesh& mesh, const HeightMap& height, double scale, double midlevel, bool flipV = false);
 
 // Throws obscura::Error, naming `what`, for a malformed cage (see subdivide).
 void validateCage(const SubdivisionCage& cage, SubdivisionScheme scheme, const std::string& what);
