@@ -25,6 +25,7 @@ std::string ParamSpec::typeName() const {
     case ParamType::Int: return "int";
     case ParamType::Bool: return "bool";
     case ParamType::Enum: return "enum";
+    case ParamType::String: return "string";
   }
   return "?";
 }
@@ -36,6 +37,7 @@ std::string ParamSpec::rangeText() const {
     return s;
   }
   if (type == ParamType::Bool) return "true|false";
+  if (type == ParamType::String) return "text";
   const auto fmt = [&](double v) { return type == ParamType::Int ? std::to_string(static_cast<long long>(v)) : formatFloat(v); };
   const std::string hi = allowInfinity ? "inf" : (max >= 1e308 ? "inf" : fmt(max));
   const std::string lo = min <= -1e308 ? "-inf" : fmt(min);
@@ -92,6 +94,7 @@ ParamSet::Value ParamSet::parse(const ParamSpec& s, const std::string& text) con
       for (const auto& c : s.choices)
         if (c == text) return text;
       throw bad("not one of the choices");
+    case ParamType::String: return text;
   }
   throw bad("unknown type");
 }
@@ -112,6 +115,9 @@ double ParamSet::getFloat(const std::string& key) const { return std::get<double
 int ParamSet::getInt(const std::string& key) const { return std::get<int>(values_.at(spec(key).name)); }
 bool ParamSet::getBool(const std::string& key) const { return std::get<bool>(values_.at(spec(key).name)); }
 const std::string& ParamSet::getEnum(const std::string& key) const {
+  return std::get<std::string>(values_.at(spec(key).name));
+}
+const std::string& ParamSet::getString(const std::string& key) const {
   return std::get<std::string>(values_.at(spec(key).name));
 }
 

@@ -12,7 +12,9 @@
 
 namespace obscura {
 
-enum class ParamType { Float, Int, Bool, Enum };
+// String: free text (a file path, ...); appended last so the values of the
+// other types, which plugins compile in, do not change.
+enum class ParamType { Float, Int, Bool, Enum, String };
 
 struct ParamSpec {
   std::string name;
@@ -43,6 +45,7 @@ class ParamSet {
   int getInt(const std::string& key) const;
   bool getBool(const std::string& key) const;
   const std::string& getEnum(const std::string& key) const;
+  const std::string& getString(const std::string& key) const;
 
   // Every parameter's current value, as text, in declaration order.
   std::vector<std::pair<std::string, std::string>> values() const;
