@@ -71,6 +71,22 @@ void addPlane(Scene& scene, float h, float z) {
   scene.addWorldPrimitive({{-h, -h, z}, {h, -h, z}, {h, h, z}, {-h, h, z}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
 }
 
+SubdivisionCage planeCage(int n) {
+  SubdivisionCage c;
+  for (int y = 0; y <= n; ++y)
+    for (int x = 0; x <= n; ++x) {
+      c.positions.emplace_back(float(x) / n, float(y) / n, 0.0f);
+      c.uvs.insert(c.uvs.end(), {float(x) / n, float(y) / n});
+    }
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const int a = y * (n + 1) + x;
+      for (const int i : {a, a + 1, a + n + 2, a + n + 1}) c.faceIndices.push_back(i), c.uvIndices.push_back(i);
+      c.faceSizes.push_back(4);
+    }
+  return c;
+}
+
 RenderSettings passSettings(int w, int h, int spp, uint32_t seed) {
   RenderSettings s;
   s.width = w;
@@ -174,6 +190,13 @@ ReadBack readExr(const std::string& path) {
     for (size_t i = 0; i < plane.size(); ++i) plane[i] = px[i * size_t(r.spec.nchannels) + size_t(c)];
   }
   return r;
+}
+
+void writeFloatImage(const std::string& path, int w, int h, const std::vector<float>& texels) {
+  auto out = OIIO::ImageOutput::create(path);
+  ASSERT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT))) << path;
+  EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, texels.data())) << path;
+  out->close();
 }
 
 // --- warnings -----------------------------------------------------------------

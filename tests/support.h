@@ -44,6 +44,10 @@ int addGreyMaterial(Scene& scene, float a);
 // A square in the plane z = 0, side 2*halfSize, normal +Z.
 void addPlane(Scene& scene, float halfSize, float z = 0.0f);
 
+// The unit square [0,1]^2 in the plane z = 0 as an n x n grid of quads, with
+// texture coordinates uv = xy: a subdivision cage whose limit is the square.
+SubdivisionCage planeCage(int n);
+
 // Settings for a pass-only render (no AOVs) of w x h pixels at spp.
 RenderSettings passSettings(int w, int h, int spp, uint32_t seed = 0);
 
@@ -93,6 +97,9 @@ ReadBack readExr(const std::string& path);
 std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double u, double v)>& f);
 // dir/ripples.exr: h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 texels.
 std::string writeRipples(const std::string& dir);
+// Writes a one-channel float image (OpenImageIO picks the format from the
+// extension), rows top first: a height map. A failed write is a test failure.
+void writeFloatImage(const std::string& path, int w, int h, const std::vector<float>& texels);
 
 // --- warnings -----------------------------------------------------------------
 

@@ -174,20 +174,7 @@ TEST(Subdivision, SpotCageRendersAndBadObjIsRefused) {
 TEST(Subdivision, DisplacementFollowsTheHeightMap) {
   const std::string dir = tempDir("subdiv_displace");
   const HeightMap hm(writeRipples(dir));
-  SubdivisionCage plane;
-  const int n = 4;
-  for (int y = 0; y <= n; ++y)
-    for (int x = 0; x <= n; ++x) {
-      plane.positions.emplace_back(float(x) / n, float(y) / n, 0.0f);
-      plane.uvs.insert(plane.uvs.end(), {float(x) / n, float(y) / n});
-    }
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const int a = y * (n + 1) + x;
-      for (const int i : {a, a + 1, a + n + 2, a + n + 1}) plane.faceIndices.push_back(i), plane.uvIndices.push_back(i);
-      plane.faceSizes.push_back(4);
-    }
-  SubdividedMesh m = subdivide(plane, SubdivisionScheme::CatmullClark, 4, kBudget, "plane");
+  SubdividedMesh m = subdivide(planeCage(4), SubdivisionScheme::CatmullClark, 4, kBudget, "plane");
   ASSERT_EQ(m.uvs.size(), m.positions.size() * 2);
   const std::vector<Vec3> before = m.positions;
   displace(m, hm, 0.2, 0.5);

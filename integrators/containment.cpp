@@ -1,0 +1,247 @@
+// Height-field containment obscurance (Umenhoffer, Toth, Szirmay-Kalos,
+// "Efficient Methods for Ambient Lighting", sections 4 and 6; MATH.md
+// sections 2 and 3; docs/containment.md).
+//
+// The camera sees the UNDISPLACED macro surface; the displacement detail a
+// height map would add (displacement d(uv) = scale (h(uv) - midlevel) along
+// the macro normal, what `--displace` builds as geometry) is not traced but
+// tested for containment, and only the macro geometry is traced - the
+// paper's section 6 combination: "the z-buffer [here: rays] for occlusions
+// of other objects, the height field for self-shadowing".
+//
+// Obscurance as a 3D integral over direction and distance [AT 7, numerator]:
+//
+//   O(x) = Int_0^R Int_Omega mu'(r) eps(d(w) - r) cos+(theta)/pi dw dr
+//
+// sampled with density p(w, r) = mu'(r) cos+(theta)/pi [AT 4.1], so the
+// estimator is the mean of eps(d(w_k) - r_k) = [segment x -> x + w r open].
+// The containment approximation of that indicator [AT 4]:
+//
+//   eps(d(w) - r) ~ I(x + w r) = Prod_{i=1..m} I0(x + w r i/m)
+//
+// with I0(q) = 1 iff q is outside the height field (the surface itself
+// belongs to the inside). Here each sample is open iff all m test points are
+// outside AND the macro geometry does not block the segment: one any-hit ray
+// from spawnOrigin(h, w) along w to r, traced in the context's batch.
+//
+// The local height-field frame at a hit (p = h.p on the macro surface,
+// N = h.ns its unit shading normal, uv and dP/du, dP/dv from ctx.uvFrameAt):
+// - the shaded point is x = p + N d(uv) (the displaced surface point);
+// - a test point q has tangent coordinates (a, b, z) from
+//   q - p = a dP/du + b dP/dv + z N, i.e. uv' = uv + (a, b) and height z,
+//   and is inside (I0 = 0) iff z < d(uv') [AT 4, figure 3, "height field"];
+// - the cosine lobe is about the displaced normal
+//   n_d = normalize(cross(dP/du + N dd/du, dP/dv + N dd/dv)), dd/du and
+//   dd/dv by central differences of the height map one texel apart.
+// Curvature is ignored: the terms d dN/du, d dN/dv of the displaced
+// surface's derivatives are dropped, and the frame (dP/du, dP/dv, N) is
+// taken as constant over the neighbourhood R (exact on a plane; on a curved
+// macro surface test points are placed in the tangent space of the hit).
+//
+// Conventions and limits (docs/containment.md):
+// - Directions below the macro geometric plane (dot(w, ng) <= 0, reachable
+//   because n_d tilts away from N) skip the macro ray: the macro surface is
+//   not an occluder there (the displaced surface is, through containment),
+//   and other macro geometry below the plane is not looked for.
+// - The macro ray starts on the macro surface (spawnOrigin at p), not at x:
+//   starting at x would put points with d < 0 under their own macro surface.
+//   The two differ by |d| <= |scale| max|h - midlevel|.
+// - Test points are at distances r i/m, i = 1..m, not jittered (as the
+//   paper); an excursion of the ray into the field between two test points
+//   is missed (the paper's "at most one intersection within R" assumption).
+// - No section 4.3 distance threshold: a height field is one connected
+//   surface, so a test point deep under it is occluded by it (the threshold
+//   is for z-buffers, where a deep point can be behind a far foreground
+//   object); other objects are found exactly by the macro ray.
+// - The displacement direction is the shading normal facing the viewer: a
+//   back face (a closed mesh seen from inside) sees its field mirrored.
+// - A hit without a uv frame (no texture coordinates, or degenerate ones)
+//   falls back to plain obscurance of the macro geometry with the
+//   occlusion estimator: the same samples as `obscurance estimator=occlusion`,
+//   bit for bit.
+// - R must be finite (except for the exponential falloff, whose sampled r is
+//   always finite): the test points must be at finite distances.
+//
+// Sampling: the direction of sample k of a camera sample is the Sobol' pair
+// kFirstIntegratorDim and r the 1D dimension kFirstIntegratorDim + 1, both
+// indexed by sampleIndex * rays + k - the very numbers `obscurance` draws,
+// so the two integrators share their noise (and the fallback is exact).
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/error.h"
+#include "core/plugin.h"
+#include "core/subdivision.h"
+#include "core/warp.h"
+#include "integrators/membership.h"
+
+namespace obscura {
+namespace {
+
+// The displacement field d(uv) = scale (h(uv) - midlevel) of a height map.
+class Displacement {
+ public:
+  Displacement(const std::string& path, double scale, double midlevel)
+      : map_(path), scale_(scale), midlevel_(midlevel), du_(1.0 / map_.width()), dv_(1.0 / map_.height()) {}
+
+  // d at (u, v); u, v are wrapped to [0, 1) here (the map repeats), so any
+  // finite coordinate is safe for HeightMap::sample.
+  double operator()(double u, double v) const {
+    return scale_ * (double(map_.sample(float(u - std::floor(u)), float(v - std::floor(v)))) - midlevel_);
+  }
+  // dd/du, dd/dv by central differences one texel apart.
+  void gradient(double u, double v, double& ddu, double& ddv) const {
+    ddu = ((*this)(u + du_, v) - (*this)(u - du_, v)) / (2 * du_);
+    ddv = ((*this)(u, v + dv_) - (*this)(u, v - dv_)) / (2 * dv_);
+  }
+
+ private:
+  HeightMap map_;
+  double scale_, midlevel_, du_, dv_;
+};
+
+class Containment final : public Integrator {
+ public:
+  Containment(Displacement field, Membership mu, int rays, int steps)
+      : field_(std::move(field)), mu_(mu), rays_(uint32_t(rays)), steps_(uint32_t(steps)) {}
+
+  void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const override {
+    OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
+    for (const SurfaceHit& h : hits) {
+      Local L;
+      if (localFrame(h, ctx, L))
+        pushContained(h, L, batch);
+      else
+        pushPlain(h, batch);
+    }
+    ctx.trace(batch);
+    // A sample closed by containment was pushed inactive with tfar = -inf,
+    // which Embree leaves as it is and occluded() reads as blocked; the
+    // other inactive rays (tfar = 0) read as open.
+    size_t r = 0;
+    for (size_t i = 0; i < hits.size(); ++i) {
+      uint32_t open = 0;
+      for (uint32_t k = 0; k < rays_; ++k, ++r) open += batch.occluded(r) ? 0U : 1U;
+      const float v = sampleMean(double(open), rays_);
+      W[i].num = Vec3(v, v, v);
+    }
+  }
+
+ private:
+  // What a hit's samples share: the height-field frame.
+  struct Local {
+    double u, v, d0;     // uv of the hit, d(uv)
+    Vec3 ea, eb, ez;     // dual basis of (dP/du, dP/dv, N): a = dot(q - p, ea), ...
+    Frame lobe;          // about n_d
+  };
+
+  bool localFrame(const SurfaceHit& h, const IntegratorContext& ctx, Local& L) const {
+    UvFrame f;
+    if (!ctx.uvFrameAt(h, f)) return false;
+    const Vec3 N = h.ns;
+    const Vec3 cv = cross(f.dpdv, N), cn = cross(N, f.dpdu), cu = cross(f.dpdu, f.dpdv);
+    const float det = dot(f.dpdu, cv);
+    if (!(std::abs(det) > 0.0f) || !std::isfinite(det)) return false;
+    const float inv = 1.0f / det;
+    L.ea = cv * inv, L.eb = cn * inv, L.ez = cu * inv;
+    if (!isFinite(L.ea) || !isFinite(L.eb) || !isFinite(L.ez)) return false;
+    L.u = f.u, L.v = f.v;
+    L.d0 = field_(L.u, L.v);
+    double ddu, ddv;
+    field_.gradient(L.u, L.v, ddu, ddv);
+    // Normal of x(u, v) = p(u, v) + N d(u, v) with dN/du, dN/dv dropped.
+    Vec3 nd = cross(f.dpdu + N * float(ddu), f.dpdv + N * float(ddv));
+    const float len = length(nd);
+    nd = len > 0.0f && std::isfinite(len) ? nd * (1.0f / len) : N;
+    if (dot(nd, N) < 0.0f) nd = -nd;  // a mirrored uv layout flips the cross product
+    L.lobe = Frame::fromNormal(nd);
+    return true;
+  }
+
+  // Is x + w t outside the height field for every t = r i/m, i = 1..m? [AT 4]
+  bool outside(const Local& L, Vec3 w, float r) const {
+    // q - p = N d0 + w t, and (N; ea, eb, ez) = (0, 0, 1).
+    const double wa = dot(w, L.ea), wb = dot(w, L.eb), wz = dot(w, L.ez);
+    for (uint32_t i = 1; i <= steps_; ++i) {
+      const double t = double(r) * double(i) / double(steps_);
+      if (L.d0 + t * wz < field_(L.u + t * wa, L.v + t * wb)) return false;  // inside (I0 = 0)
+    }
+    return true;
+  }
+
+  void pushContained(const SurfaceHit& h, const Local& L, OcclusionBatch& batch) const {
+    for (uint32_t k = 0; k < rays_; ++k) {
+      const uint32_t index = h.sampleIndex * rays_ + k;
+      const Sample2 s = Sampler::get2D(h.pixelKey, index, kFirstIntegratorDim);
+      const Vec3 w = L.lobe.toWorld(squareToCosineHemisphere(s.u, s.v));
+      const float r = mu_.segment(Sampler::get1D(h.pixelKey, index, kFirstIntegratorDim + 1));
+      const Vec3 o = spawnOrigin(h, w);
+      if (!outside(L, w, r))
+        batch.push(o, w, kInfinity, -kInfinity);  // closed by the height field
+      else if (r > 0.0f && !intoSurface(h, w))
+        batch.push(o, w, 0.0f, r);  // the macro geometry decides
+      else  // empty segment, or below the macro plane: open
+        batch.push(o, w, kInfinity, 0.0f);
+    }
+  }
+
+  // No uv frame: obscurance's occlusion estimator on the macro geometry.
+  void pushPlain(const SurfaceHit& h, OcclusionBatch& batch) const {
+    const Frame frame = Frame::fromNormal(h.ns);
+    for (uint32_t k = 0; k < rays_; ++k) {
+      const Vec3 w = cosineDirection(h, frame, rays_, k);
+      const float r = mu_.segment(Sampler::get1D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim + 1));
+      if (intoSurface(h, w))
+        batch.push(spawnOrigin(h, w), w, kInfinity, -kInfinity);  // the surface itself, d = 0
+      else if (r > 0.0f)
+        batch.push(spawnOrigin(h, w), w, 0.0f, r);
+      else
+        batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f);
+    }
+  }
+
+  Displacement field_;
+  Membership mu_;
+  uint32_t rays_, steps_;
+};
+
+IntegratorDescriptor containmentDescriptor() {
+  IntegratorDescriptor d;
+  d.name = "containment";
+  d.doc = "Obscurance of height-map displacement detail by containment tests on the undisplaced surface "
+          "(height field for self-shadowing, any-hit rays for the macro geometry).";
+  d.params = {
+      {.name = "map", .type = ParamType::String, .defaultValue = "",
+       .doc = "height map (PNG/EXR/TIFF..., first channel, bilinear, repeat, v = 0 at the bottom); required"},
+      {.name = "scale", .type = ParamType::Float, .defaultValue = "0.1", .min = -1e30, .max = 1e30,
+       .doc = "displacement: scene units per unit of height (as --displace-scale)"},
+      {.name = "midlevel", .type = ParamType::Float, .defaultValue = "0.5", .min = -1e30, .max = 1e30,
+       .doc = "displacement: the height that leaves the surface in place (as --displace-midlevel)"},
+      {.name = "steps", .type = ParamType::Int, .defaultValue = "2", .min = 1, .max = 4096,
+       .doc = "m: containment test points per sample, at r i/m (the paper uses 1 or 2)"},
+  };
+  for (ParamSpec& s : membershipParams("samples (direction, distance) per camera sample")) {
+    if (s.name == "estimator") continue;  // always the occlusion estimator: r ~ mu'(r)
+    if (s.name == "distance")
+      s.doc = "R (scene units): step/linear/sqrt radius, must be finite; exponential cut-off (inf: none); "
+              "0: nothing occludes";
+    d.params.push_back(std::move(s));
+  }
+  d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
+    const std::string& map = p.getString("map");
+    if (map.empty()) throw Error("integrator 'containment': parameter 'map' (a height map file) is required");
+    const Membership mu = Membership::fromParams(p);
+    if (mu.falloff() != Falloff::Exponential && std::isinf(mu.tfar()))
+      throw Error("integrator 'containment': parameter 'distance' must be finite (and within float range) for "
+                  "falloff " + p.getEnum("falloff") + ": the containment test needs a bounded neighbourhood R");
+    return std::make_unique<Containment>(Displacement(map, p.getFloat("scale"), p.getFloat("midlevel")), mu,
+                                         p.getInt("rays"), p.getInt("steps"));
+  };
+  return d;
+}
+
+}  // namespace
+OBSCURA_REGISTER_INTEGRATOR(containmentDescriptor)
+}  // namespace obscura
