@@ -8,7 +8,8 @@
 // d = A cos(2 pi u / lambda), A = scale/2, lambda = 1/P; seen straight from
 // above with a narrow lens (nearly orthographic), over the middle
 // [0.25, 0.75]^2 so every ray within R stays over the plane. Both renders use
-// the step falloff (AO) within R = lambda/2 and the same seed.
+// the step falloff (AO) within R = lambda/2 (lambda in test 2) and the same
+// seed.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -125,9 +126,9 @@ TEST(Containment, ConvergesToTracedDisplacementOnAGentleField) {
 // 2. The paper's containment with m = 2 test points (the default) misses
 //    more as the field steepens: with R = lambda (a ray reaches the next
 //    crest), |containment - traced| at max slopes 0.25, 1 and 2
-//    (A/lambda = 0.04, 0.16, 0.32), traced at level 6. Each steeper error
-//    must exceed the gentle one by more than 4 standard errors of their
-//    difference. Measured (Release, seed 0): 0.0015, 0.0172, 0.0386
+//    (A/lambda = 0.04, 0.16, 0.32), traced at level 6. Each step up in
+//    slope must raise the error by more than 4 standard errors of the
+//    difference (each error's SE from its two renders' sample counts). Measured (Release, seed 0): 0.0015, 0.0172, 0.0386
 //    (containment too bright: crests crossed between the test points at
 //    lambda/2 and lambda are missed); the full table, with R = lambda/2 and
 //    2 lambda and m = 16: docs/containment.md.
@@ -201,6 +202,40 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
       EXPECT_GT(occluded, 1.0) << "the wall occludes";
     }
   }
+}
+
+// 4. Extreme parameters stay finite and in [0, 1]: huge and tiny scales,
+//    R = 0 (nothing occludes: exactly 1 on the plane), a huge exponential
+//    reach, a midlevel far outside the map's range, and a finite distance
+//    that is infinite as a float is refused like inf.
+TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
+  const std::string dir = tempDir("containment_extreme");
+  const std::string path = writeRipples(dir);
+  Scene scene;
+  addRefinedPlane(scene, 1, nullptr, 0);
+  scene.commit();
+  const std::vector<std::vector<std::string>> configs = {
+      {"scale=1e30", "distance=0.1"},
+      {"scale=-1e30", "distance=0.1", "falloff=linear"},
+      {"scale=1e-30", "distance=1e30", "falloff=sqrt"},
+      {"scale=0.05", "falloff=exponential", "sigma=1e-30", "distance=inf"},
+      {"scale=0.05", "falloff=exponential", "sigma=1e30"},
+      {"scale=0.05", "midlevel=-1e30", "distance=0.1"},
+      {"scale=0.05", "distance=0"},
+  };
+  for (const auto& c : configs) {
+    std::vector<std::string> p = c;
+    p.insert(p.end(), {"map=" + path, "rays=2", "steps=3"});
+    const Film f = renderWith(scene, topCamera(), "containment", p, passSettings(8, 8, 2));
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) {
+        const float w = f.at(kR, x, y);
+        ASSERT_TRUE(w >= 0.0f && w <= 1.0f) << c[0] << " " << c[1] << ": " << w;
+        if (c.back() == "distance=0") ASSERT_EQ(w, 1.0f);
+      }
+  }
+  for (const char* R : {"distance=inf", "distance=1e300"})
+    EXPECT_THROW(renderWith(scene, topCamera(), "containment", {"map=" + path, R}, passSettings(4, 4, 1)), Error) << R;
 }
 
 }  // namespace
