@@ -192,13 +192,6 @@ ReadBack readExr(const std::string& path) {
   return r;
 }
 
-void writeFloatImage(const std::string& path, int w, int h, const std::vector<float>& texels) {
-  auto out = OIIO::ImageOutput::create(path);
-  ASSERT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT))) << path;
-  EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, texels.data())) << path;
-  out->close();
-}
-
 // --- warnings -----------------------------------------------------------------
 
 WarningCapture::WarningCapture() {

@@ -97,9 +97,6 @@ ReadBack readExr(const std::string& path);
 std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double u, double v)>& f);
 // dir/ripples.exr: h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 texels.
 std::string writeRipples(const std::string& dir);
-// Writes a one-channel float image (OpenImageIO picks the format from the
-// extension), rows top first: a height map. A failed write is a test failure.
-void writeFloatImage(const std::string& path, int w, int h, const std::vector<float>& texels);
 
 // --- warnings -----------------------------------------------------------------
 

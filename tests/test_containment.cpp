@@ -32,13 +32,8 @@ constexpr double kR = kLambda / 2;
 // h(u, v) = 0.5 + 0.5 cos(2 pi P u): 1024 x 4 float texels, so bilinear
 // interpolation errs by at most (1/1024)^2/8 (2 pi P)^2 0.5 = 1.5e-4 of the
 // height amplitude 0.5 (0.03 %).
-std::string writeRipples(const std::string& dir) {
-  const int w = 1024, h = 4;
-  std::vector<float> px(size_t(w) * h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) px[size_t(y) * w + x] = float(0.5 + 0.5 * std::cos(2 * M_PI * kPeriods * (x + 0.5) / w));
-  writeFloatImage(dir + "/ripples.exr", w, h, px);
-  return dir + "/ripples.exr";
+std::string writeFineRipples(const std::string& dir) {
+  return writeHeightMap(dir + "/ripples.exr", 1024, 4, [](double u, double) { return 0.5 + 0.5 * std::cos(2 * M_PI * kPeriods * u); });
 }
 
 // The plane refined to `level`, displaced by `map` at `scale` when scale != 0.
@@ -108,7 +103,7 @@ Mean contained(const std::string& map, double scale, int steps, double R = kR) {
 //    tolerance 3.1e-3 against an occlusion 1 - O = 0.033.
 TEST(Containment, ConvergesToTracedDisplacementOnAGentleField) {
   const std::string dir = tempDir("containment_gentle");
-  const std::string path = writeRipples(dir);
+  const std::string path = writeFineRipples(dir);
   const HeightMap map(path);
   const double scale = 2 * 0.5 * kLambda / (2 * M_PI);  // A = scale/2, slope A 2 pi / lambda = 0.5
   const Mean t6 = traced(map, scale, 6), t5 = traced(map, scale, 5);
@@ -134,7 +129,7 @@ TEST(Containment, ConvergesToTracedDisplacementOnAGentleField) {
 //    2 lambda and m = 16: docs/containment.md.
 TEST(Containment, ErrorGrowsWithSteepness) {
   const std::string dir = tempDir("containment_steep");
-  const std::string path = writeRipples(dir);
+  const std::string path = writeFineRipples(dir);
   const HeightMap map(path);
   std::vector<double> err, se;
   for (const double slope : {0.25, 1.0, 2.0}) {
@@ -176,7 +171,7 @@ TEST(Containment, BadMapIsAnErrorNamingTheFile) {
 //     wall stands on the plane so the macro rays have something to find.
 TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
   const std::string dir = tempDir("containment_fallback");
-  const std::string path = writeRipples(dir);
+  const std::string path = writeFineRipples(dir);
   for (const bool uvs : {false, true}) {
     Scene scene;
     addRefinedPlane(scene, 1, nullptr, 0, uvs);
@@ -210,7 +205,7 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
 //    that is infinite as a float is refused like inf.
 TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
   const std::string dir = tempDir("containment_extreme");
-  const std::string path = writeRipples(dir);
+  const std::string path = writeFineRipples(dir);
   Scene scene;
   addRefinedPlane(scene, 1, nullptr, 0);
   scene.commit();
