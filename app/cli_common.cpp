@@ -148,6 +148,21 @@ ExrOptions passHeader(const PassInfo& i) {
   str("obscura:resolution", std::to_string(i.settings.width) + "x" + std::to_string(i.settings.height));
   str("obscura:filter", i.filterName);
   exr.attributes.push_back({"obscura:robust", int(i.robust)});
+  if (const SceneArgs* a = i.sceneArgs) {
+    // What shaped the geometry: a pass is reproducible from its header.
+    if (a->subdiv != "none") {
+      str("obscura:subdiv", a->subdiv);
+      str("obscura:subdivBackend", a->subdivBackend);
+      exr.attributes.push_back({"obscura:subdivLevel", a->subdivLevel});
+      exr.attributes.push_back({"obscura:subdivEdge", float(a->subdivEdge)});
+      exr.attributes.push_back({"obscura:maxMemoryGiB", float(a->maxMemoryGiB)});
+    }
+    if (!a->displace.empty()) {
+      str("obscura:displace", std::filesystem::absolute(a->displace).lexically_normal().string());
+      str("obscura:displaceScale", formatFloat(a->displaceScale));  // reads back as the same double
+      str("obscura:displaceMidlevel", formatFloat(a->displaceMidlevel));
+    }
+  }
   str("obscura:sky", formatFloat(i.settings.sky.x) + "," + formatFloat(i.settings.sky.y) + "," + formatFloat(i.settings.sky.z));
   exr.attributes.push_back({"obscura:threads", i.settings.threads > 0 ? i.settings.threads : int(tbb::this_task_arena::max_concurrency())});
   exr.attributes.push_back({"obscura:renderTime", float(i.stats.seconds)});

@@ -55,6 +55,7 @@ struct PassInfo {
   const RenderStats& stats;
   std::string filterName;
   bool robust = false;
+  const SceneArgs* sceneArgs = nullptr;  // subdivision and displacement options, when given
   double bvhSeconds = 0;
 };
 ExrOptions passHeader(const PassInfo& info);

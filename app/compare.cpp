@@ -352,7 +352,7 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
       both.rays.occlusion += s2.rays.occlusion;
       both.rays.closest += s2.rays.closest;
       ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = gi, .params = giParams,
-                                           .settings = rs, .stats = both, .filterName = "box", .robust = a.robust,
+                                           .settings = rs, .stats = both, .filterName = "box", .robust = a.robust, .sceneArgs = &a,
                                            .bvhSeconds = scene->buildSeconds()});
       char noise[32];  // round-trips: a cached reference reports the same noise
       std::snprintf(noise, sizeof noise, "%.17g", referenceNoiseRmse);
@@ -418,7 +418,7 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
           s.seed = uint32_t(a.seed);
           writeExr((dir / c.pass).string(), filmFromPass(*img),
                    passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = d, .params = params,
-                                       .settings = s, .stats = stats, .filterName = "box", .robust = a.robust,
+                                       .settings = s, .stats = stats, .filterName = "box", .robust = a.robust, .sceneArgs = &a,
                                        .bvhSeconds = scene->buildSeconds()}));
         }
         renders.push_back(std::move(*img));

@@ -113,7 +113,7 @@ int runRender(const RenderArgs& a) {
   }
 
   ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
-                                        .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust,
+                                        .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
                                         .bvhSeconds = scene->buildSeconds()});
   exr.half = a.half;
   writeExr(a.output, film, exr);

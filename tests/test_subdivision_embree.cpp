@@ -7,7 +7,9 @@
 
 #include <cmath>
 #include <cstring>
+#include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include "core/cage.h"
 #include "core/error.h"
@@ -289,6 +291,52 @@ TEST(EmbreeSubdivision, RefusesWhatItCannotDo) {
   tight.subdivisionLevel = 10;
   tight.maxMemoryBytes = size_t(64) << 20;
   expectError(cube(false), tight, "--max-memory");
+}
+
+}  // namespace
+}  // namespace obscura::test
+
+namespace obscura::test {
+namespace {
+
+// The README's Spot command, with either backend, uniform and adaptive: the
+// cage renders subdivided and displaced by the lava height map, the header
+// records how, and the two backends cover the same pixels but for the
+// silhouette's outline (the same limit surface and displacement, tessellated
+// alike: 2^3 segments per cage edge).
+TEST(EmbreeSubdivision, SpotRendersDisplacedWithEitherBackend) {
+  const std::string spot = std::string(OBSCURA_SHARED_SCENES) + "/spot_cage/spot_control_mesh.obj";
+  const std::string lava = std::string(OBSCURA_SHARED_SCENES) + "/lava_heightmap/lava_01_height_1k.png";
+  if (!std::filesystem::exists(spot) || !std::filesystem::exists(lava)) GTEST_SKIP() << "shared scenes absent";
+  const std::string dir = tempDir("spot_backends");
+  std::map<std::string, std::vector<float>> alpha;
+  for (const std::string backend : {"osd", "embree"}) {
+    for (const bool adaptive : {false, true}) {
+      const std::string out = dir + "/" + backend + (adaptive ? "_edge" : "") + ".exr";
+      std::vector<std::string> args = {"render", spot, "--subdiv", "catmull-clark", "--subdiv-backend", backend,
+                                       "--displace", lava, "--displace-scale", "0.03", "-o", out, "--res", "64x48",
+                                       "--spp", "2", "-q"};
+      if (adaptive) args.insert(args.end(), {"--subdiv-edge", "4"});
+      else args.insert(args.end(), {"--subdiv-level", "3"});
+      const CliResult r = runCli(args, dir + "/err.txt");
+      ASSERT_EQ(r.exitCode, 0) << backend << ": " << r.stderrText;
+      const ReadBack img = readExr(out);
+      EXPECT_EQ(img.spec.get_string_attribute("obscura:subdivBackend"), backend);
+      EXPECT_EQ(img.spec.get_string_attribute("obscura:displaceScale"), "0.03");
+      double covered = 0;
+      for (const float a : img.planes.at("A")) covered += a;
+      EXPECT_GT(covered, 64.0 * 48 * 0.05) << backend;
+      if (!adaptive) alpha[backend] = img.planes.at("A");
+    }
+  }
+  int differ = 0;
+  for (size_t i = 0; i < alpha["osd"].size(); ++i) differ += std::abs(alpha["osd"][i] - alpha["embree"][i]) > 0.5f;
+  EXPECT_LT(differ, 64 * 48 / 50) << "pixels whose coverage differs between the backends";
+  const CliResult bad = runCli({"render", spot, "--subdiv", "loop", "--subdiv-backend", "embree", "-o", dir + "/x.exr", "-q"},
+                               dir + "/err2.txt");
+  EXPECT_EQ(bad.exitCode, 1);
+  EXPECT_NE(bad.stderrText.find("Catmull-Clark only"), std::string::npos) << bad.stderrText;
+  EXPECT_EQ(std::count(bad.stderrText.begin(), bad.stderrText.end(), '\n'), 1) << bad.stderrText;
 }
 
 }  // namespace
