@@ -9,7 +9,8 @@
 //               tessellation in the BVH build)
 //   build s   : the BVH commit alone (Embree tessellates while it builds)
 //   Embree MiB: what Embree's memory monitor counted after the build
-//               (vertex/index buffers, tessellation grids, BVH)
+//               (vertex/index buffers, tessellation grids, BVH); peak MiB
+//               the most it held at once (the builder's temporaries)
 //   mesh MiB  : what the renderer keeps beside Embree (normals and uvs of
 //               the OpenSubdiv triangles; the Embree backend keeps the cage's
 //               corner uvs only)
@@ -41,7 +42,7 @@ using namespace obscura::bench;
 namespace {
 
 struct Row {
-  double load = 0, build = 0, embreeMiB = 0, meshMiB = 0, render = 0, mrays = 0;
+  double load = 0, build = 0, embreeMiB = 0, embreePeakMiB = 0, meshMiB = 0, render = 0, mrays = 0;
 };
 
 }  // namespace
@@ -69,8 +70,8 @@ int main(int argc, char** argv) {
     printMachine(threads.threads());
     std::printf("cage %s\nmap  %s (scale %g, midlevel %g)\n%dx%d, %d spp, ao, %d runs (medians)\n\n", cage.c_str(),
                 map.c_str(), scale, midlevel, size.width, size.height, common.spp, common.runs);
-    std::printf("%-7s %5s %10s %9s %9s %11s %9s %9s %9s\n", "backend", "level", "faces", "load s", "build s",
-                "Embree MiB", "mesh MiB", "render s", "Mrays/s");
+    std::printf("%-7s %5s %10s %9s %9s %11s %9s %9s %9s %9s\n", "backend", "level", "faces", "load s", "build s",
+                "Embree MiB", "peak MiB", "mesh MiB", "render s", "Mrays/s");
     const IntegratorDescriptor& ao = IntegratorRegistry::instance().find("ao");
     const ParamSet params(ao.params, "ao");
     for (const std::string& ls : splitCommaList(levels)) {
@@ -93,6 +94,7 @@ int main(int argc, char** argv) {
           r.load = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
           r.build = scene->buildSeconds();
           r.embreeMiB = double(scene->embreeBytes()) / (1 << 20);
+          r.embreePeakMiB = double(scene->embreePeakBytes()) / (1 << 20);
           const SceneStats st = scene->stats();
           faces = backend == SubdivisionBackend::Embree ? st.subdivisionFaces : st.renderedTriangles;
           r.meshMiB = double(scene->attributeBytes()) / (1 << 20);
@@ -110,9 +112,10 @@ int main(int argc, char** argv) {
           for (const Row& r : rows) v.push_back(r.*f);
           return median(v);
         };
-        std::printf("%-7s %5d %10zu %9.3f %9.3f %11.1f %9.1f %9.3f %9.2f\n",
+        std::printf("%-7s %5d %10zu %9.3f %9.3f %11.1f %9.1f %9.1f %9.3f %9.2f\n",
                     backend == SubdivisionBackend::Embree ? "embree" : "osd", level, faces, med(&Row::load),
-                    med(&Row::build), med(&Row::embreeMiB), med(&Row::meshMiB), med(&Row::render), med(&Row::mrays));
+                    med(&Row::build), med(&Row::embreeMiB), med(&Row::embreePeakMiB), med(&Row::meshMiB),
+                    med(&Row::render), med(&Row::mrays));
         std::fflush(stdout);
       }
     }

@@ -37,10 +37,11 @@ int levelForEdgeLength(const std::vector<float>& edgePixels, double maxPixels) {
 }
 
 size_t embreeSubdivisionBytes(const SubdivisionCage& cage, const std::vector<float>& rates) {
-  // Measured with Embree's memory monitor on the Spot cage (bench
-  // obscura_bench_subdiv): about kBytesPerPoint per tessellation point,
-  // grid and BVH together.
-  constexpr double kBytesPerPoint = 48.0;
+  // Measured on the Spot cage, levels 5-7 (obscura_bench_subdiv: Embree's
+  // memory monitor at the build's peak; `obscura render` peak RSS agrees):
+  // 33-35 bytes per tessellation point, grid and BVH together; 40 with a
+  // margin.
+  constexpr double kBytesPerPoint = 40.0;
   double points = 0;
   size_t k = 0;
   for (const int n : cage.faceSizes) {

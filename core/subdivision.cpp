@@ -73,14 +73,18 @@ void validateCage(const SubdivisionCage& c, SubdivisionScheme scheme, const std:
 
 size_t subdividedBytes(const SubdivisionCage& cage, int level) {
   // Each face becomes n quads at level 1 (Catmull-Clark) or 4 triangles
-  // (Loop), then x4 per level; per refined face about one vertex (position +
-  // normal, 24 bytes) and two triangles (24 bytes), plus OpenSubdiv's
-  // topology (~100 bytes a face, measured order of magnitude).
+  // (Loop), then x4 per level. Per refined face the process's peak grows by
+  // about 520 bytes: OpenSubdiv's refinement tables, the triangles'
+  // positions, normals and uvs, and Embree's BVH build at its peak
+  // (measured: `obscura render` of the Spot cage at level 7, 3.0M quads,
+  // peak RSS 1.49 GiB above level 0; obscura_bench_subdiv shows Embree's
+  // own share, 256 bytes a quad at the build's peak).
+  constexpr double kBytesPerFace = 520.0;
   double faces = 0;
   for (const int n : cage.faceSizes) faces += n == 3 ? 4.0 : double(n);
   faces *= std::pow(4.0, std::max(level - 1, 0));
   if (level == 0) faces = double(cage.faceSizes.size());
-  return size_t(std::min(faces * 150.0, 1e18));
+  return size_t(std::min(faces * kBytesPerFace, 1e18));
 }
 
 SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, int level, size_t maxBytes,
