@@ -43,7 +43,7 @@ struct SubdivisionSurface {
   float displacement(uint32_t face, float u, float v) const {
     float s, t;
     uvs.at(face, u, v, s, t);
-    return scale * (height->sample(s, flipV ? 1.0f - t : t) - midlevel);
+    return scale * float(height->sample(s, flipV ? 1.0f - t : t) - midlevel);
   }
 };
 

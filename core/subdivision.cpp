@@ -299,16 +299,27 @@ HeightMap::HeightMap(const std::string& path) {
     if (!std::isfinite(t)) throw Error(path + ": the height map has a non-finite texel");
 }
 
-float HeightMap::sample(float u, float v) const {
-  // Texel centres at (i + 0.5) / w; rows stored top first, v = 0 at the bottom.
-  const double x = double(u) * w_ - 0.5, y = (1.0 - double(v)) * h_ - 0.5;
+double HeightMap::sample(double u, double v) const {
+  // Texel centres at (i + 0.5) / w; rows stored top first, v = 0 at the
+  // bottom. Repeat: the fractional parts of u and v put x in [-0.5, w - 0.5],
+  // so the lower texel index is in [-1, w - 1] - one wrap each way at most,
+  // without a modulo per lookup (this sits in renders' hot loops: the
+  // containment integrator, Embree's displacement and shading normals).
+  if (!std::isfinite(u)) u = 0;
+  if (!std::isfinite(v)) v = 0;
+  const double x = (u - std::floor(u)) * w_ - 0.5, y = (1.0 - (v - std::floor(v))) * h_ - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);
-  const auto wrap = [](long i, int n) { return size_t(((i % n) + n) % n); };
-  const long ix = long(fx), iy = long(fy);
   const double ax = x - fx, ay = y - fy;
-  const auto at = [&](long i, long j) { return double(texels_[wrap(j, h_) * size_t(w_) + wrap(i, w_)]); };
-  return float((at(ix, iy) * (1 - ax) + at(ix + 1, iy) * ax) * (1 - ay) +
-               (at(ix, iy + 1) * (1 - ax) + at(ix + 1, iy + 1) * ax) * ay);
+  int i0 = int(fx), j0 = int(fy);
+  if (i0 < 0) i0 += w_;
+  if (j0 < 0) j0 += h_;
+  if (i0 >= w_) i0 -= w_;
+  if (j0 >= h_) j0 -= h_;
+  const int i1 = i0 + 1 == w_ ? 0 : i0 + 1, j1 = j0 + 1 == h_ ? 0 : j0 + 1;
+  const float* r0 = &texels_[size_t(j0) * size_t(w_)];
+  const float* r1 = &texels_[size_t(j1) * size_t(w_)];
+  return (double(r0[i0]) * (1 - ax) + double(r0[i1]) * ax) * (1 - ay) +
+         (double(r1[i0]) * (1 - ax) + double(r1[i1]) * ax) * ay;
 }
 
 void displace(SubdividedMesh& m, const HeightMap& height, double scale, double midlevel, bool flipV) {

@@ -55,7 +55,7 @@ struct SubdividedMesh {
 class HeightMap {
  public:
   explicit HeightMap(const std::string& path);  // throws obscura::Error naming the file
-  float sample(float u, float v) const;
+  double sample(double u, double v) const;  // any u, v (a non-finite one reads as 0)
   int width() const { return w_; }
   int height() const { return h_; }
 

@@ -68,6 +68,7 @@
 // so the two integrators share their noise (and the fallback is exact).
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -80,46 +81,17 @@
 namespace obscura {
 namespace {
 
-// The displacement field d(uv) = scale (h(uv) - midlevel) of a height map.
-// The map is read through HeightMap (the loader and sampling conventions of
-// `--displace`: bilinear between texel centres, repeat, v = 0 at the bottom
-// row) and its texels copied out once at texel centres, so that the hot loop
-// samples them without HeightMap::sample's per-lookup modulo wrapping (a
-// profile of a Spot render put over a quarter of the time there). The copy
-// holds HeightMap's texels to float rounding, and the lookup below is the
-// same bilinear interpolation.
+// The displacement field d(uv) = scale (h(uv) - midlevel) of a height map,
+// read and sampled as `--displace` does (core/subdivision.h HeightMap:
+// bilinear between texel centres, repeat, v = 0 at the bottom row).
 class Displacement {
  public:
-  Displacement(const std::string& path, double scale, double midlevel) : scale_(scale), midlevel_(midlevel) {
-    const HeightMap map(path);
-    w_ = map.width(), h_ = map.height();
-    texels_.resize(size_t(w_) * size_t(h_));
-    for (int j = 0; j < h_; ++j)  // row j from the top, as HeightMap stores them
-      for (int i = 0; i < w_; ++i)
-        texels_[size_t(j) * size_t(w_) + size_t(i)] =
-            map.sample(float((i + 0.5) / w_), float(1.0 - (j + 0.5) / h_));
-    du_ = 1.0 / w_, dv_ = 1.0 / h_;
+  Displacement(const std::string& path, double scale, double midlevel)
+      : map_(std::make_shared<const HeightMap>(path)), scale_(scale), midlevel_(midlevel) {
+    du_ = 1.0 / map_->width(), dv_ = 1.0 / map_->height();
   }
-
   // d at (u, v), any finite u, v (the map repeats).
-  double operator()(double u, double v) const {
-    const double x = (u - std::floor(u)) * w_ - 0.5, y = (1.0 - (v - std::floor(v))) * h_ - 0.5;
-    const double fx = std::floor(x), fy = std::floor(y);
-    const double ax = x - fx, ay = y - fy;
-    // x in [-0.5, w - 0.5], so fx in [-1, w - 1]: one wrap each way at most
-    // (x = w - 0.5 when u - floor(u) rounds to 1).
-    int i0 = int(fx), j0 = int(fy);
-    if (i0 < 0) i0 += w_;
-    if (j0 < 0) j0 += h_;
-    if (i0 >= w_) i0 -= w_;
-    if (j0 >= h_) j0 -= h_;
-    const int i1 = i0 + 1 == w_ ? 0 : i0 + 1, j1 = j0 + 1 == h_ ? 0 : j0 + 1;
-    const float* r0 = &texels_[size_t(j0) * size_t(w_)];
-    const float* r1 = &texels_[size_t(j1) * size_t(w_)];
-    const double h = (double(r0[i0]) * (1 - ax) + double(r0[i1]) * ax) * (1 - ay) +
-                     (double(r1[i0]) * (1 - ax) + double(r1[i1]) * ax) * ay;
-    return scale_ * (h - midlevel_);
-  }
+  double operator()(double u, double v) const { return scale_ * (map_->sample(u, v) - midlevel_); }
   // dd/du, dd/dv by central differences one texel apart.
   void gradient(double u, double v, double& ddu, double& ddv) const {
     ddu = ((*this)(u + du_, v) - (*this)(u - du_, v)) / (2 * du_);
@@ -127,8 +99,7 @@ class Displacement {
   }
 
  private:
-  int w_ = 0, h_ = 0;
-  std::vector<float> texels_;
+  std::shared_ptr<const HeightMap> map_;
   double scale_, midlevel_, du_ = 0, dv_ = 0;
 };
 

@@ -226,7 +226,9 @@ TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
       for (int x = 0; x < 8; ++x) {
         const float w = f.at(kR, x, y);
         ASSERT_TRUE(w >= 0.0f && w <= 1.0f) << c[0] << " " << c[1] << ": " << w;
-        if (c.back() == "distance=0") ASSERT_EQ(w, 1.0f);
+        if (c.back() == "distance=0") {
+          ASSERT_EQ(w, 1.0f);
+        }
       }
   }
   for (const char* R : {"distance=inf", "distance=1e300"})

@@ -146,8 +146,12 @@ TEST(GltfDisplacement, UvsStayFaceVaryingAcrossAWeldedSeam) {
     // vertices may take either side's uv, and Catmull-Clark on a triangle
     // cage moves them a little off x = 1/2 - by 2e-4 here - so the halves
     // are told apart 0.01 away, well inside the refined spacing 1/16.)
-    if (x.x < 0.49f) EXPECT_TRUE(u >= -1e-6f && u <= 0.5f + 1e-6f) << "vertex " << i << " u " << u;
-    if (x.x > 0.51f) EXPECT_TRUE(u >= 10.5f - 1e-5f && u <= 11.0f + 1e-5f) << "vertex " << i << " u " << u;
+    if (x.x < 0.49f) {
+      EXPECT_TRUE(u >= -1e-6f && u <= 0.5f + 1e-6f) << "vertex " << i << " u " << u;
+    }
+    if (x.x > 0.51f) {
+      EXPECT_TRUE(u >= 10.5f - 1e-5f && u <= 11.0f + 1e-5f) << "vertex " << i << " u " << u;
+    }
     EXPECT_TRUE(v >= -1e-6f && v <= 1.0f + 1e-6f) << "vertex " << i << " v " << v;
     if ((x.x == 1.0f && x.y == 0.0f) || (x.x == 0.0f && x.y == 1.0f)) {
       ++corners;
