@@ -20,7 +20,7 @@
 // uniform level; Embree's tessellation rate 2^L), so the two trace surfaces
 // of the same resolution.
 //
-// Run:  build/bench/obscura_bench_subdiv                    Spot + lava, levels 3..6, 960x540, 16 spp, 3 runs
+// Run:  build/bench/obscura_bench_subdiv                    Spot + lava, levels 3..7, 960x540, 16 spp, 3 runs
 //       build/bench/obscura_bench_subdiv --quick            smoke run
 //       build/bench/obscura_bench_subdiv --cage my.obj --map h.png --scale 0.02 --levels 2,4
 #include <CLI/CLI.hpp>
@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   std::string cage = std::string(OBSCURA_SHARED_SCENES) + "/spot_cage/spot_control_mesh.obj";
   std::string map = std::string(OBSCURA_SHARED_SCENES) + "/lava_heightmap/lava_01_height_1k.png";
   double scale = 0.03, midlevel = 0.5;
-  std::string levels = "3,4,5,6";
+  std::string levels = "3,4,5,6,7";
   app.add_option("--cage", cage, "OBJ cage with uvs");
   app.add_option("--map", map, "Height map");
   app.add_option("--scale", scale, "Displacement scale (scene units per unit height)");

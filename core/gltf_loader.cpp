@@ -616,13 +616,9 @@ class Loader {
       cage.uvs = d.uvs;
       cage.uvIndices.assign(d.indices.begin(), d.indices.end());
       const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
-      if (textured)
-        for (size_t i = 0; i < n; ++i)
-          if (d.uvs[2 * i] != d.uvs[2 * representative[i]] || d.uvs[2 * i + 1] != d.uvs[2 * representative[i] + 1]) {
-            warn(field + ": the subdivided mesh has uv seams; its texture is looked up with one side's uv on the "
-                         "refined vertices along a seam (triangles there may smear the texture)");
-            break;
-          }
+      if (textured && options_.backend == SubdivisionBackend::Embree)
+        warn(field + ": textures on Embree subdivision surfaces are not supported (the material's factor is used; "
+                     "--subdiv-backend osd keeps them)");
     }
     validateCage(cage, r.scheme, path_ + ": " + field);
     d.sub = r;

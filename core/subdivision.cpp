@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 #include <memory>
 
 #include "core/error.h"
@@ -172,17 +173,44 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
     }
     std::vector<OsdUv> uvLimit(static_cast<size_t>(last.GetNumFVarValues(0)));
     primvar.LimitFaceVarying(usrc, uvLimit, 0);
+    // One vertex per (vertex, uv) pair: a vertex on a uv seam is split into
+    // copies at the same position, one per side, so every triangle
+    // interpolates its own chart's uvs (textures and texture-space
+    // integrators stay clean along seams) while the copies' identical
+    // coordinates keep the surface watertight. The first copy is canonical
+    // (weld): displacement moves all copies by its uv, so none separates.
     out.uvs.assign(size_t(nv) * 2, 0.0f);
-    std::vector<char> set(static_cast<size_t>(nv), 0);
+    out.weld.resize(size_t(nv));
+    for (int i = 0; i < nv; ++i) out.weld[size_t(i)] = uint32_t(i);
+    // Copies are keyed by the uv's value: corners with equal uvs (welded
+    // glTF vertices have several fvar values of one uv) share a vertex.
+    std::vector<char> seen(static_cast<size_t>(nv), 0);
+    std::map<std::tuple<int, float, float>, uint32_t> copies;  // (vertex, uv) -> split copy
+    const auto cornerIndex = [&](int v, int t) -> uint32_t {
+      const float su = float(uvLimit[size_t(t)].uv[0]), sv = float(uvLimit[size_t(t)].uv[1]);
+      float* own = &out.uvs[size_t(v) * 2];
+      if (!seen[size_t(v)]) {
+        seen[size_t(v)] = 1;
+        own[0] = su, own[1] = sv;
+        return uint32_t(v);
+      }
+      if (own[0] == su && own[1] == sv) return uint32_t(v);
+      const auto [it, fresh] = copies.emplace(std::tuple{v, su, sv}, uint32_t(out.positions.size()));
+      if (fresh) {
+        out.positions.push_back(out.positions[size_t(v)]);
+        out.normals.push_back(out.normals[size_t(v)]);
+        out.uvs.insert(out.uvs.end(), {su, sv});
+        out.weld.push_back(uint32_t(v));
+      }
+      return it->second;
+    };
     for (int f = 0; f < last.GetNumFaces(); ++f) {
       const Far::ConstIndexArray v = last.GetFaceVertices(f), t = last.GetFaceFVarValues(f, 0);
-      for (int k = 0; k < v.size(); ++k) {
-        if (set[size_t(v[k])]) continue;
-        set[size_t(v[k])] = 1;
-        out.uvs[size_t(v[k]) * 2] = float(uvLimit[size_t(t[k])].uv[0]);
-        out.uvs[size_t(v[k]) * 2 + 1] = float(uvLimit[size_t(t[k])].uv[1]);
-      }
+      const uint32_t c0 = cornerIndex(v[0], t[0]);
+      for (int k = 1; k + 1 < v.size(); ++k)
+        out.triangles.insert(out.triangles.end(), {c0, cornerIndex(v[k], t[k]), cornerIndex(v[k + 1], t[k + 1])});
     }
+    return out;
   }
   for (int f = 0; f < last.GetNumFaces(); ++f) {
     const Far::ConstIndexArray v = last.GetFaceVertices(f);
@@ -324,22 +352,32 @@ double HeightMap::sample(double u, double v) const {
 
 void displace(SubdividedMesh& m, const HeightMap& height, double scale, double midlevel, bool flipV) {
   if (m.uvs.size() != m.positions.size() * 2) throw Error("displacement needs texture coordinates on the cage");
+  const auto canonical = [&](size_t i) { return m.weld.empty() ? i : size_t(m.weld[i]); };
+  // Canonical vertices first (a copy's canonical vertex has a lower index),
+  // then each seam copy takes its canonical vertex's displaced position.
   for (size_t i = 0; i < m.positions.size(); ++i) {
+    const size_t c = canonical(i);
+    if (c != i) {
+      m.positions[i] = m.positions[c];
+      continue;
+    }
     const float v = flipV ? 1.0f - m.uvs[2 * i + 1] : m.uvs[2 * i + 1];
-    const double d = scale * (double(height.sample(m.uvs[2 * i], v)) - midlevel);
+    const double d = scale * (height.sample(m.uvs[2 * i], v) - midlevel);
     m.positions[i] = m.positions[i] + m.normals[i] * float(d);
   }
   // Normals of the displaced surface: area-weighted triangle normals,
-  // oriented like the limit normals they replace.
+  // gathered on the canonical vertex (so seam copies shade alike), oriented
+  // like the limit normals they replace.
   std::vector<Vec3> n(m.positions.size(), Vec3(0, 0, 0));
   for (size_t t = 0; t < m.triangles.size(); t += 3) {
     const uint32_t a = m.triangles[t], b = m.triangles[t + 1], c = m.triangles[t + 2];
     const Vec3 fn = cross(m.positions[b] - m.positions[a], m.positions[c] - m.positions[a]);
-    n[a] += fn, n[b] += fn, n[c] += fn;
+    n[canonical(a)] += fn, n[canonical(b)] += fn, n[canonical(c)] += fn;
   }
   for (size_t i = 0; i < n.size(); ++i) {
-    const float len = length(n[i]);
-    Vec3 v = len > 0 && std::isfinite(len) ? n[i] * (1.0f / len) : m.normals[i];
+    const size_t c = canonical(i);
+    const float len = length(n[c]);
+    Vec3 v = len > 0 && std::isfinite(len) ? n[c] * (1.0f / len) : m.normals[i];
     if (dot(v, m.normals[i]) < 0) v = -v;
     m.normals[i] = v;
   }

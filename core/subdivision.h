@@ -43,10 +43,12 @@ struct SubdividedMesh {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;
   std::vector<uint32_t> triangles;
-  // 2 per vertex when the cage has uvs: the limit uv of the vertex's first
-  // face corner (a vertex on a uv seam keeps one side's uv, so that a
-  // displacement moves it once and opens no crack).
+  // 2 per vertex when the cage has uvs. A vertex on a uv seam is split into
+  // copies at the same position, one per side's uv; weld[i] is the first
+  // (canonical) copy of vertex i (i itself for most), whose uv a
+  // displacement uses for all copies, so none separates.
   std::vector<float> uvs;
+  std::vector<uint32_t> weld;
 };
 
 // A scalar height map read through OpenImageIO (PNG, EXR, TIFF, ...; 8/16-bit

@@ -117,8 +117,9 @@ LoadOptions objSubdivision() {
   return o;
 }
 
-// A seam of duplicated vertices is welded: no refined position appears
-// twice, so the halves share their refined vertices. The uvs come through
+// A seam of duplicated vertices is welded: the halves share their refined
+// positions - a position appears twice only as a seam vertex's two copies,
+// one per side's uv (SubdividedMesh::weld), never as an open seam. The uvs come through
 // face-varying, exactly as the same cage's vt do from an OBJ file; whatever
 // the interpolation inside a face, no refined uv mixes the halves' values
 // (left u <= 1/2, right u >= 10.5), and at the cage's two one-face corners,
@@ -133,11 +134,13 @@ TEST(GltfDisplacement, UvsStayFaceVaryingAcrossAWeldedSeam) {
   // Catmull-Clark turns each of the 2 kGrid^2 triangles into 3 quads, then
   // x4 per further level: 2 triangles each.
   EXPECT_EQ(p.triangleCount, 2u * kGrid * kGrid * 3u * 4u * 2u);
-  std::set<std::array<float, 3>> seen;
+  std::map<std::array<float, 3>, std::set<std::array<float, 2>>> seen;  // position -> its copies' uvs
   int corners = 0;
   for (uint32_t i = 0; i < p.vertexCount; ++i) {
     const Vec3 x(p.positions[3 * i], p.positions[3 * i + 1], p.positions[3 * i + 2]);
-    ASSERT_TRUE(seen.insert({x.x, x.y, x.z}).second) << "refined vertex " << i << " appears twice: the seam is open";
+    const std::array<float, 3> key{x.x, x.y, x.z};
+    const std::array<float, 2> uv{p.uvs[2 * i], p.uvs[2 * i + 1]};
+    ASSERT_TRUE(seen[key].insert(uv).second) << "refined vertex " << i << " repeats a position and its uv: the seam is open";
     for (int k = 0; k < 3; ++k) ASSERT_NEAR(p.positions[3 * i + k], o.positions[3 * i + k], 1e-6) << "vertex " << i;
     const float u = p.uvs[2 * i], v = p.uvs[2 * i + 1];
     EXPECT_NEAR(u, o.uvs[2 * i], 1e-5) << "vertex " << i;
@@ -247,15 +250,18 @@ TEST(GltfDisplacement, WeldedSeamsLeaveNoCrack) {
   LoadOptions robust;
   robust.robust = true;
   const auto scene = loadGltf(g.writeGltf(dir, "cube"), robust);
-  // One closed surface: every refined edge is shared by exactly two triangles.
+  // One closed surface: every refined edge - by its ends' positions, since a
+  // vertex on a uv seam is split into copies at one position - is shared by
+  // exactly two triangles.
   const Primitive& p = onlyPrimitive(*scene);
-  std::map<std::pair<uint32_t, uint32_t>, int> edges;
+  const auto at = [&](uint32_t i) { return std::array<float, 3>{p.positions[3 * i], p.positions[3 * i + 1], p.positions[3 * i + 2]}; };
+  std::map<std::pair<std::array<float, 3>, std::array<float, 3>>, int> edges;
   for (uint32_t t = 0; t < p.triangleCount; ++t)
     for (int k = 0; k < 3; ++k) {
-      uint32_t a = p.indices[3 * t + k], b = p.indices[3 * t + (k + 1) % 3];
+      const auto a = at(p.indices[3 * t + k]), b = at(p.indices[3 * t + (k + 1) % 3]);
       ++edges[{std::min(a, b), std::max(a, b)}];
     }
-  for (const auto& [e, count] : edges) ASSERT_EQ(count, 2) << "edge " << e.first << "-" << e.second;
+  for (const auto& [e, count] : edges) ASSERT_EQ(count, 2) << "an edge at " << e.first[0] << "," << e.first[1] << "," << e.first[2];
   expectNoRayEscapes(*scene);
 }
 
