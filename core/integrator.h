@@ -97,6 +97,9 @@ class IntegratorContext {
   }
   // The texture parametrization at a hit (see surfaceUvFrame).
   bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
+  // The albedo of h's surface at texture coordinates (u, v) (needs
+  // IntegratorNeeds::albedo).
+  Vec3 albedoAtUv(const SurfaceHit& h, float u, float v) const { return surfaceAlbedoAtUv(scene_, h, u, v); }
   RayCounters counters;
 
  private:

@@ -82,21 +82,21 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& 
   if (albedo) out.albedo = materialFactor(scene, prim);
 }
 
+// The material of a primitive with texture coordinates at (tu, tv).
+Vec3 materialAlbedo(const Scene& scene, const Material& m, float tu, float tv) {
+  const Texture& tex = *scene.textures[size_t(m.texture)];
+  return m.baseColorFactor * tex.sample(tu, tv, m.wrapS, m.wrapT);
+}
+
 Vec3 primitiveAlbedo(const Scene& scene, const Primitive& prim, const uint32_t* tri, float u, float v) {
   const Material* m = scene.materialOf(prim);
   if (!m) return Vec3(1, 1, 1);
-  Vec3 a = m->baseColorFactor;
-  if (m->texture >= 0 && !prim.uvs.empty()) {
-    const float w = 1.0f - u - v;
-    const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
-    const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
-    const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
-    const float tu = t0[0] * w + t1[0] * u + t2[0] * v;
-    const float tv = t0[1] * w + t1[1] * u + t2[1] * v;
-    const Texture& tex = *scene.textures[size_t(m->texture)];
-    a = a * tex.sample(tu, tv, m->wrapS, m->wrapT);
-  }
-  return a;
+  if (m->texture < 0 || prim.uvs.empty()) return m->baseColorFactor;
+  const float w = 1.0f - u - v;
+  const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
+  const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
+  const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
+  return materialAlbedo(scene, *m, t0[0] * w + t1[0] * u + t2[0] * v, t0[1] * w + t1[1] * u + t2[1] * v);
 }
 }  // namespace
 
@@ -163,6 +163,15 @@ void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, Sur
   if (prim.subdivision) return subdivisionHit(scene, prim, rh, albedo, out);
   computeSurfaceHit(scene, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar,
                     Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), albedo, out);
+}
+
+Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v) {
+  const Affine* toWorld = nullptr;
+  const Primitive& prim = scene.primitiveOf(h.geomID, h.instID, &toWorld);
+  const Material* m = scene.materialOf(prim);
+  if (!m) return Vec3(1, 1, 1);
+  if (m->texture < 0 || prim.uvs.empty()) return m->baseColorFactor;
+  return materialAlbedo(scene, *m, u, v);
 }
 
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {

@@ -39,6 +39,11 @@ struct UvFrame {
 // triangle (the linear map taking uv differences to edge vectors).
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out);
 
+// The albedo of h's material at texture coordinates (u, v) - elsewhere on
+// the same surface, e.g. where a height field over it rises (decodes
+// textures on first use). Without a texture: the material's factor.
+Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v);
+
 // Fills `out` (all but pixelKey/sampleIndex) from an Embree hit.
 //   dir     : the incoming ray's direction (any length)
 //   u, v    : Embree barycentrics, p = (1-u-v) v0 + u v1 + v v2

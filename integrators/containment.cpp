@@ -105,10 +105,11 @@ class Displacement {
 
 class Containment final : public Integrator {
  public:
-  Containment(Displacement field, Membership mu, int rays, int steps)
-      : field_(std::move(field)), mu_(mu), rays_(uint32_t(rays)), steps_(uint32_t(steps)) {}
+  Containment(Displacement field, Membership mu, int rays, int steps, bool transfer)
+      : field_(std::move(field)), mu_(mu), rays_(uint32_t(rays)), steps_(uint32_t(steps)), transfer_(transfer) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const override {
+    if (transfer_) return estimateTransfer(hits, ctx, W);
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
     for (const SurfaceHit& h : hits) {
       Local L;
@@ -162,14 +163,80 @@ class Containment final : public Integrator {
   }
 
   // Is x + w t outside the height field for every t = r i/m, i = 1..m? [AT 4]
-  bool outside(const Local& L, Vec3 w, float r) const {
+  // If not, (*su, *sv) = the uv of the first point inside: where the segment
+  // meets the field, "the projection of the point first tested positively
+  // for occlusion onto the surface" whose albedo eq. 9 takes.
+  bool outside(const Local& L, Vec3 w, float r, double* su = nullptr, double* sv = nullptr) const {
     // q - p = N d0 + w t, and (N; ea, eb, ez) = (0, 0, 1).
     const double wa = dot(w, L.ea), wb = dot(w, L.eb), wz = dot(w, L.ez);
     for (uint32_t i = 1; i <= steps_; ++i) {
       const double t = double(r) * double(i) / double(steps_);
-      if (L.d0 + t * wz < field_(L.u + t * wa, L.v + t * wb)) return false;  // inside (I0 = 0)
+      if (L.d0 + t * wz < field_(L.u + t * wa, L.v + t * wb)) {  // inside (I0 = 0)
+        if (su) *su = L.u + t * wa, *sv = L.v + t * wb;
+        return false;
+      }
     }
     return true;
+  }
+
+  // The ambient transfer of eq. 9 [AT 4.1]: the same samples, each open one
+  // adding 1 to the numerator and the denominator, each closed one adding
+  // 1 - a~ to the denominator, a~ the albedo where it closed - the shaded
+  // surface's at the first test point inside the field, or the macro
+  // occluder's at the closest hit (so the macro rays find their hit here).
+  // A direction below the macro plane without a uv frame is closed by the
+  // surface itself, a~ its own albedo.
+  void estimateTransfer(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const {
+    const size_t n = hits.size() * rays_;
+    IntersectBatch& batch = ctx.intersectBatch(n);
+    thread_local std::vector<Vec3> closedBy;  // a~ of samples the field (or the surface) closed; -1: none
+    if (closedBy.size() < n) closedBy.resize(n);
+    const Vec3 none(-1, -1, -1);
+    size_t j = 0;
+    for (const SurfaceHit& h : hits) {
+      Local L;
+      const bool frame = localFrame(h, ctx, L);
+      // Without a frame, obscurance's lobe about the shading normal.
+      const Frame lobe = frame ? L.lobe : Frame::fromNormal(h.ns);
+      for (uint32_t k = 0; k < rays_; ++k, ++j) {
+        const uint32_t index = h.sampleIndex * rays_ + k;
+        const Sample2 s2 = Sampler::get2D(h.pixelKey, index, kFirstIntegratorDim);
+        const Vec3 w = lobe.toWorld(squareToCosineHemisphere(s2.u, s2.v));
+        const float r = mu_.segment(Sampler::get1D(h.pixelKey, index, kFirstIntegratorDim + 1));
+        const Vec3 o = spawnOrigin(h, w);
+        double su, sv;
+        closedBy[j] = none;
+        if (frame && !outside(L, w, r, &su, &sv)) {
+          closedBy[j] = ctx.albedoAtUv(h, float(su), float(sv));
+          batch.push(o, w, kInfinity, 0.0f);  // inactive
+        } else if (!frame && intoSurface(h, w)) {
+          closedBy[j] = h.albedo;
+          batch.push(o, w, kInfinity, 0.0f);
+        } else if (r > 0.0f && !intoSurface(h, w)) {
+          batch.push(o, w, 0.0f, r);
+        } else {
+          batch.push(o, w, kInfinity, 0.0f);  // empty segment, or below the macro plane: open
+        }
+      }
+    }
+    ctx.trace(batch);
+    j = 0;
+    for (size_t i = 0; i < hits.size(); ++i) {
+      double num = 0, den[3] = {0, 0, 0};
+      for (uint32_t k = 0; k < rays_; ++k, ++j) {
+        const bool byField = closedBy[j].x >= 0.0f;
+        if (!byField && !batch.hit(j)) {
+          num += 1;
+          for (double& d : den) d += 1;
+          continue;
+        }
+        const Vec3 a = byField ? closedBy[j] : ctx.albedoAt(batch, j);
+        den[0] += 1.0 - double(a.x), den[1] += 1.0 - double(a.y), den[2] += 1.0 - double(a.z);
+      }
+      const float o = sampleMean(num, rays_);
+      W[i].num = Vec3(o, o, o);
+      W[i].den = Vec3(sampleMean(den[0], rays_), sampleMean(den[1], rays_), sampleMean(den[2], rays_));
+    }
   }
 
   void pushContained(const SurfaceHit& h, const Local& L, OcclusionBatch& batch) const {
@@ -206,6 +273,7 @@ class Containment final : public Integrator {
   Displacement field_;
   Membership mu_;
   uint32_t rays_, steps_;
+  bool transfer_;
 };
 
 IntegratorDescriptor containmentDescriptor() {
@@ -222,6 +290,9 @@ IntegratorDescriptor containmentDescriptor() {
        .doc = "displacement: the height that leaves the surface in place (as --displace-midlevel)"},
       {.name = "steps", .type = ParamType::Int, .defaultValue = "2", .min = 1, .max = 4096,
        .doc = "m: containment test points per sample, at r i/m (the paper uses 1 or 2)"},
+      {.name = "albedo", .type = ParamType::Bool, .defaultValue = "false",
+       .doc = "false: obscurance; true: the ambient transfer of eq. 9, W = Sum I / (n - Sum (1 - I) a~), a~ the "
+              "albedo where a sample closed (the surface's at the field, the macro occluder's)"},
   };
   for (ParamSpec& s : membershipParams("samples (direction, distance) per camera sample")) {
     if (s.name == "estimator") continue;  // always the occlusion estimator: r ~ mu'(r)
@@ -230,7 +301,7 @@ IntegratorDescriptor containmentDescriptor() {
               "0: nothing occludes";
     d.params.push_back(std::move(s));
   }
-  d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.needs = [](const ParamSet& p) { return IntegratorNeeds{.albedo = p.getBool("albedo")}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const std::string& map = p.getString("map");
     if (map.empty()) throw Error("integrator 'containment': parameter 'map' (a height map file) is required");
@@ -239,7 +310,7 @@ IntegratorDescriptor containmentDescriptor() {
       throw Error("integrator 'containment': parameter 'distance' must be finite (and within float range) for "
                   "falloff " + p.getEnum("falloff") + ": the containment test needs a bounded neighbourhood R");
     return std::make_unique<Containment>(Displacement(map, p.getFloat("scale"), p.getFloat("midlevel")), mu,
-                                         p.getInt("rays"), p.getInt("steps"));
+                                         p.getInt("rays"), p.getInt("steps"), p.getBool("albedo"));
   };
   return d;
 }

@@ -37,10 +37,10 @@ std::string writeFineRipples(const std::string& dir) {
 }
 
 // The plane refined to `level`, displaced by `map` at `scale` when scale != 0.
-void addRefinedPlane(Scene& scene, int level, const HeightMap* map, double scale, bool uvs = true) {
+void addRefinedPlane(Scene& scene, int level, const HeightMap* map, double scale, bool uvs = true, int material = -1) {
   SubdividedMesh m = subdivide(planeCage(4), SubdivisionScheme::CatmullClark, level, kBudget, "plane");
   if (map) displace(m, *map, scale, 0.5);
-  scene.addWorldPrimitive(m.positions, m.triangles, m.normals, uvs ? m.uvs : std::vector<float>{}, -1);
+  scene.addWorldPrimitive(m.positions, m.triangles, m.normals, uvs ? m.uvs : std::vector<float>{}, material);
 }
 
 // Straight down at the middle of the plane, 0.5 x 0.5 in view.
@@ -197,6 +197,52 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
       EXPECT_GT(occluded, 1.0) << "the wall occludes";
     }
   }
+}
+
+// 5. The transfer of eq. 9 (albedo=true) against two invariants. With a
+//    grey plane of albedo a and nothing else above it, only the height field
+//    closes samples, each with a~ = a, so a pixel's ratio of sums is
+//    S / (N - a (N - S)) = O / (1 - a (1 - O)) for the obscurance O = S / N of
+//    the very same samples (albedo=false): the closed form of MATH.md's
+//    transfer with one grey occluder, to float rounding of the per-sample
+//    means (1e-6). With every albedo 1 - plane and a wall standing on it -
+//    every closed sample adds 1 - 1 = 0 to the denominator: W = 1 exactly
+//    (the white furnace), wherever the field or the wall closes.
+TEST(Containment, TransferMatchesTheClosedFormAndTheWhiteFurnace) {
+  const std::string dir = tempDir("containment_transfer");
+  const std::string path = writeFineRipples(dir);
+  const std::vector<std::string> p = {"map=" + path, "scale=0.04", "distance=0.1", "rays=4"};
+  {
+    Scene scene;
+    const float a = 0.6f;
+    addRefinedPlane(scene, 1, nullptr, 0, true, addGreyMaterial(scene, a));
+    scene.commit();
+    std::vector<std::string> t = p;
+    t.push_back("albedo=true");
+    const Film fo = renderWith(scene, topCamera(), "containment", p, passSettings(16, 16, 8));
+    const Film ft = renderWith(scene, topCamera(), "containment", t, passSettings(16, 16, 8));
+    double open = 0;
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x) {
+        const double O = fo.at(kR, x, y);
+        EXPECT_NEAR(ft.at(kR, x, y), O / (1 - a * (1 - O)), 1e-6) << x << "," << y;
+        open += O;
+      }
+    EXPECT_LT(open, 16 * 16 * 0.999) << "the field closes some samples";
+  }
+  Scene white;
+  const int one = addGreyMaterial(white, 1.0f);
+  addRefinedPlane(white, 1, nullptr, 0, true, one);
+  white.addWorldPrimitive({{0.5f, 0.2f, 0}, {0.5f, 0.8f, 0}, {0.5f, 0.8f, 0.2f}, {0.5f, 0.2f, 0.2f}}, {0, 1, 2, 0, 2, 3},
+                          {}, {}, one);
+  white.commit();
+  std::vector<std::string> t = p;
+  t.push_back("albedo=true");
+  const Camera cam = makeLookAtCamera(Vec3(0.5f, 0.5f, 3), Vec3(0.5f, 0.5f, 0), Vec3(0, 1, 0), 0.2f, "top");
+  const Film f = renderWith(white, cam, "containment", t, passSettings(16, 16, 8));
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x)
+      if (f.at(kA, x, y) > 0) ASSERT_EQ(f.at(kR, x, y), 1.0f) << x << "," << y;
 }
 
 // 4. Extreme parameters stay finite and in [0, 1]: huge and tiny scales,
