@@ -377,3 +377,53 @@ TEST(EmbreeSubdivision, NonManifoldAndZeroAreaCagesRenderFinite) {
 
 }  // namespace
 }  // namespace obscura::test
+
+namespace obscura::test {
+namespace {
+
+// Shading normals of the displaced surface, both backends, against the
+// analytic one. A flat cage with uv = xy displaced by
+// d(x) = s (h - 1/2), h = 1/2 + 1/2 cos(4 pi x): the surface z = d(x) has
+// normal (-d'(x), 0, 1) / |.|, d'(x) = -2 pi s sin(4 pi x). Tolerance 0.005
+// per component: the height map's bilinear interpolation (1024 texels)
+// errs in slope by up to d'' dx / 2 = s (4 pi)^2 / 2 / 1024 / 2 = 1.9e-3
+// at s = 0.05; Embree's central difference over one tessellation step
+// (level 6: 2^6 segments per cage edge of 1/4) by d''' dt^2 / 6 = 3e-5;
+// OpenSubdiv's area-weighted vertex normals, interpolated across a
+// triangle, by O(h^2 n'') = 5e-5 - so a tilt of the wrong sign or size
+// (0.3 at the steepest) cannot pass.
+TEST(EmbreeSubdivision, DisplacedShadingNormalsMatchTheSurface) {
+  const std::string dir = tempDir("embree_normals");
+  const double s = 0.05;
+  CageDisplacement d;
+  d.map = heightMap(dir, "wave", 1024, 2, [](double u, double) { return 0.5 + 0.5 * std::cos(4 * M_PI * u); });
+  d.scale = s, d.midlevel = 0.5;
+  for (const SubdivisionBackend b : {SubdivisionBackend::OpenSubdiv, SubdivisionBackend::Embree}) {
+    const auto scene = build(planeCage(4), b, 6, d);
+    int checked = 0;
+    for (double x = 0.3; x <= 0.7; x += 0.0137) {
+      const Vec3 o(float(x), 0.43f, 2.0f);
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRayHit rh{};
+      rh.ray.org_x = o.x, rh.ray.org_y = o.y, rh.ray.org_z = o.z, rh.ray.dir_z = -1, rh.ray.tfar = kInfinity, rh.ray.mask = ~0u;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene->rtcScene(), &ctx, &rh);
+      ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
+      SurfaceHit h{};
+      computeSurfaceHit(*scene, rh, false, h);
+      const double slope = -2 * M_PI * s * std::sin(4 * M_PI * x);
+      const double len = std::sqrt(1 + slope * slope);
+      EXPECT_NEAR(h.ns.x, -slope / len, 0.005) << (b == SubdivisionBackend::Embree ? "embree" : "osd") << " x " << x;
+      EXPECT_NEAR(h.ns.y, 0.0, 0.005);
+      EXPECT_NEAR(h.ns.z, 1 / len, 0.005);
+      // The point: d within the chord error h^2 / 8 |d| = 7.5e-6 (h = 1/256) and float rounding.
+      EXPECT_NEAR(h.p.z, s * 0.5 * std::cos(4 * M_PI * x), 5e-5) << "x " << x;
+      ++checked;
+    }
+    EXPECT_GT(checked, 25);
+  }
+}
+
+}  // namespace
+}  // namespace obscura::test
