@@ -116,7 +116,7 @@ std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string&
   if (o.maxEdgePixels > 0) {
     LoadOptions probe = o;
     probe.subdivision = false;
-    probe.subdivisionLevel = 0;
+    probe.unrefined = true;
     probe.maxEdgePixels = 0;
     probe.displacementMap.clear();
     probe.backend = SubdivisionBackend::OpenSubdiv;
@@ -150,13 +150,13 @@ ExrOptions passHeader(const PassInfo& i) {
   exr.attributes.push_back({"obscura:robust", int(i.robust)});
   if (const SceneArgs* a = i.sceneArgs) {
     // What shaped the geometry: a pass is reproducible from its header.
-    if (a->subdiv != "none") {
-      str("obscura:subdiv", a->subdiv);
-      str("obscura:subdivBackend", a->subdivBackend);
-      exr.attributes.push_back({"obscura:subdivLevel", a->subdivLevel});
-      exr.attributes.push_back({"obscura:subdivEdge", float(a->subdivEdge)});
-      exr.attributes.push_back({"obscura:maxMemoryGiB", float(a->maxMemoryGiB)});
-    }
+    // Always: glTF meshes flagged in their extras are subdivided (by this
+    // backend, level default and edge length) without --subdiv.
+    str("obscura:subdiv", a->subdiv);
+    str("obscura:subdivBackend", a->subdivBackend);
+    exr.attributes.push_back({"obscura:subdivLevel", a->subdivLevel});
+    exr.attributes.push_back({"obscura:subdivEdge", float(a->subdivEdge)});
+    exr.attributes.push_back({"obscura:maxMemoryGiB", float(a->maxMemoryGiB)});
     if (!a->displace.empty()) {
       str("obscura:displace", std::filesystem::absolute(a->displace).lexically_normal().string());
       str("obscura:displaceScale", formatFloat(a->displaceScale));  // reads back as the same double

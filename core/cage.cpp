@@ -57,6 +57,8 @@ size_t embreeSubdivisionBytes(const SubdivisionCage& cage, const std::vector<flo
 void addCage(Scene& scene, const SubdivisionCage& cage, const LoadOptions& o, const CageDisplacement& disp, int material,
              const std::string& what) {
   const bool adaptive = o.maxEdgePixels > 0;
+  if (!adaptive && (o.subdivisionLevel < 0 || o.subdivisionLevel > 10))
+    throw Error(what + ": subdivision level " + std::to_string(o.subdivisionLevel) + " is outside [0, 10]");
   if (adaptive && (!o.camera || o.imageWidth < 1 || o.imageHeight < 1))
     throw Error("internal: adaptive subdivision without a camera");
   if (disp.map && cage.uvIndices.empty()) throw Error(what + ": displacement needs texture coordinates on every face corner");

@@ -68,6 +68,7 @@ class Loader {
     loadMaterials();
     collectNodes();
     buildGeometry();
+    scene_->setUvsRunDown();  // glTF's v = 0 is the top row of an image
     scene_->setRobust(options_.robust);
     scene_->commit();
     return std::move(scene_);
@@ -413,8 +414,11 @@ class Loader {
   // extras (or the using node's, `nodeIndex`, -1 for none) say so.
   std::vector<PrimData> readMesh(int meshIndex, int nodeIndex) {
     const auto& mesh = model_.meshes[size_t(meshIndex)];
-    const std::optional<SubdivisionRequest> sub = subdivisionOf(meshIndex);
-    const std::optional<DisplacementRequest> disp = displacementOf(meshIndex, nodeIndex, sub.has_value());
+    // An unrefined load (the camera probe of adaptive refinement) keeps
+    // flagged meshes as their cage triangles and reads no height map.
+    const std::optional<SubdivisionRequest> sub = options_.unrefined ? std::nullopt : subdivisionOf(meshIndex);
+    const std::optional<DisplacementRequest> disp =
+        options_.unrefined ? std::nullopt : displacementOf(meshIndex, nodeIndex, sub.has_value());
     std::vector<PrimData> out;
     for (size_t pi = 0; pi < mesh.primitives.size(); ++pi) {
       const auto& gp = mesh.primitives[pi];
@@ -651,6 +655,17 @@ class Loader {
                        xf.m[0][1] * (xf.m[1][0] * xf.m[2][2] - xf.m[1][2] * xf.m[2][0]) +
                        xf.m[0][2] * (xf.m[1][0] * xf.m[2][1] - xf.m[1][1] * xf.m[2][0]);
     d.scale *= std::cbrt(std::abs(det));
+    if (det < 0) {
+      // A mirroring transform turns the cage inside out: the limit normal
+      // dP/du x dP/dv would point into the surface, and displacement with
+      // it. Reversing every face's corners (uvs with them) restores it.
+      size_t k = 0;
+      for (const int n : c.faceSizes) {
+        std::reverse(c.faceIndices.begin() + long(k) + 1, c.faceIndices.begin() + long(k) + n);
+        if (!c.uvIndices.empty()) std::reverse(c.uvIndices.begin() + long(k) + 1, c.uvIndices.begin() + long(k) + n);
+        k += size_t(n);
+      }
+    }
     addCage(*scene_, c, o, d, p.material, path_ + ": " + p.field);
   }
 

@@ -25,6 +25,9 @@ struct LoadOptions {
   // refines uniformly to the level the longest one needs, Embree
   // tessellates each edge to its own rate).
   double maxEdgePixels = 0;
+  // Load cages unrefined and undisplaced whatever the file or the options
+  // say (the cheap first read that finds the camera for maxEdgePixels).
+  bool unrefined = false;
   std::optional<Camera> camera;
   int imageWidth = 0, imageHeight = 0;
   // Displacement of subdivided OBJ cages, and of subdivided glTF meshes

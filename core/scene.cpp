@@ -17,10 +17,10 @@ void embreeErrorCallback(void*, RTCError code, const char* str) {
 // Embree's memory monitor: called once per allocation (bytes > 0) or free
 // (bytes < 0), before or after it; never refusing, so every call counts.
 bool embreeMemoryMonitor(void* user, ssize_t bytes, bool /*post*/) {
-  auto* c = static_cast<std::atomic<int64_t>*>(user);
-  const int64_t now = c[0].fetch_add(int64_t(bytes), std::memory_order_relaxed) + int64_t(bytes);
-  int64_t peak = c[1].load(std::memory_order_relaxed);
-  while (now > peak && !c[1].compare_exchange_weak(peak, now, std::memory_order_relaxed)) {
+  auto* c = static_cast<Scene::MemoryCounter*>(user);
+  const int64_t now = c->current.fetch_add(int64_t(bytes), std::memory_order_relaxed) + int64_t(bytes);
+  int64_t peak = c->peak.load(std::memory_order_relaxed);
+  while (now > peak && !c->peak.compare_exchange_weak(peak, now, std::memory_order_relaxed)) {
   }
   return true;
 }
@@ -30,8 +30,7 @@ Scene::Scene() {
   device_ = rtcNewDevice(nullptr);
   if (!device_) throw Error("cannot create the Embree device (error " + std::to_string(rtcGetDeviceError(nullptr)) + ")");
   rtcSetDeviceErrorFunction(device_, embreeErrorCallback, nullptr);
-  static_assert(sizeof(MemoryCounter) == 2 * sizeof(std::atomic<int64_t>));
-  rtcSetDeviceMemoryMonitorFunction(device_, embreeMemoryMonitor, &memory_->current);
+  rtcSetDeviceMemoryMonitorFunction(device_, embreeMemoryMonitor, memory_.get());
   top_ = rtcNewScene(device_);
 }
 
@@ -104,6 +103,7 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
   auto surface = std::make_shared<SubdivisionSurface>();
   const size_t corners = cage.faceIndices.size(), faces = cage.faceSizes.size();
   if (edgeLevels.size() != 1 && edgeLevels.size() != corners) throw Error("internal: edge levels do not match the cage");
+  if (height && cage.uvIndices.size() != corners) throw Error("internal: a displaced subdivision surface needs uvs at every corner");
   const auto level = [&](size_t k) { return std::clamp(edgeLevels.size() == 1 ? edgeLevels[0] : edgeLevels[k], 1.0f, 4096.0f); };
   surface->faceRate.resize(faces);
   for (size_t f = 0, k = 0; f < faces; ++f) {
@@ -141,6 +141,10 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
                                                               2 * sizeof(uint32_t), cage.creaseWeights.size()));
     auto* cw = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_EDGE_CREASE_WEIGHT, 0, RTC_FORMAT_FLOAT,
                                                            sizeof(float), cage.creaseWeights.size()));
+    if (!ci || !cw) {
+      rtcReleaseGeometry(g);
+      throw Error("out of memory building a subdivision surface");
+    }
     for (size_t i = 0; i < cage.creaseWeights.size(); ++i) {
       ci[2 * i] = uint32_t(cage.creaseEdges[2 * i]), ci[2 * i + 1] = uint32_t(cage.creaseEdges[2 * i + 1]);
       // OpenSubdiv's sharpness >= 10 is infinitely sharp; Embree takes infinity.
@@ -163,9 +167,9 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
   p.material = material;
   p.faceCount = uint32_t(faces);
   p.subdivision = std::move(surface);
-  // Bounds: the limit lies in the cage's hull, but displacement can leave
-  // it; commit() takes Embree's bounds of the tessellated surface.
-  for (const Vec3& v : cage.positions) bounds_.extend(v);
+  // Bounds: commit() takes Embree's, of the tessellated (and displaced)
+  // surface - not the cage's hull, which is larger than the limit surface
+  // and would frame an auto camera differently from the OpenSubdiv backend.
   hasSubdivision_ = true;
   if (topLevel_.size() <= id) topLevel_.resize(id + 1);
   topLevel_[id].primitive = int(worldPrimitives_.size());
@@ -210,6 +214,12 @@ void Scene::addInstance(int mesh, const Affine& toWorld, std::string node) {
       bounds_.extend(toWorld.point(corner));
     }
   }
+}
+
+void Scene::setUvsRunDown() {
+  for (auto& p : worldPrimitives_) p.uvsRunDown = true;
+  for (auto& m : meshes_)
+    for (auto& p : m.primitives) p.uvsRunDown = true;
 }
 
 void Scene::commit() {

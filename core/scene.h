@@ -61,6 +61,9 @@ struct Primitive {
   // uvs are then empty: hits are evaluated on the patches).
   std::shared_ptr<const SubdivisionSurface> subdivision;
   uint32_t faceCount = 0;     // subdivision faces
+  // uvs with v = 0 at the top of an image (glTF); false: at the bottom (OBJ,
+  // and the height maps' convention).
+  bool uvsRunDown = false;
 };
 
 // A mesh placed more than once: its own Embree scene, shared by instances.
@@ -131,6 +134,8 @@ class Scene {
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
                           std::vector<float> uvs, int material);
   void addInstance(int mesh, const Affine& toWorld, std::string node);
+  // Marks every primitive's uvs as running down the image (glTF).
+  void setUvsRunDown();
 
   std::vector<Material> materials;
   std::vector<std::unique_ptr<Texture>> textures;
@@ -163,13 +168,15 @@ class Scene {
   const std::vector<Instance>& instances() const { return instances_; }
   const std::vector<InstancedMesh>& instancedMeshes() const { return meshes_; }
 
+ // The memory monitor's counters (public for its C callback).
+  struct MemoryCounter {
+    std::atomic<int64_t> current{0}, peak{0};
+  };
+
  private:
   Primitive makePrimitive(RTCScene target, const std::vector<Vec3>& positions,
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
                           std::vector<float> uvs, int material, unsigned* geomID);
-  struct MemoryCounter {
-    std::atomic<int64_t> current{0}, peak{0};
-  };
   std::unique_ptr<MemoryCounter> memory_ = std::make_unique<MemoryCounter>();
   RTCDevice device_ = nullptr;
   RTCScene top_ = nullptr;

@@ -262,13 +262,16 @@ CageUvs::CageUvs(const SubdivisionCage& c) {
 }
 
 void CageUvs::onEdge(uint32_t k, float x, float& s, float& t) const {
-  if (x <= 0.0f) {
+  // Within rounding of a corner (as at() tolerates for edges): the vertex's
+  // canonical uv, which every face around it agrees on.
+  constexpr float kAtCorner = 1e-6f;
+  if (x <= kAtCorner) {
     s = vertexUv_[2 * k], t = vertexUv_[2 * k + 1];
     return;
   }
   const uint32_t face = uint32_t(std::upper_bound(faceStart_.begin(), faceStart_.end(), k) - faceStart_.begin()) - 1;
   const uint32_t n = faceStart_[face + 1] - faceStart_[face], next = faceStart_[face] + (k - faceStart_[face] + 1) % n;
-  if (x >= 1.0f) {
+  if (x >= 1.0f - kAtCorner) {
     s = vertexUv_[2 * next], t = vertexUv_[2 * next + 1];
     return;
   }

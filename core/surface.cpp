@@ -1,5 +1,8 @@
 #include "core/surface.h"
 
+#include "core/error.h"
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -32,7 +35,9 @@ void limitTangents(const Primitive& prim, unsigned face, float u, float v, Vec3&
 // dP/du + (dd/du) N + d dN/du, of which the last (displacement times
 // curvature, small where displacement is small against the radius of
 // curvature) is dropped, and dd/du is a central difference over one
-// tessellation step - the scale the traced surface resolves. (Four patch
+// tessellation step of a quad (half a step on the sub-quads of other faces,
+// which Embree tessellates at half the rate) - the scale the traced surface
+// resolves. (Four patch
 // evaluations for the full difference cost 60 % of a render; the height
 // map lookups this takes instead are cheap.)
 void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& rh, bool albedo, SurfaceHit& out) {
@@ -57,15 +62,22 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& 
   limitTangents(prim, face, u, v, du, dv);
   Vec3 n = cross(du, dv);
   if (s.height) {
-    // Quads' patch coordinates span [0, 1]; other faces' encode a sub-quad
-    // whose local coordinates may step 0.5 outside it (Embree's
-    // parametrization), so only quads clamp.
+    // Steps of +-h in the face's own coordinates, kept on the face: a quad's
+    // (u, v) span [0, 1]; other faces encode a sub-quad and the position in
+    // it (Embree's parametrization), whose local coordinates are clamped to
+    // [0, 1] and encoded back - beyond them CageUvs reads the cage edge,
+    // not an extrapolation. Differences divide by the span actually taken.
     const float h = 0.5f / s.faceRate[face];
     const bool quad = s.uvs.faceSize(face) == 4;
-    const float u0 = quad ? std::max(u - h, 0.0f) : u - h, u1 = quad ? std::min(u + h, 1.0f) : u + h;
-    const float v0 = quad ? std::max(v - h, 0.0f) : v - h, v1 = quad ? std::min(v + h, 1.0f) : v + h;
-    const float ddu = (s.displacement(face, u1, v) - s.displacement(face, u0, v)) / (u1 - u0);
-    const float ddv = (s.displacement(face, u, v1) - s.displacement(face, u, v0)) / (v1 - v0);
+    const auto step = [&](float x, float dx) {
+      if (quad) return std::clamp(x + dx, 0.0f, 1.0f);
+      const float base = 2.0f * std::floor(0.5f * x);                  // 2 l
+      const float local = std::clamp(x - base - 0.5f + dx, 0.0f, 1.0f);  // sub-quad coordinate
+      return base + 0.5f + local;
+    };
+    const float u0 = step(u, -h), u1 = step(u, h), v0 = step(v, -h), v1 = step(v, h);
+    const float ddu = u1 > u0 ? (s.displacement(face, u1, v) - s.displacement(face, u0, v)) / (u1 - u0) : 0.0f;
+    const float ddv = v1 > v0 ? (s.displacement(face, u, v1) - s.displacement(face, u, v0)) / (v1 - v0) : 0.0f;
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) {
       const Vec3 N = n * (1.0f / len);
@@ -111,6 +123,8 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
                        float v, float t, Vec3 dir, bool albedo, SurfaceHit& out) {
   const Affine* toWorld = nullptr;
   const Primitive& prim = scene.primitiveOf(geomID, instID, &toWorld);
+  if (prim.subdivision)  // its hit point needs the ray's origin: the RTCRayHit form
+    throw Error("internal: computeSurfaceHit from barycentrics on a subdivision surface");
   const uint32_t* tri = prim.indices + size_t(primID) * 3;
   const uint32_t i0 = tri[0], i1 = tri[1], i2 = tri[2];
   const auto vertex = [&](uint32_t i) {
@@ -171,7 +185,7 @@ Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v
   const Material* m = scene.materialOf(prim);
   if (!m) return Vec3(1, 1, 1);
   if (m->texture < 0 || prim.uvs.empty()) return m->baseColorFactor;
-  return materialAlbedo(scene, *m, u, v);
+  return materialAlbedo(scene, *m, u, prim.uvsRunDown ? 1.0f - v : v);
 }
 
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
@@ -190,6 +204,7 @@ bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
   const float w = 1.0f - h.hitU - h.hitV;
   out.u = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV;
   out.v = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  const bool down = prim.uvsRunDown;  // glTF: report v = 1 - v_file (see UvFrame)
   // Solve [dp1 dp2] = [dpdu dpdv] [duv1 duv2] for the two derivatives.
   const Vec3 p0 = vertex(0), dp1 = vertex(1) - p0, dp2 = vertex(2) - p0;
   const double du1 = double(t1[0]) - t0[0], dv1 = double(t1[1]) - t0[1];
@@ -199,6 +214,7 @@ bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
   const float inv = float(1.0 / det);
   out.dpdu = (dp1 * float(dv2) - dp2 * float(dv1)) * inv;
   out.dpdv = (dp2 * float(du1) - dp1 * float(du2)) * inv;
+  if (down) out.v = 1.0f - out.v, out.dpdv = -out.dpdv;
   return isFinite(out.dpdu) && isFinite(out.dpdv);
 }
 

@@ -28,7 +28,10 @@ struct SurfaceHit {
 };
 
 // The surface's texture parametrization at a hit: uv, and the world-space
-// derivatives dP/du, dP/dv of the (undisplaced) surface that carries it.
+// derivatives dP/du, dP/dv of the (undisplaced) surface that carries it -
+// in the height maps' convention, v = 0 at the bottom row of an image (OBJ;
+// a glTF primitive's v, which runs down, is reported as 1 - v), so a height
+// map reads the same at these uvs as `--displace` reads it.
 struct UvFrame {
   float u, v;
   Vec3 dpdu, dpdv;
@@ -39,7 +42,8 @@ struct UvFrame {
 // triangle (the linear map taking uv differences to edge vectors).
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out);
 
-// The albedo of h's material at texture coordinates (u, v) - elsewhere on
+// The albedo of h's material at texture coordinates (u, v) in UvFrame's
+// convention - elsewhere on
 // the same surface, e.g. where a height field over it rises (decodes
 // textures on first use). Without a texture: the material's factor.
 Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v);

@@ -83,7 +83,9 @@ namespace {
 
 // The displacement field d(uv) = scale (h(uv) - midlevel) of a height map,
 // read and sampled as `--displace` does (core/subdivision.h HeightMap:
-// bilinear between texel centres, repeat, v = 0 at the bottom row).
+// bilinear between texel centres, repeat, v = 0 at the bottom row; the uv
+// frame reports glTF's downward v flipped, so glTF meshes read the map as
+// their extras displacement does).
 class Displacement {
  public:
   Displacement(const std::string& path, double scale, double midlevel)
@@ -283,7 +285,7 @@ IntegratorDescriptor containmentDescriptor() {
           "(height field for self-shadowing, any-hit rays for the macro geometry).";
   d.params = {
       {.name = "map", .type = ParamType::String, .defaultValue = "",
-       .doc = "height map (PNG/EXR/TIFF..., first channel, bilinear, repeat, v = 0 at the bottom); required"},
+       .doc = "height map (PNG/EXR/TIFF..., first channel, bilinear, repeat, v = 0 at the bottom; glTF uvs read at (u, 1 - v)); required"},
       {.name = "scale", .type = ParamType::Float, .defaultValue = "0.1", .min = -1e30, .max = 1e30,
        .doc = "displacement: scene units per unit of height (as --displace-scale)"},
       {.name = "midlevel", .type = ParamType::Float, .defaultValue = "0.5", .min = -1e30, .max = 1e30,

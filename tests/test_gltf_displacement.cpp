@@ -224,22 +224,28 @@ TEST(GltfDisplacement, DisplacedPlaneMovesLikeTheObjPath) {
   for (uint32_t i = 0; i < 3 * c.vertexCount; ++i) ASSERT_EQ(c.positions[i], g.positions[i]);
 }
 
-// A cube written as glTF exporters write it - every face its own four
-// vertices, for per-face uvs - subdivided and displaced: welding makes it one
-// closed cage, each vertex moves once, and from inside no ray escapes.
-TEST(GltfDisplacement, WeldedSeamsLeaveNoCrack) {
-  const std::string dir = tempDir("gltf_displace_cube");
-  writeRipples(dir);
+// The cube as glTF exporters write it: every face its own four vertices
+// with the whole [0,1]^2 of uv, two triangles each.
+void exporterCube(std::vector<Vec3>& positions, std::vector<std::array<float, 2>>& uvs, std::vector<uint32_t>& triangles) {
   const SubdivisionCage cube = cubeCage();
-  std::vector<Vec3> positions;
-  std::vector<std::array<float, 2>> uvs;
-  std::vector<uint32_t> triangles;
   for (size_t f = 0; f < 6; ++f) {
     const uint32_t base = uint32_t(positions.size());
     const std::array<float, 2> corners[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
     for (int k = 0; k < 4; ++k) positions.push_back(cube.positions[size_t(cube.faceIndices[f * 4 + size_t(k)])]), uvs.push_back(corners[k]);
     triangles.insert(triangles.end(), {base, base + 1, base + 2, base, base + 2, base + 3});
   }
+}
+
+// A cube written as glTF exporters write it - every face its own four
+// vertices, for per-face uvs - subdivided and displaced: welding makes it one
+// closed cage, each vertex moves once, and from inside no ray escapes.
+TEST(GltfDisplacement, WeldedSeamsLeaveNoCrack) {
+  const std::string dir = tempDir("gltf_displace_cube");
+  writeRipples(dir);
+  std::vector<Vec3> positions;
+  std::vector<std::array<float, 2>> uvs;
+  std::vector<uint32_t> triangles;
+  exporterCube(positions, uvs, triangles);
   GltfBuilder g;
   const json prim = {{"attributes", {{"POSITION", g.positions(positions)}, {"TEXCOORD_0", g.vec2(uvs)}}},
                      {"indices", g.indices(triangles)}};
@@ -324,6 +330,56 @@ TEST(GltfDisplacement, BadFieldsNameTheField) {
             std::string::npos)
       << r.stderrText;
   EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+}
+
+}  // namespace
+}  // namespace obscura::test
+
+namespace obscura::test {
+namespace {
+
+// A mirroring node (scale (-1, 1, 1)) turns a cage inside out; the loader
+// reverses its faces so that displacement still pushes outwards. A cube
+// displaced by a constant height (1, midlevel 0, scale 0.1) is mirror
+// symmetric, so the mirrored and the plain node must meet the +x axis ray at
+// the same distance - with either backend - and 0.1 before the undisplaced
+// surface.
+TEST(GltfDisplacement, MirroredNodesDisplaceOutwards) {
+  const std::string dir = tempDir("gltf_mirror");
+  writeHeightMap(dir + "/one.exr", 2, 2, [](double, double) { return 1.0; });
+  std::vector<Vec3> positions;
+  std::vector<std::array<float, 2>> uvs;
+  std::vector<uint32_t> triangles;
+  exporterCube(positions, uvs, triangles);
+  const auto write = [&](const std::string& name, double sx, bool displaced) {
+    GltfBuilder g;
+    const json prim = {{"attributes", {{"POSITION", g.positions(positions)}, {"TEXCOORD_0", g.vec2(uvs)}}},
+                       {"indices", g.indices(triangles)}};
+    json ob = {{"subdivision", {{"level", 4}}}};
+    if (displaced) ob["displacement"] = {{"map", "one.exr"}, {"scale", 0.1}, {"midlevel", 0.0}};
+    g.push("meshes", {{"primitives", json::array({prim})}, {"extras", {{"obscura", ob}}}});
+    g.scene({g.node({{"mesh", 0}, {"scale", {sx, 1.0, 1.0}}})});
+    return g.writeGltf(dir, name);
+  };
+  const auto axisHit = [](const Scene& scene) {
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    RTCRayHit rh{};
+    rh.ray.org_x = 4, rh.ray.dir_x = -1, rh.ray.tfar = kInfinity, rh.ray.mask = ~0u;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rtcIntersect1(scene.rtcScene(), &ctx, &rh);
+    EXPECT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
+    return double(rh.ray.tfar);
+  };
+  for (const SubdivisionBackend b : {SubdivisionBackend::OpenSubdiv, SubdivisionBackend::Embree}) {
+    LoadOptions o;
+    o.backend = b;
+    const double plain = axisHit(*loadGltf(write("plain", 1, true), o));
+    const double mirrored = axisHit(*loadGltf(write("mirrored", -1, true), o));
+    const double bare = axisHit(*loadGltf(write("bare", -1, false), o));
+    EXPECT_NEAR(mirrored, plain, 1e-4) << (b == SubdivisionBackend::Embree ? "embree" : "osd");
+    EXPECT_NEAR(bare - mirrored, 0.1, 1e-4) << (b == SubdivisionBackend::Embree ? "embree" : "osd");
+  }
 }
 
 }  // namespace
