@@ -140,8 +140,18 @@ int runIntegrators(const std::vector<std::string>& plugins) {
   return 0;
 }
 
-int runInfo(const std::string& path) {
-  std::unique_ptr<Scene> scene = loadScene(path);
+struct InfoArgs : SceneArgs {
+  std::string scene;
+  std::string res = "960x540";  // for --subdiv-edge: the image the edges are measured on
+  std::string camera;
+};
+
+int runInfo(const InfoArgs& a) {
+  const std::string& path = a.scene;
+  int w = 0, h = 0;
+  parseResolution(a.res, w, h);
+  Camera camera;
+  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, path, a.camera, w, h, camera);
   const SceneStats st = scene->stats();
   const Bounds3& b = scene->bounds();
   std::printf("scene      %s\n", path.c_str());
@@ -149,6 +159,7 @@ int runInfo(const std::string& path) {
               scene->instancedMeshes().size());
   std::printf("primitives %zu\n", st.primitives);
   std::printf("triangles  %zu unique, %zu rendered\n", st.uniqueTriangles, st.renderedTriangles);
+  if (st.subdivisionFaces > 0) std::printf("subdivision surfaces: %zu cage faces (Embree)\n", st.subdivisionFaces);
   std::printf("instances  %zu\n", st.instances);
   for (const auto& inst : scene->instances())
     std::printf("           %s -> mesh '%s'\n", inst.node.c_str(), scene->instancedMeshes()[size_t(inst.mesh)].name.c_str());
@@ -170,6 +181,8 @@ int runInfo(const std::string& path) {
   else
     std::printf("bounds     (%g, %g, %g) - (%g, %g, %g)\n", b.lo.x, b.lo.y, b.lo.z, b.hi.x, b.hi.y, b.hi.z);
   std::printf("bvh build  %.3f s\n", scene->buildSeconds());
+  std::printf("memory     %.1f MiB in Embree (peak %.1f), %.1f MiB of attributes\n", double(scene->embreeBytes()) / (1 << 20),
+              double(scene->embreePeakBytes()) / (1 << 20), double(scene->attributeBytes()) / (1 << 20));
   return 0;
 }
 
@@ -232,9 +245,12 @@ int main(int argc, char** argv) {
   std::vector<std::string> listPlugins;
   CLI::App* integrators = app.add_subcommand("integrators", "List integrators with their parameters");
   integrators->add_option("--plugin", listPlugins, "Load an integrator plugin first; repeatable");
-  std::string infoPath;
-  CLI::App* info = app.add_subcommand("info", "Describe a scene: meshes, triangles, instances, cameras, materials, bounds");
-  info->add_option("scene", infoPath, "glTF 2.0 scene")->required();
+  InfoArgs infoArgs;
+  CLI::App* info = app.add_subcommand("info", "Describe a scene: meshes, triangles, instances, cameras, materials, bounds, memory");
+  info->add_option("scene", infoArgs.scene, "glTF 2.0 scene or OBJ cage")->required();
+  addSceneOptions(info, infoArgs);
+  info->add_option("--res", infoArgs.res, "WIDTHxHEIGHT the edges of --subdiv-edge are measured on");
+  info->add_option("--camera", infoArgs.camera, "Camera --subdiv-edge measures from (name, index or 'auto')");
 
   try {
     app.parse(argc, argv);
@@ -256,7 +272,7 @@ int main(int argc, char** argv) {
       std::signal(SIGTERM, onSignal);
       return runCompare(cmp, &gCancel);
     }
-    if (info->parsed()) return runInfo(infoPath);
+    if (info->parsed()) return runInfo(infoArgs);
     return runIntegrators(listPlugins);
   } catch (const Error& e) {
     std::fprintf(stderr, "obscura: error: %s\n", e.what());

@@ -335,6 +335,10 @@ TEST(EmbreeSubdivision, SpotRendersDisplacedWithEitherBackend) {
   int differ = 0;
   for (size_t i = 0; i < alpha["osd"].size(); ++i) differ += std::abs(alpha["osd"][i] - alpha["embree"][i]) > 0.5f;
   EXPECT_LT(differ, 64 * 48 / 50) << "pixels whose coverage differs between the backends";
+  // `info` takes the same scene options (and measures adaptive edges too).
+  const CliResult info = runCli({"info", spot, "--subdiv", "catmull-clark", "--subdiv-backend", "embree", "--subdiv-edge", "3",
+                                 "--displace", lava}, dir + "/info.txt");
+  EXPECT_EQ(info.exitCode, 0) << info.stderrText;
   const CliResult bad = runCli({"render", spot, "--subdiv", "loop", "--subdiv-backend", "embree", "-o", dir + "/x.exr", "-q"},
                                dir + "/err2.txt");
   EXPECT_EQ(bad.exitCode, 1);
