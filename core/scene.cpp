@@ -111,8 +111,8 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
     for (int j = 0; j < cage.faceSizes[f]; ++j, ++k) r = std::max(r, level(k));
     surface->faceRate[f] = r;
   }
+  if (cage.uvIndices.size() == corners) surface->uvs = CageUvs(cage);  // displacement, uv frames
   if (height) {
-    surface->uvs = CageUvs(cage);
     surface->height = std::move(height);
     surface->scale = scale;
     surface->midlevel = midlevel;

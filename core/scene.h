@@ -34,7 +34,7 @@ struct Material {
 // An Embree subdivision surface's own data: what its displacement callback
 // and the hit reconstruction read.
 struct SubdivisionSurface {
-  CageUvs uvs;                             // the displacement's parametrization
+  CageUvs uvs;                             // the cage's uvs (displacement, uv frames); empty without
   std::shared_ptr<const HeightMap> height;  // null: not displaced
   float scale = 0, midlevel = 0;
   bool flipV = false;           // look up (u, 1 - v)

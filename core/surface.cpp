@@ -27,6 +27,53 @@ void limitTangents(const Primitive& prim, unsigned face, float u, float v, Vec3&
   dv = Vec3(b[0], b[1], b[2]);
 }
 
+// x + dx in a subdivision face's patch coordinates, kept on the face: a
+// quad's (u, v) span [0, 1]; other faces encode a sub-quad and the position
+// in it (Embree's parametrization), whose local coordinate is clamped to
+// [0, 1] and encoded back - beyond it CageUvs reads the cage edge, not an
+// extrapolation.
+float patchStep(bool quad, float x, float dx) {
+  if (quad) return std::clamp(x + dx, 0.0f, 1.0f);
+  const float base = 2.0f * std::floor(0.5f * x);                    // 2 l
+  const float local = std::clamp(x - base - 0.5f + dx, 0.0f, 1.0f);  // sub-quad coordinate
+  return base + 0.5f + local;
+}
+
+// The uv frame of a hit on an Embree subdivision surface with uvs: the
+// limit tangents dP/d(patch u, v) times the inverse of the Jacobian of
+// (patch u, v) -> uv (central differences of CageUvs, bilinear inside a
+// sub-quad, so exact there up to rounding).
+bool subdivisionUvFrame(const Primitive& prim, const SurfaceHit& h, UvFrame& out) {
+  const SubdivisionSurface& s = *prim.subdivision;
+  if (s.uvs.empty()) return false;
+  const unsigned face = h.primID;
+  const float u = h.hitU, v = h.hitV;
+  float su, sv;
+  s.uvs.at(face, u, v, su, sv);
+  const bool quad = s.uvs.faceSize(face) == 4;
+  constexpr float kStep = 1e-3f;
+  const float u0 = patchStep(quad, u, -kStep), u1 = patchStep(quad, u, kStep);
+  const float v0 = patchStep(quad, v, -kStep), v1 = patchStep(quad, v, kStep);
+  if (!(u1 > u0) || !(v1 > v0)) return false;
+  float a0, b0, a1, b1, c0, d0, c1, d1;
+  s.uvs.at(face, u0, v, a0, b0), s.uvs.at(face, u1, v, a1, b1);
+  s.uvs.at(face, u, v0, c0, d0), s.uvs.at(face, u, v1, c1, d1);
+  // J = d(s, t)/d(u, v).
+  const double j00 = (double(a1) - a0) / (u1 - u0), j10 = (double(b1) - b0) / (u1 - u0);
+  const double j01 = (double(c1) - c0) / (v1 - v0), j11 = (double(d1) - d0) / (v1 - v0);
+  const double det = j00 * j11 - j01 * j10;
+  if (!(std::abs(det) > 1e-20) || !std::isfinite(det)) return false;
+  Vec3 du, dv;
+  limitTangents(prim, face, u, v, du, dv);
+  // [dP/ds dP/dt] = [dP/du dP/dv] J^-1.
+  const float i00 = float(j11 / det), i01 = float(-j01 / det), i10 = float(-j10 / det), i11 = float(j00 / det);
+  out.u = su, out.v = sv;
+  out.dpdu = du * i00 + dv * i10;
+  out.dpdv = du * i01 + dv * i11;
+  if (prim.uvsRunDown) out.v = 1.0f - out.v, out.dpdv = -out.dpdv;
+  return isFinite(out.dpdu) && isFinite(out.dpdv);
+}
+
 // A hit on an Embree subdivision surface. The point is the ray's (o + t d):
 // the tessellation Embree intersected is not the limit surface, so a point
 // re-evaluated on the limit could lie on the far side of it. The geometric
@@ -62,20 +109,11 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& 
   limitTangents(prim, face, u, v, du, dv);
   Vec3 n = cross(du, dv);
   if (s.height) {
-    // Steps of +-h in the face's own coordinates, kept on the face: a quad's
-    // (u, v) span [0, 1]; other faces encode a sub-quad and the position in
-    // it (Embree's parametrization), whose local coordinates are clamped to
-    // [0, 1] and encoded back - beyond them CageUvs reads the cage edge,
-    // not an extrapolation. Differences divide by the span actually taken.
+    // Differences divide by the span patchStep actually took.
     const float h = 0.5f / s.faceRate[face];
     const bool quad = s.uvs.faceSize(face) == 4;
-    const auto step = [&](float x, float dx) {
-      if (quad) return std::clamp(x + dx, 0.0f, 1.0f);
-      const float base = 2.0f * std::floor(0.5f * x);                  // 2 l
-      const float local = std::clamp(x - base - 0.5f + dx, 0.0f, 1.0f);  // sub-quad coordinate
-      return base + 0.5f + local;
-    };
-    const float u0 = step(u, -h), u1 = step(u, h), v0 = step(v, -h), v1 = step(v, h);
+    const float u0 = patchStep(quad, u, -h), u1 = patchStep(quad, u, h);
+    const float v0 = patchStep(quad, v, -h), v1 = patchStep(quad, v, h);
     const float ddu = u1 > u0 ? (s.displacement(face, u1, v) - s.displacement(face, u0, v)) / (u1 - u0) : 0.0f;
     const float ddv = v1 > v0 ? (s.displacement(face, u, v1) - s.displacement(face, u, v0)) / (v1 - v0) : 0.0f;
     const float len = length(n);
@@ -191,7 +229,8 @@ Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
   const Affine* toWorld = nullptr;
   const Primitive& prim = scene.primitiveOf(h.geomID, h.instID, &toWorld);
-  if (prim.subdivision || prim.uvs.empty() || !prim.indices) return false;
+  if (prim.subdivision) return subdivisionUvFrame(prim, h, out);
+  if (prim.uvs.empty() || !prim.indices) return false;
   const uint32_t* tri = prim.indices + size_t(h.primID) * 3;
   const auto vertex = [&](int k) {
     const float* q = prim.positions + size_t(tri[k]) * 3;

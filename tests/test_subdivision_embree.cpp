@@ -434,3 +434,40 @@ TEST(EmbreeSubdivision, DisplacedShadingNormalsMatchTheSurface) {
 
 }  // namespace
 }  // namespace obscura::test
+
+namespace obscura::test {
+namespace {
+
+// The uv frame of an Embree subdivision surface (integrators that work in
+// texture space, e.g. containment): on a regular flat grid with uv = xy the
+// limit is the plane parametrized linearly, so at interior hits uv is the
+// hit's (x, y) and dP/du, dP/dv are the unit axes - up to the tessellation's
+// chord offset of the hit point (nil on a plane) and rounding.
+TEST(EmbreeSubdivision, UvFrameOnAFlatGrid) {
+  const auto scene = build(planeCage(4), SubdivisionBackend::Embree, 3);
+  int checked = 0;
+  for (double x = 0.3; x <= 0.7; x += 0.071)
+    for (double y = 0.3; y <= 0.7; y += 0.083) {
+      RTCIntersectContext ctx;
+      rtcInitIntersectContext(&ctx);
+      RTCRayHit rh{};
+      rh.ray.org_x = float(x), rh.ray.org_y = float(y), rh.ray.org_z = 1, rh.ray.dir_z = -1, rh.ray.tfar = kInfinity;
+      rh.ray.mask = ~0u;
+      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+      rtcIntersect1(scene->rtcScene(), &ctx, &rh);
+      ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
+      SurfaceHit h{};
+      computeSurfaceHit(*scene, rh, false, h);
+      UvFrame f;
+      ASSERT_TRUE(surfaceUvFrame(*scene, h, f));
+      EXPECT_NEAR(f.u, x, 1e-5);
+      EXPECT_NEAR(f.v, y, 1e-5);
+      EXPECT_LT(length(f.dpdu - Vec3(1, 0, 0)), 1e-3f) << f.dpdu.x << "," << f.dpdu.y << "," << f.dpdu.z;
+      EXPECT_LT(length(f.dpdv - Vec3(0, 1, 0)), 1e-3f) << f.dpdv.x << "," << f.dpdv.y << "," << f.dpdv.z;
+      ++checked;
+    }
+  EXPECT_GT(checked, 20);
+}
+
+}  // namespace
+}  // namespace obscura::test
