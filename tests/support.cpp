@@ -87,6 +87,20 @@ SubdivisionCage planeCage(int n) {
   return c;
 }
 
+RTCRayHit traceClosest(const Scene& scene, Vec3 org, Vec3 dir) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh{};
+  rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
+  rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
+  rh.ray.tfar = kInfinity;
+  rh.ray.mask = ~0u;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene.rtcScene(), &ctx, &rh);
+  return rh;
+}
+
 RenderSettings passSettings(int w, int h, int spp, uint32_t seed) {
   RenderSettings s;
   s.width = w;

@@ -332,11 +332,6 @@ TEST(GltfDisplacement, BadFieldsNameTheField) {
   EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
 }
 
-}  // namespace
-}  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
 
 // A mirroring node (scale (-1, 1, 1)) turns a cage inside out; the loader
 // reverses its faces so that displacement still pushes outwards. A cube
@@ -362,12 +357,7 @@ TEST(GltfDisplacement, MirroredNodesDisplaceOutwards) {
     return g.writeGltf(dir, name);
   };
   const auto axisHit = [](const Scene& scene) {
-    RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    RTCRayHit rh{};
-    rh.ray.org_x = 4, rh.ray.dir_x = -1, rh.ray.tfar = kInfinity, rh.ray.mask = ~0u;
-    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(scene.rtcScene(), &ctx, &rh);
+    const RTCRayHit rh = traceClosest(scene, Vec3(4, 0, 0), Vec3(-1, 0, 0));
     EXPECT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
     return double(rh.ray.tfar);
   };

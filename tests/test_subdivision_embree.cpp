@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstring>
 #include <algorithm>
 #include <filesystem>
 #include <map>
@@ -47,21 +46,12 @@ SubdivisionCage mixedCage() {
 
 struct Hit {
   bool hit = false;
-  float t = 0, u = 0, v = 0;
-  unsigned primID = 0;
+  float t = 0;
+  RTCRayHit rh;  // as traced
 };
 Hit trace(const Scene& scene, Vec3 org, Vec3 dir) {
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  RTCRayHit rh;
-  std::memset(&rh, 0, sizeof rh);
-  rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
-  rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
-  rh.ray.tfar = kInfinity;
-  rh.ray.mask = ~0u;
-  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(scene.rtcScene(), &ctx, &rh);
-  return {rh.hit.geomID != RTC_INVALID_GEOMETRY_ID, rh.ray.tfar, rh.hit.u, rh.hit.v, rh.hit.primID};
+  const RTCRayHit rh = traceClosest(scene, org, dir);
+  return {rh.hit.geomID != RTC_INVALID_GEOMETRY_ID, rh.ray.tfar, rh};
 }
 
 std::unique_ptr<Scene> build(const SubdivisionCage& c, SubdivisionBackend backend, int level,
@@ -175,11 +165,7 @@ TEST(EmbreeSubdivision, LimitSurfaceMatchesOpenSubdiv) {
       ASSERT_EQ(a.hit, b.hit) << "ray from " << o.x << "," << o.y << "," << o.z;
       if (!a.hit) continue;
       SurfaceHit h{};
-      RTCRayHit rh{};
-      rh.ray.org_x = o.x, rh.ray.org_y = o.y, rh.ray.org_z = o.z;
-      rh.ray.dir_x = d.x, rh.ray.dir_y = d.y, rh.ray.dir_z = d.z, rh.ray.tfar = b.t;
-      rh.hit.geomID = 0, rh.hit.primID = b.primID, rh.hit.u = b.u, rh.hit.v = b.v, rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-      computeSurfaceHit(*emb, rh, false, h);
+      computeSurfaceHit(*emb, b.rh, false, h);
       if (std::abs(dot(h.ns, d)) < 0.26f) continue;  // grazing: the bound does not hold
       EXPECT_NEAR(a.t, b.t, 3.8e-3) << "ray from " << o.x << "," << o.y << "," << o.z;
       ++hits;
@@ -293,11 +279,6 @@ TEST(EmbreeSubdivision, RefusesWhatItCannotDo) {
   expectError(cube(false), tight, "--max-memory");
 }
 
-}  // namespace
-}  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
 
 // The README's Spot command, with either backend, uniform and adaptive: the
 // cage renders subdivided and displaced by the lava height map, the header
@@ -346,11 +327,6 @@ TEST(EmbreeSubdivision, SpotRendersDisplacedWithEitherBackend) {
   EXPECT_EQ(std::count(bad.stderrText.begin(), bad.stderrText.end(), '\n'), 1) << bad.stderrText;
 }
 
-}  // namespace
-}  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
 
 // Cages that are odd but not malformed are subdivided as they are, by both
 // backends, to finite passes (the documented repair is none needed): a
@@ -382,11 +358,6 @@ TEST(EmbreeSubdivision, NonManifoldAndZeroAreaCagesRenderFinite) {
     }
 }
 
-}  // namespace
-}  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
 
 // Shading normals of the displaced surface, both backends, against the
 // analytic one. A flat cage with uv = xy displaced by
@@ -409,13 +380,7 @@ TEST(EmbreeSubdivision, DisplacedShadingNormalsMatchTheSurface) {
     const auto scene = build(planeCage(4), b, 6, d);
     int checked = 0;
     for (double x = 0.3; x <= 0.7; x += 0.0137) {
-      const Vec3 o(float(x), 0.43f, 2.0f);
-      RTCIntersectContext ctx;
-      rtcInitIntersectContext(&ctx);
-      RTCRayHit rh{};
-      rh.ray.org_x = o.x, rh.ray.org_y = o.y, rh.ray.org_z = o.z, rh.ray.dir_z = -1, rh.ray.tfar = kInfinity, rh.ray.mask = ~0u;
-      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      rtcIntersect1(scene->rtcScene(), &ctx, &rh);
+      const RTCRayHit rh = traceClosest(*scene, Vec3(float(x), 0.43f, 2.0f), Vec3(0, 0, -1));
       ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
       SurfaceHit h{};
       computeSurfaceHit(*scene, rh, false, h);
@@ -432,11 +397,6 @@ TEST(EmbreeSubdivision, DisplacedShadingNormalsMatchTheSurface) {
   }
 }
 
-}  // namespace
-}  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
 
 // The uv frame of an Embree subdivision surface (integrators that work in
 // texture space, e.g. containment): on a regular flat grid with uv = xy the
@@ -448,13 +408,7 @@ TEST(EmbreeSubdivision, UvFrameOnAFlatGrid) {
   int checked = 0;
   for (double x = 0.3; x <= 0.7; x += 0.071)
     for (double y = 0.3; y <= 0.7; y += 0.083) {
-      RTCIntersectContext ctx;
-      rtcInitIntersectContext(&ctx);
-      RTCRayHit rh{};
-      rh.ray.org_x = float(x), rh.ray.org_y = float(y), rh.ray.org_z = 1, rh.ray.dir_z = -1, rh.ray.tfar = kInfinity;
-      rh.ray.mask = ~0u;
-      rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-      rtcIntersect1(scene->rtcScene(), &ctx, &rh);
+      const RTCRayHit rh = traceClosest(*scene, Vec3(float(x), float(y), 1), Vec3(0, 0, -1));
       ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
       SurfaceHit h{};
       computeSurfaceHit(*scene, rh, false, h);
