@@ -123,8 +123,8 @@ TEST(DocsConsistency, CitedDocumentsAndSectionsExist) {
   const std::set<int> sections = mathSections();
   ASSERT_FALSE(sections.empty()) << "docs/math.md has no numbered sections";
   const std::regex doc(R"(docs/[A-Za-z0-9_./-]+\.md)");
-  // "docs/math.md §4", "§4–5", "§4-5", "sections 4 and 5", "section 4"
-  const std::regex cite(R"(docs/math\.md,? (?:§|sections? )(\d+)(?:\s*(?:–|-|and)\s*(\d+))?)");
+  // "docs/math.md §4", "§4–5", "§4-5", "§4 and §5", "§1, §2", "section 4"
+  const std::regex cite(R"(docs/math\.md,? (?:§|sections? )(\d+)(?:\s*(?:–|-|and|,)\s*§?(\d+))?)");
   for (const fs::path& file : sourceFiles()) {
     const std::string text = readFile(file);
     const std::string rel = fs::relative(file, root).string();
