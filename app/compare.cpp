@@ -24,6 +24,7 @@
 #include <sstream>
 
 #include "app/cli_common.h"
+#include "app/interrupt.h"
 #include "app/report.h"
 #include "core/error.h"
 #include "core/gltf_loader.h"
@@ -491,6 +492,7 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
 
   Camera camera;
   std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, plan.base.width, plan.base.height, camera);
+  interrupt::startPolling();  // from here on the renders poll `cancel` (app/interrupt.h)
   std::error_code ec;
   fs::create_directories(plan.dir / "passes", ec);
   if (ec) throw Error(a.output + ": cannot create: " + ec.message());

@@ -83,13 +83,15 @@ class TileRenderer {
 
   int tileCount() const { return tilesX_ * ((s_.height + s_.tileSize - 1) / s_.tileSize); }
 
-  // Renders one tile into the film; returns its pixel count.
-  size_t renderTile(int tile, ThreadScratch& ts) const {
+  // Renders one tile into the film; returns its pixel count, or 0 when
+  // cancelled (checked once per chunk: a relaxed load per kChunk samples).
+  size_t renderTile(int tile, ThreadScratch& ts, const std::atomic<bool>* cancel) const {
     const TileRect r = tileRect(tile);
     ts.sums.assign(r.pixels(), PixelSums{});
     const uint64_t total = uint64_t(r.pixels()) * uint64_t(s_.spp);
     SampleCursor c = startCursor(r);
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
       const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
       cameraRays(r, c, n, ts);
       traceCamera(n, ts);
@@ -276,7 +278,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
     if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer);
-    if (const size_t pixels = tiles.renderTile(tile, *slot)) progress.advance(pixels);
+    if (const size_t pixels = tiles.renderTile(tile, *slot, cancel)) progress.advance(pixels);
   };
 
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
