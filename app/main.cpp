@@ -187,6 +187,7 @@ int runInfo(const InfoArgs& a) {
 
 int main(int argc, char** argv) {
   interrupt::install();  // first: a signal at any point ends with exit code 130 and one line
+  nameSettingsAsFlags();
   CLI::App app{"Obscura: film-style ambient passes (AO, obscurance, ambient transfer, GI) as linear EXR."};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("obscura ") + OBSCURA_VERSION);

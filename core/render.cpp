@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/progress.h"
 #include "core/sampler.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -260,7 +261,7 @@ class TileRenderer {
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
             const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
-  if (s.spp <= 0) throw Error("--spp must be at least 1");
+  if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
   const bool wantAlbedo = needs.albedo || s.aovs;
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
