@@ -182,17 +182,6 @@ Film filmFromPass(const PassImage& p) {
   return f;
 }
 
-PassImage averagePasses(const PassImage& x, const PassImage& y) {
-  PassImage m = x;
-  for (size_t i = 0; i < m.pixels(); ++i) {
-    m.r[i] = 0.5f * (x.r[i] + y.r[i]);
-    m.g[i] = 0.5f * (x.g[i] + y.g[i]);
-    m.b[i] = 0.5f * (x.b[i] + y.b[i]);
-    m.a[i] = 0.5f * (x.a[i] + y.a[i]);
-  }
-  return m;
-}
-
 
 }  // namespace
 
