@@ -11,6 +11,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "tests/support.h"
@@ -71,17 +72,16 @@ void expectUntouched(const std::string& out, const std::string& before, const st
 // The cube cage (support.h) as an OBJ file: slow to load at a high
 // subdivision level, cheap to write.
 void writeCubeObj(const std::string& path) {
-  std::string obj;
+  std::ostringstream obj;
   const SubdivisionCage cube = cubeCage();
-  for (const Vec3& p : cube.positions)
-    obj += "v " + std::to_string(p.x) + " " + std::to_string(p.y) + " " + std::to_string(p.z) + "\n";
+  for (const Vec3& p : cube.positions) obj << "v " << p.x << " " << p.y << " " << p.z << "\n";
   size_t k = 0;
   for (const int n : cube.faceSizes) {
-    obj += "f";
-    for (int i = 0; i < n; ++i) obj += " " + std::to_string(cube.faceIndices[k++] + 1);
-    obj += "\n";
+    obj << "f";
+    for (int i = 0; i < n; ++i) obj << " " << cube.faceIndices[k++] + 1;
+    obj << "\n";
   }
-  writeText(path, obj);
+  writeText(path, obj.str());
 }
 
 // In the render loop: 16 tiles of 16x16 pixels at 10^7 samples each take
