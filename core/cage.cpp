@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/settings.h"
 
 namespace obscura {
 
@@ -62,11 +63,11 @@ void addCage(Scene& scene, const SubdivisionCage& cage, const LoadOptions& o, co
   if (adaptive && (!o.camera || o.imageWidth < 1 || o.imageHeight < 1))
     throw Error("internal: adaptive subdivision without a camera");
   if (disp.map && cage.uvIndices.empty()) throw Error(what + ": displacement needs texture coordinates on every face corner");
-  const std::string budget = ", over the --max-memory budget of " + std::to_string(o.maxMemoryBytes >> 20) + " MiB";
+  const std::string budget = ", over the " + settingName(Setting::MaxMemory) + " budget of " + std::to_string(o.maxMemoryBytes >> 20) + " MiB";
 
   if (o.backend == SubdivisionBackend::Embree) {
     if (o.scheme != SubdivisionScheme::CatmullClark)
-      throw Error(what + ": Embree's subdivision surfaces are Catmull-Clark only (use --subdiv-backend osd for loop)");
+      throw Error(what + ": Embree's subdivision surfaces are Catmull-Clark only (use " + settingName(Setting::SubdivisionBackendOsd) + " for loop)");
     validateCage(cage, SubdivisionScheme::CatmullClark, what);
     for (const int n : cage.faceSizes)
       if (n > 15) throw Error(what + ": a face has " + std::to_string(n) + " vertices; Embree's subdivision takes 3 to 15");

@@ -15,6 +15,7 @@
 
 #include "core/cage.h"
 #include "core/error.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -553,7 +554,7 @@ class Loader {
     if (r && !subdivided) fail(r->field, "needs a subdivided mesh (" + mesh + ".extras.obscura.subdivision)");
     if (!r && subdivided && !options_.displacementMap.empty()) {
       r = DisplacementRequest{options_.displacementMap, options_.displacementMap, options_.displacementScale,
-                              options_.displacementMidlevel, "--displace"};
+                              options_.displacementMidlevel, settingName(Setting::Displacement)};
       cliDisplacementUsed_ = true;
     }
     return r;
@@ -567,7 +568,7 @@ class Loader {
     try {
       it = heightMaps_.emplace(key, std::make_shared<const HeightMap>(r.path)).first;
     } catch (const Error& e) {
-      if (r.field == "--displace") throw;  // already names the file, as given
+      if (r.field == settingName(Setting::Displacement)) throw;  // already names the file, as given
       std::string why = e.what();
       if (why.rfind(r.path + ": ", 0) == 0) why.erase(0, r.path.size() + 2);
       fail(r.field + ".map", r.map + ": " + why);
@@ -621,8 +622,8 @@ class Loader {
       cage.uvIndices.assign(d.indices.begin(), d.indices.end());
       const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
       if (textured && options_.backend == SubdivisionBackend::Embree)
-        warn(field + ": textures on Embree subdivision surfaces are not supported (the material's factor is used; "
-                     "--subdiv-backend osd keeps them)");
+        warn(field + ": textures on Embree subdivision surfaces are not supported (the material's factor is used; " +
+                     settingName(Setting::SubdivisionBackendOsd) + " keeps them)");
     }
     validateCage(cage, r.scheme, path_ + ": " + field);
     d.sub = r;
@@ -715,7 +716,7 @@ class Loader {
       if (it->second >= 0) scene_->addInstance(it->second, xf, u.node);
     }
     if (!options_.displacementMap.empty() && !cliDisplacementUsed_)
-      warn("--displace applies to subdivided meshes (extras.obscura.subdivision) without a displacement of their own; "
+      warn(settingName(Setting::Displacement) + " applies to subdivided meshes (extras.obscura.subdivision) without a displacement of their own; "
            "none here (height map unused)");
   }
 

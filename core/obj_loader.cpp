@@ -6,6 +6,7 @@
 
 #include "core/cage.h"
 #include "core/error.h"
+#include "core/settings.h"
 #include "core/subdivision.h"
 
 namespace obscura {
@@ -53,7 +54,7 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
   if (cage.faceSizes.empty()) throw Error(path + ": no polygon faces");
   if (!everyCornerHasUv) cage.uvs.clear(), cage.uvIndices.clear();
   if (!options.displacementMap.empty()) {
-    if (!options.subdivision) throw Error(path + ": displacement (--displace) needs --subdiv");
+    if (!options.subdivision) throw Error(path + ": displacement (" + settingName(Setting::Displacement) + ") needs " + settingName(Setting::Subdivision));
     if (!everyCornerHasUv) throw Error(path + ": displacement needs texture coordinates (vt) on every face corner");
   }
 

@@ -11,6 +11,7 @@
 #include <memory>
 
 #include "core/error.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -95,7 +96,7 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
   const size_t bytes = subdividedBytes(cage, level);
   if (bytes > maxBytes)
     throw Error(what + ": subdivision level " + std::to_string(level) + " needs about " +
-                std::to_string(bytes >> 20) + " MiB, over the --max-memory budget of " + std::to_string(maxBytes >> 20) +
+                std::to_string(bytes >> 20) + " MiB, over the " + settingName(Setting::MaxMemory) + " budget of " + std::to_string(maxBytes >> 20) +
                 " MiB");
 
   using Descriptor = Far::TopologyDescriptor;

@@ -42,6 +42,16 @@
 namespace obscura {
 
 enum class Falloff { Step, Linear, Sqrt, Exponential };
+// The value of the `falloff` parameter.
+inline const char* falloffName(Falloff f) {
+  switch (f) {
+    case Falloff::Step: return "step";
+    case Falloff::Linear: return "linear";
+    case Falloff::Sqrt: return "sqrt";
+    case Falloff::Exponential: return "exponential";
+  }
+  return "?";
+}
 // distance: trace the closest hit and weigh it by mu(d).
 // occlusion: draw r ~ mu'(r) and test the segment [0, r] (MATH.md section 3).
 enum class Estimator { Distance, Occlusion };
