@@ -28,11 +28,12 @@ void prescanObj(const std::string& path) {
   std::string line;
   size_t lineNo = 0;
   const auto fail = [&](const std::string& why) { throw Error(path + ": line " + std::to_string(lineNo) + ": " + why); };
+  std::vector<std::string_view> tok;  // reused: one allocation for the file
   while (std::getline(in, line)) {
     ++lineNo;
     std::string_view s(line);
     if (const size_t hash = s.find('#'); hash != std::string_view::npos) s = s.substr(0, hash);
-    std::vector<std::string_view> tok;
+    tok.clear();
     for (size_t i = 0; i < s.size();) {
       while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == '\r')) ++i;
       const size_t b = i;

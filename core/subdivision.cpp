@@ -525,12 +525,10 @@ std::string oneLine(std::string s) {
 }  // namespace
 
 HeightMap::HeightMap(const std::string& path) {
+  QuietLibpng quiet;  // around opening and reading: both may meet the damage
   OIIO::ImageBuf buf(path);
-  {
-    QuietLibpng quiet;
-    if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT))
-      throw Error(path + ": cannot read the height map: " + oneLine(buf.geterror()));
-  }
+  if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT))
+    throw Error(path + ": cannot read the height map: " + oneLine(buf.geterror()));
   const OIIO::ImageSpec& spec = buf.spec();
   w_ = spec.width, h_ = spec.height;
   if (w_ < 1 || h_ < 1) throw Error(path + ": the height map is empty");

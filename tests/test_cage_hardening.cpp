@@ -264,18 +264,23 @@ TEST(CageHardening, TruncatedPngHeightMapIsOneErrorLine) {
   }
   std::vector<unsigned char> bytes = readBytes(dir + "/h.png");
   ASSERT_GT(bytes.size(), 200u);
-  writeBytes(dir + "/cut.png", bytes.data(), bytes.size() / 2);
-  testing::internal::CaptureStderr();
-  std::string error;
-  try {
-    HeightMap map(dir + "/cut.png");
-  } catch (const Error& e) {
-    error = e.what();
+  // Cut within the pixel data (the read fails) and just after the header
+  // chunk (opening fails).
+  for (const size_t keep : {bytes.size() / 2, size_t(40)}) {
+    SCOPED_TRACE("kept " + std::to_string(keep) + " bytes");
+    writeBytes(dir + "/cut.png", bytes.data(), keep);
+    testing::internal::CaptureStderr();
+    std::string error;
+    try {
+      HeightMap map(dir + "/cut.png");
+    } catch (const Error& e) {
+      error = e.what();
+    }
+    const std::string stderrText = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(error.rfind(dir + "/cut.png: cannot read the height map: ", 0), 0u) << error;
+    EXPECT_EQ(error.find('\n'), std::string::npos) << error;
+    EXPECT_EQ(stderrText.find("libpng"), std::string::npos) << stderrText;
   }
-  const std::string stderrText = testing::internal::GetCapturedStderr();
-  EXPECT_EQ(error.rfind(dir + "/cut.png: cannot read the height map: ", 0), 0u) << error;
-  EXPECT_EQ(error.find('\n'), std::string::npos) << error;
-  EXPECT_EQ(stderrText.find("libpng"), std::string::npos) << stderrText;
 }
 
 // --- displacement within what Embree traces ------------------------------------------------
