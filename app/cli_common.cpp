@@ -84,6 +84,7 @@ void nameSettingsAsFlags() {
   setSettingName(Setting::Subdivision, "--subdiv");
   setSettingName(Setting::SubdivisionBackendOsd, "--subdiv-backend osd");
   setSettingName(Setting::Displacement, "--displace");
+  setSettingName(Setting::DisplacementScale, "--displace-scale");
 }
 
 void loadPlugins(const std::vector<std::string>& paths) {

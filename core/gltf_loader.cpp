@@ -445,10 +445,10 @@ class Loader {
         if (scene_->materials[size_t(gp.material)].texture >= 0 && !gp.attributes.count("TEXCOORD_0"))
           warn(field + ": textured material without TEXCOORD_0 (texture ignored)");
       }
-      // Texture coordinates serve a texture and, on a subdivided mesh, the
-      // displacement and integrators that work in texture space.
-      const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
-      if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end() && (textured || sub)) {
+      // Texture coordinates serve a texture, the displacement of a subdivided
+      // mesh and integrators that work in texture space (containment), so
+      // they are kept whenever the file has them (8 bytes a vertex).
+      if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end()) {
         d.uvs = readVec2(t->second, field + ".attributes.TEXCOORD_0");
         if (d.uvs.size() != 2 * d.positions.size()) fail(field + ".attributes.TEXCOORD_0", "count differs from POSITION");
       }
@@ -520,6 +520,7 @@ class Loader {
     std::string path;  // the file to read
     double scale, midlevel;
     std::string field;
+    std::string scaleField;  // where scale came from, for messages; "" = the displacementScale setting
   };
 
   // {"map": path, "scale": s, "midlevel": m} at owner.extras.obscura.displacement.
@@ -541,6 +542,7 @@ class Loader {
       if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) fail(r.field + "." + key, "expected a finite number");
       *value = v.GetNumberAsDouble();
     }
+    if (d.Has("scale")) r.scaleField = path_ + ": " + r.field + ".scale";
     return r;
   }
 
@@ -636,6 +638,7 @@ class Loader {
       d.displacement.map = heightMap(*disp);
       d.displacement.scale = disp->scale, d.displacement.midlevel = disp->midlevel;
       d.displacement.flipV = true;
+      d.displacement.scaleField = disp->scaleField;
     }
     d.cage = std::move(cage);
     d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear();
@@ -700,7 +703,9 @@ class Loader {
           }
           for (Vec3& v : p.positions) v = xf.point(v);
           for (Vec3& n : p.normals) n = xf.normal(n);
-          scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
+          scene_->setPrimitiveName(
+              scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material),
+              model_.meshes[size_t(u.mesh)].name);
         }
         if (!prims.empty()) ++scene_->flattenedMeshes;
         continue;

@@ -97,6 +97,8 @@ class IntegratorContext {
   }
   // The texture parametrization at a hit (see surfaceUvFrame).
   bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
+  // What h's surface is called in messages (Scene::surfaceName).
+  std::string surfaceName(const SurfaceHit& h) const { return scene_.surfaceName(h.geomID, h.instID); }
   // The albedo of h's surface at texture coordinates (u, v) (needs
   // IntegratorNeeds::albedo).
   Vec3 albedoAtUv(const SurfaceHit& h, float u, float v) const { return surfaceAlbedoAtUv(scene_, h, u, v); }

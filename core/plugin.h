@@ -25,7 +25,7 @@
 // Bumped whenever a header a plugin compiles against changes in a way that
 // breaks binary compatibility (class layouts, virtual functions, inline code
 // that touches core data).
-#define OBSCURA_PLUGIN_ABI_VERSION 2u
+#define OBSCURA_PLUGIN_ABI_VERSION 3u
 
 namespace obscura {
 

@@ -6,7 +6,7 @@ namespace obscura {
 namespace {
 
 std::array<std::string, size_t(Setting::Count)> gNames = {
-    "spp", "maxMemoryBytes", "subdivision", "backend OpenSubdiv", "displacementMap",
+    "spp", "maxMemoryBytes", "subdivision", "backend OpenSubdiv", "displacementMap", "displacementScale",
 };
 
 }  // namespace

@@ -16,6 +16,7 @@ enum class Setting {
   Subdivision,            // LoadOptions::subdivision
   SubdivisionBackendOsd,  // LoadOptions::backend set to OpenSubdiv
   Displacement,           // LoadOptions::displacementMap
+  DisplacementScale,      // LoadOptions::displacementScale
   Count
 };
 
