@@ -37,27 +37,32 @@ int addGreyMaterial(Scene& scene, float a) {
 void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
                       std::vector<uint32_t>& idx) {
   pos.clear(), nrm.clear(), idx.clear();
+  // alpha = 0 closes the sphere: ring 0 is then the +Z pole, one vertex.
+  const bool closed = alpha <= 0.0;
+  const auto ringSize = [&](int r) { return r == rings || (closed && r == 0) ? 1 : segments; };
   // Ring r at polar angle theta_r from +Z: theta_0 = alpha (hole edge) to
   // theta_rings = pi (the -Z pole, one vertex).
+  std::vector<uint32_t> first(size_t(rings) + 1);
   for (int r = 0; r <= rings; ++r) {
+    first[size_t(r)] = uint32_t(pos.size());
     const double theta = alpha + (M_PI - alpha) * double(r) / rings;
-    const int n = r == rings ? 1 : segments;
-    for (int s = 0; s < n; ++s) {
+    for (int s = 0; s < ringSize(r); ++s) {
       const double phi = 2.0 * M_PI * double(s) / segments;
       const Vec3 p(float(rs * std::sin(theta) * std::cos(phi)), float(rs * std::sin(theta) * std::sin(phi)),
                    float(rs * std::cos(theta)));
-      pos.push_back(r == rings ? Vec3(0, 0, -rs) : p);
-      nrm.push_back(r == rings ? Vec3(0, 0, 1) : normalize(-p));
+      const bool pole = ringSize(r) == 1;
+      const Vec3 polePos(0, 0, r == rings ? -rs : rs);
+      pos.push_back(pole ? polePos : p);
+      nrm.push_back(pole ? normalize(-polePos) : normalize(-p));
     }
   }
-  const auto at = [&](int r, int s) { return uint32_t(r * segments + (s % segments)); };
+  const auto at = [&](int r, int s) { return ringSize(r) == 1 ? first[size_t(r)] : first[size_t(r)] + uint32_t(s % segments); };
   for (int r = 0; r + 1 < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       idx.insert(idx.end(), {at(r, s), at(r + 1, s), at(r + 1, s + 1)});
-      idx.insert(idx.end(), {at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+      if (ringSize(r) > 1) idx.insert(idx.end(), {at(r, s), at(r + 1, s + 1), at(r, s + 1)});
     }
-  const uint32_t pole = uint32_t(rings * segments);
-  for (int s = 0; s < segments; ++s) idx.insert(idx.end(), {at(rings - 1, s), pole, at(rings - 1, s + 1)});
+  for (int s = 0; s < segments; ++s) idx.insert(idx.end(), {at(rings - 1, s), at(rings, 0), at(rings - 1, s + 1)});
 }
 
 void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material) {
@@ -132,6 +137,28 @@ double meanCovered(const Film& film, int channel, size_t* count) {
       }
   if (count) *count = n;
   return n ? sum / double(n) : NAN;
+}
+
+PixelStats pixelStats(const Film& film, int c) {
+  std::vector<double> v;
+  for (int y = 0; y < film.height(); ++y)
+    for (int x = 0; x < film.width(); ++x)
+      if (film.at(kA, x, y) == 1.0f) v.push_back(film.at(c, x, y));
+  PixelStats s;
+  s.n = v.size();
+  if (s.n < 2) return s;
+  for (double x : v) s.mean += x;
+  s.mean /= double(s.n);
+  double m2 = 0, m4 = 0;
+  for (double x : v) {
+    const double d = (x - s.mean) * (x - s.mean);
+    m2 += d, m4 += d * d;
+  }
+  s.sd = std::sqrt(m2 / double(s.n - 1));
+  s.se = s.sd / std::sqrt(double(s.n));
+  m2 /= double(s.n), m4 /= double(s.n);
+  s.kurtosis = m2 > 0 ? m4 / (m2 * m2) : 0;
+  return s;
 }
 
 SubdivisionCage cubeCage() {

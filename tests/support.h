@@ -29,7 +29,7 @@ std::string tempDir(const std::string& name);
 
 // Triangle list of a sphere of radius rs about the origin, normals facing the
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
-// removed (MATH.md section 7). `rings` latitude bands from the hole edge to
+// removed (MATH.md section 7); alpha = 0 gives the closed sphere. `rings` latitude bands from the hole edge to
 // the -Z pole, `segments` around; vertex normals are exact (-p/rs).
 // The same triangles as position, normal and index lists.
 void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
@@ -62,6 +62,15 @@ Film renderWith(const Scene& scene, const Camera& camera, const std::string& int
 
 // Mean of channel c over pixels whose coverage A is 1 (fully covered).
 double meanCovered(const Film& film, int channel, size_t* count = nullptr);
+
+// Statistics of channel c over fully covered pixels. Pixels are independent
+// estimates (each has its own scramble seed), so the standard error of
+// their mean is their sample standard deviation / sqrt(n).
+struct PixelStats {
+  double mean = 0, sd = 0, se = 0, kurtosis = 0;  // kurtosis = m4 / m2^2
+  size_t n = 0;
+};
+PixelStats pixelStats(const Film& film, int c);
 
 // Standard error of the mean of n Bernoulli(p) draws.
 inline double bernoulliStdErr(double p, double n) { return std::sqrt(std::max(p * (1 - p), 1e-12) / n); }

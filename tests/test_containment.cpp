@@ -19,6 +19,7 @@
 
 #include "core/error.h"
 #include "core/subdivision.h"
+#include "core/texture.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -60,7 +61,7 @@ struct Mean {
 };
 Mean imageMean(const Film& f) {
   size_t n = 0;
-  const double m = meanCovered(f, kR, &n);
+  const double m = meanCovered(f, obscura::kR, &n);  // the channel, not the radius kR
   EXPECT_EQ(n, size_t(kRes) * kRes);
   return {m, bernoulliStdErr(m, double(n) * kSpp * kRays)};
 }
@@ -191,8 +192,8 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
       double occluded = 0;
       for (int y = 0; y < 24; ++y)
         for (int x = 0; x < 24; ++x) {
-          ASSERT_EQ(fc.at(kR, x, y), fo.at(kR, x, y)) << falloff << " uvs " << uvs << " pixel " << x << "," << y;
-          occluded += 1.0 - fo.at(kR, x, y);
+          ASSERT_EQ(fc.at(obscura::kR, x, y), fo.at(obscura::kR, x, y)) << falloff << " uvs " << uvs << " pixel " << x << "," << y;
+          occluded += 1.0 - fo.at(obscura::kR, x, y);
         }
       EXPECT_GT(occluded, 1.0) << "the wall occludes";
     }
@@ -224,8 +225,8 @@ TEST(Containment, TransferMatchesTheClosedFormAndTheWhiteFurnace) {
     double open = 0;
     for (int y = 0; y < 16; ++y)
       for (int x = 0; x < 16; ++x) {
-        const double O = fo.at(kR, x, y);
-        EXPECT_NEAR(ft.at(kR, x, y), O / (1 - a * (1 - O)), 1e-6) << x << "," << y;
+        const double O = fo.at(obscura::kR, x, y);
+        EXPECT_NEAR(ft.at(obscura::kR, x, y), O / (1 - a * (1 - O)), 1e-6) << x << "," << y;
         open += O;
       }
     EXPECT_LT(open, 16 * 16 * 0.999) << "the field closes some samples";
@@ -242,7 +243,7 @@ TEST(Containment, TransferMatchesTheClosedFormAndTheWhiteFurnace) {
   const Film f = renderWith(white, cam, "containment", t, passSettings(16, 16, 8));
   for (int y = 0; y < 16; ++y)
     for (int x = 0; x < 16; ++x)
-      if (f.at(kA, x, y) > 0) ASSERT_EQ(f.at(kR, x, y), 1.0f) << x << "," << y;
+      if (f.at(kA, x, y) > 0) ASSERT_EQ(f.at(obscura::kR, x, y), 1.0f) << x << "," << y;
 }
 
 // 4. Extreme parameters stay finite and in [0, 1]: huge and tiny scales,
@@ -270,7 +271,7 @@ TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
     const Film f = renderWith(scene, topCamera(), "containment", p, passSettings(8, 8, 2));
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x) {
-        const float w = f.at(kR, x, y);
+        const float w = f.at(obscura::kR, x, y);
         ASSERT_TRUE(w >= 0.0f && w <= 1.0f) << c[0] << " " << c[1] << ": " << w;
         if (c.back() == "distance=0") {
           ASSERT_EQ(w, 1.0f);
@@ -279,6 +280,96 @@ TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
   }
   for (const char* R : {"distance=inf", "distance=1e300"})
     EXPECT_THROW(renderWith(scene, topCamera(), "containment", {"map=" + path, R}, passSettings(4, 4, 1)), Error) << R;
+}
+
+
+// 6. The transfer (albedo=true) against traced displacement with `transfer`
+//    (estimator=occlusion, depth 0: the same ratio Sum I / (n - Sum (1 - I) a)
+//    over the same kind of samples, with a the albedo of the closest
+//    occluder on the segment). The plane carries an albedo texture that
+//    varies along u with the ripples, with another phase per channel:
+//    a_c(u) = 0.5 + 0.4 cos(2 pi P u + phi_c), phi = (0, pi/2, pi) - red bright
+//    on the crests, blue dark - so where each sample reads its occluder's
+//    albedo matters. Containment reads it at the first test point inside the
+//    field, within r/m of where the traced ray meets the displaced surface.
+//    Tolerance as in test 1: 4 standard errors of the difference (pixel
+//    statistics: each pixel's ratio is an independent estimate) plus the
+//    discretization bound |traced L6 - L5| + |containment m16 - m8|. Both
+//    sides are ratios of sums over the same number of samples, so their
+//    O(1/n) biases (docs/math.md §4) agree to the order of the difference
+//    the test bounds. The test must see where ã is read: with the texture
+//    shifted by half a period (crests and valleys swapped) containment must
+//    miss the traced value by more than 5 tolerances in some channel.
+std::string writeAlbedoTexture(const std::string& path, double shift) {
+  const int w = 1024, h = 4;
+  std::vector<uint16_t> px(size_t(w) * h * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const double u = (x + 0.5) / w;
+        const double a = 0.5 + 0.4 * std::cos(2 * M_PI * kPeriods * u + c * M_PI / 2 + shift);
+        px[(size_t(y) * w + size_t(x)) * 3 + size_t(c)] = uint16_t(std::lround(a * 65535));
+      }
+  auto out = OIIO::ImageOutput::create(path);
+  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 3, OIIO::TypeDesc::UINT16))) << path;
+  if (out) {
+    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::UINT16, px.data())) << path;
+    out->close();
+  }
+  return path;
+}
+
+// A material with the texture at `path` (linear, not sRGB).
+int addTexturedMaterial(Scene& scene, const std::string& path) {
+  scene.textures.push_back(std::make_unique<Texture>(readBytes(path), path, false));
+  Material m;
+  m.name = "ripple albedo";
+  m.texture = int(scene.textures.size()) - 1;
+  scene.materials.push_back(m);
+  return int(scene.materials.size()) - 1;
+}
+
+TEST(Containment, TransferConvergesToTracedTransfer) {
+  const std::string dir = tempDir("containment_traced_transfer");
+  const std::string path = writeFineRipples(dir);
+  const std::string albedo = writeAlbedoTexture(dir + "/albedo.png", 0.0);
+  const std::string shifted = writeAlbedoTexture(dir + "/shifted.png", M_PI);
+  const HeightMap map(path);
+  const double scale = 2 * 1.0 * kLambda / (2 * M_PI);  // max slope 1
+  const std::string R = "distance=" + formatFloat(kR), rays = "rays=" + std::to_string(kRays);
+  const auto tracedFilm = [&](int level) {
+    Scene scene;
+    addRefinedPlane(scene, level, &map, scale, true, addTexturedMaterial(scene, albedo));
+    scene.commit();
+    return renderWith(scene, topCamera(), "transfer", {R, rays, "estimator=occlusion"}, passSettings(kRes, kRes, kSpp));
+  };
+  const auto containedFilm = [&](int steps, const std::string& texture) {
+    Scene scene;
+    addRefinedPlane(scene, 1, nullptr, 0, true, addTexturedMaterial(scene, texture));
+    scene.commit();
+    return renderWith(scene, topCamera(), "containment",
+                      {"map=" + path, "scale=" + formatFloat(scale), "midlevel=0.5", R, rays, "albedo=true",
+                       "steps=" + std::to_string(steps)},
+                      passSettings(kRes, kRes, kSpp));
+  };
+  const Film t6 = tracedFilm(6), t5 = tracedFilm(5);
+  const Film c16 = containedFilm(16, albedo), c8 = containedFilm(8, albedo), wrong = containedFilm(16, shifted);
+  double worstWrong = 0;
+  for (int c = 0; c < 3; ++c) {
+    const PixelStats st6 = pixelStats(t6, obscura::kR + c), st5 = pixelStats(t5, obscura::kR + c);
+    const PixelStats sc16 = pixelStats(c16, obscura::kR + c), sc8 = pixelStats(c8, obscura::kR + c), sw = pixelStats(wrong, obscura::kR + c);
+    ASSERT_EQ(st6.n, size_t(kRes) * kRes);
+    ASSERT_EQ(sc16.n, size_t(kRes) * kRes);
+    const double se = std::hypot(st6.se, sc16.se);
+    const double disc = std::abs(st6.mean - st5.mean) + std::abs(sc16.mean - sc8.mean);
+    const double tol = 4 * se + disc;
+    std::printf("transfer channel %d: traced L6 %.5f L5 %.5f, containment m16 %.5f m8 %.5f (texture shifted %.5f), "
+                "SE %.2g, disc %.2g, tol %.2g\n",
+                c, st6.mean, st5.mean, sc16.mean, sc8.mean, sw.mean, se, disc, tol);
+    EXPECT_NEAR(sc16.mean, st6.mean, tol) << "channel " << c;
+    worstWrong = std::max(worstWrong, std::abs(sw.mean - st6.mean) / tol);
+  }
+  EXPECT_GT(worstWrong, 5.0) << "the test does not see where the occluder's albedo is read";
 }
 
 }  // namespace
