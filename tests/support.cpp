@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/texture.h"
 
 extern char** environ;
 
@@ -199,17 +200,45 @@ void writeBytes(const std::string& path, const void* data, size_t n) {
 
 void writeText(const std::string& path, const std::string& text) { writeBytes(path, text.data(), text.size()); }
 
+namespace {
+// Writes w x h texels of `channels` channels of `type` from `px`.
+void writeImage(const std::string& path, int w, int h, int channels, OIIO::TypeDesc type, const void* px) {
+  auto out = OIIO::ImageOutput::create(path);
+  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, channels, type))) << path;
+  if (out) {
+    EXPECT_TRUE(out->write_image(type, px)) << path;
+    out->close();
+  }
+}
+}  // namespace
+
 std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double, double)>& f) {
   std::vector<float> px(size_t(w) * size_t(h));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) px[size_t(y) * size_t(w) + size_t(x)] = float(f((x + 0.5) / w, 1.0 - (y + 0.5) / h));
-  auto out = OIIO::ImageOutput::create(path);
-  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT))) << path;
-  if (out) {
-    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data())) << path;
-    out->close();
-  }
+  writeImage(path, w, h, 1, OIIO::TypeDesc::FLOAT, px.data());
   return path;
+}
+
+std::string writeRgbTexture(const std::string& path, int w, int h, const std::function<Vec3(double, double)>& f) {
+  std::vector<uint16_t> px(size_t(w) * size_t(h) * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Vec3 c = f((x + 0.5) / w, 1.0 - (y + 0.5) / h);
+      for (int k = 0; k < 3; ++k)
+        px[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(k)] = uint16_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 65535));
+    }
+  writeImage(path, w, h, 3, OIIO::TypeDesc::UINT16, px.data());
+  return path;
+}
+
+int addTexturedMaterial(Scene& scene, const std::string& path) {
+  scene.textures.push_back(std::make_unique<Texture>(readBytes(path), path, false));
+  Material m;
+  m.name = "textured";
+  m.texture = int(scene.textures.size()) - 1;
+  scene.materials.push_back(m);
+  return int(scene.materials.size()) - 1;
 }
 
 std::string writeRipples(const std::string& dir) {

@@ -108,6 +108,12 @@ ReadBack readExr(const std::string& path);
 // texel centres in HeightMap's convention (u = (x + 0.5) / w, v = 0 at the
 // bottom row); returns `path`.
 std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double u, double v)>& f);
+// Writes a 16-bit RGB PNG of w x h texels holding f(u, v) (clamped to
+// [0, 1]) at the texel centres, in writeHeightMap's convention; returns `path`.
+std::string writeRgbTexture(const std::string& path, int w, int h, const std::function<Vec3(double u, double v)>& f);
+// Appends a material whose albedo is the texture in the file at `path`
+// (linear values, not sRGB); returns its index.
+int addTexturedMaterial(Scene& scene, const std::string& path);
 // dir/ripples.exr: h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 texels.
 std::string writeRipples(const std::string& dir);
 

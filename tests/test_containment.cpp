@@ -19,7 +19,6 @@
 
 #include "core/error.h"
 #include "core/subdivision.h"
-#include "core/texture.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -301,32 +300,11 @@ TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
 //    shifted by half a period (crests and valleys swapped) containment must
 //    miss the traced value by more than 5 tolerances in some channel.
 std::string writeAlbedoTexture(const std::string& path, double shift) {
-  const int w = 1024, h = 4;
-  std::vector<uint16_t> px(size_t(w) * h * 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const double u = (x + 0.5) / w;
-        const double a = 0.5 + 0.4 * std::cos(2 * M_PI * kPeriods * u + c * M_PI / 2 + shift);
-        px[(size_t(y) * w + size_t(x)) * 3 + size_t(c)] = uint16_t(std::lround(a * 65535));
-      }
-  auto out = OIIO::ImageOutput::create(path);
-  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 3, OIIO::TypeDesc::UINT16))) << path;
-  if (out) {
-    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::UINT16, px.data())) << path;
-    out->close();
-  }
-  return path;
-}
-
-// A material with the texture at `path` (linear, not sRGB).
-int addTexturedMaterial(Scene& scene, const std::string& path) {
-  scene.textures.push_back(std::make_unique<Texture>(readBytes(path), path, false));
-  Material m;
-  m.name = "ripple albedo";
-  m.texture = int(scene.textures.size()) - 1;
-  scene.materials.push_back(m);
-  return int(scene.materials.size()) - 1;
+  return writeRgbTexture(path, 1024, 4, [&](double u, double) {
+    Vec3 a;
+    for (int c = 0; c < 3; ++c) a[c] = float(0.5 + 0.4 * std::cos(2 * M_PI * kPeriods * u + c * M_PI / 2 + shift));
+    return a;
+  });
 }
 
 TEST(Containment, TransferConvergesToTracedTransfer) {
