@@ -91,6 +91,34 @@ double ratioBiasBound(double a, double varMu, int n) { return a / ((1 - a) * (1 
 
 // A sphere of radius rs seen from inside, with a hole of half-angle alpha
 // (0: closed), every wall of grey albedo a.
+// The recursive transfer with the closed tail (integrators/ambient_paths.h)
+// in the closed grey sphere: a path of depth N has N + 1 segments whose
+// transmittances e_j = 1 - mu_j are independent and identically distributed
+// (every wall point sees the same chord distribution), and its estimate is
+// the pair (S, 1 - T) with S = Sum_j a^(j-1) e_1..e_(j-1) (1 - e_j) and
+// T = a^(N+1) e_1..e_(N+1). From the suffix recursion S_j = (1 - e_j) +
+// a e_j S_(j+1), T_j = a e_j T_(j+1) and E[e] = m1, E[e^2] = m2 follow the
+// moments below; E[S] / (1 - E[T]) = (1 - m1) / (1 - a m1) = O / (1 - a (1 - O))
+// at every depth (the closure is exact here). The ratio of sums has the
+// first-order (delta method) bias (E[N] Var(D) - E[D] Cov(N, D)) / (E[D]^3 n)
+// with N = S, D = 1 - T; we allow twice it (the next term is O(1/n^2), and
+// the stratified samples only shrink the (co)variances). Distance
+// estimator: m1 = J(k, 1), m2 = J(2k, 1); occlusion: e is 0/1, m1 = m2 = 1 - O.
+struct ClosedTail {
+  double W, bias;
+};
+ClosedTail closedTail(double m1, double m2, double a, int depth, int n) {
+  double s = 0, t = 1, ss = 0, tt = 1, st = 0;  // beyond the last segment: S = 0, T = 1
+  for (int j = 0; j <= depth; ++j) {
+    const double s1 = 1 - m1 + a * m1 * s, t1 = a * m1 * t;
+    const double ss1 = (1 - 2 * m1 + m2) + 2 * a * (m1 - m2) * s + a * a * m2 * ss;
+    const double tt1 = a * a * m2 * tt, st1 = a * (m1 - m2) * t + a * a * m2 * st;
+    s = s1, t = t1, ss = ss1, tt = tt1, st = st1;
+  }
+  const double d = 1 - t, varD = tt - t * t, covND = -(st - s * t);
+  return {s / d, 2 * std::abs((s * varD - d * covND) / (d * d * d * n))};
+}
+
 std::unique_ptr<Scene> greySphere(float rs, double alpha, float a) {
   auto scene = std::make_unique<Scene>();
   addSphereCavity(*scene, rs, alpha, kRings, kSegments, addGreyMaterial(*scene, a));
@@ -107,7 +135,8 @@ const double kKs[] = {0.5, 2.0, 8.0};  // k = 2 sigma Rs
 // 1a. The closed sphere (radius 1.25, albedo 0.6) filled with the medium:
 //     gi sigma = s, and transfer falloff=exponential at depth 0 (closed form,
 //     both estimators) give W = O / (1 - a (1 - O)); tail=zero at depth 1
-//     truncates the series W = O Sum (a (1 - O))^j after two terms.
+//     truncates the series W = O Sum (a (1 - O))^j after two terms; the
+//     closed tail at depth 2 (both estimators) is exact again.
 //     A wrong membership would fail by far: with the step membership (or
 //     vacuum, gi sigma ignored) nothing escapes a closed sphere, W = 0; with
 //     sigma ignored (the default sigma = 1, k = 2.5) W moves to the closed form
@@ -139,6 +168,12 @@ TEST(MediumClosedForms, ClosedSphereWithGreyAlbedo) {
         {"transfer depth 1 tail zero", "transfer",
          {"falloff=exponential", "sigma=" + num(sigma), "rays=4", "depth=1", "tail=zero"}, 64,
          O * (1 + kGrey * (1 - O)), 0.0, moved([](double o) { return o * (1 + kGrey * (1 - o)); }, O, k * kTess)},
+        {"transfer depth 2 distance", "transfer",
+         {"falloff=exponential", "sigma=" + num(sigma), "rays=8", "depth=2"}, 64,
+         closedTail(J(k, 1), J(2 * k, 1), kGrey, 2, 512).W, closedTail(J(k, 1), J(2 * k, 1), kGrey, 2, 512).bias, tess},
+        {"transfer depth 2 occlusion", "transfer",
+         {"falloff=exponential", "sigma=" + num(sigma), "rays=8", "depth=2", "estimator=occlusion"}, 64,
+         closedTail(1 - O, 1 - O, kGrey, 2, 512).W, closedTail(1 - O, 1 - O, kGrey, 2, 512).bias, tess},
     };
     for (const Case& c : cases) {
       const Film film = renderWith(*scene, insideCamera(), c.integrator, c.params, passSettings(w, h, c.spp));
