@@ -57,7 +57,9 @@ void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vect
       nrm.push_back(pole ? normalize(-polePos) : normalize(-p));
     }
   }
-  const auto at = [&](int r, int s) { return ringSize(r) == 1 ? first[size_t(r)] : first[size_t(r)] + uint32_t(s % segments); };
+  const auto at = [&](int r, int s) {
+    return ringSize(r) == 1 ? first[size_t(r)] : first[size_t(r)] + uint32_t(s % segments);
+  };
   for (int r = 0; r + 1 < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       idx.insert(idx.end(), {at(r, s), at(r + 1, s), at(r + 1, s + 1)});
@@ -226,7 +228,8 @@ std::string writeRgbTexture(const std::string& path, int w, int h, const std::fu
     for (int x = 0; x < w; ++x) {
       const Vec3 c = f((x + 0.5) / w, 1.0 - (y + 0.5) / h);
       for (int k = 0; k < 3; ++k)
-        px[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(k)] = uint16_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 65535));
+        px[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(k)] =
+            uint16_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 65535));
     }
   writeImage(path, w, h, 3, OIIO::TypeDesc::UINT16, px.data());
   return path;

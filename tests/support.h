@@ -29,8 +29,9 @@ std::string tempDir(const std::string& name);
 
 // Triangle list of a sphere of radius rs about the origin, normals facing the
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
-// removed (MATH.md section 7); alpha = 0 gives the closed sphere. `rings` latitude bands from the hole edge to
-// the -Z pole, `segments` around; vertex normals are exact (-p/rs).
+// removed (MATH.md section 7); alpha = 0 gives the closed sphere. `rings`
+// latitude bands from the hole edge to the -Z pole, `segments` around;
+// vertex normals are exact (-p/rs).
 // The same triangles as position, normal and index lists.
 void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
                       std::vector<uint32_t>& idx);

@@ -242,7 +242,9 @@ TEST(Containment, TransferMatchesTheClosedFormAndTheWhiteFurnace) {
   const Film f = renderWith(white, cam, "containment", t, passSettings(16, 16, 8));
   for (int y = 0; y < 16; ++y)
     for (int x = 0; x < 16; ++x)
-      if (f.at(kA, x, y) > 0) ASSERT_EQ(f.at(obscura::kR, x, y), 1.0f) << x << "," << y;
+      if (f.at(kA, x, y) > 0) {
+        ASSERT_EQ(f.at(obscura::kR, x, y), 1.0f) << x << "," << y;
+      }
 }
 
 // 4. Extreme parameters stay finite and in [0, 1]: huge and tiny scales,
@@ -335,7 +337,8 @@ TEST(Containment, TransferConvergesToTracedTransfer) {
   double worstWrong = 0;
   for (int c = 0; c < 3; ++c) {
     const PixelStats st6 = pixelStats(t6, obscura::kR + c), st5 = pixelStats(t5, obscura::kR + c);
-    const PixelStats sc16 = pixelStats(c16, obscura::kR + c), sc8 = pixelStats(c8, obscura::kR + c), sw = pixelStats(wrong, obscura::kR + c);
+    const PixelStats sc16 = pixelStats(c16, obscura::kR + c), sc8 = pixelStats(c8, obscura::kR + c);
+    const PixelStats sw = pixelStats(wrong, obscura::kR + c);
     ASSERT_EQ(st6.n, size_t(kRes) * kRes);
     ASSERT_EQ(sc16.n, size_t(kRes) * kRes);
     const double se = std::hypot(st6.se, sc16.se);

@@ -34,7 +34,8 @@ TEST(SobolSequence, UnscrambledDimensionsMatchTheirDefinition) {
     EXPECT_EQ(sobol1Reference(i), sobol1(i)) << i;
   }
   for (uint32_t i = 0; i < (1U << 16); ++i) ASSERT_EQ(sobol1(i), sobol1Reference(i)) << i;
-  for (uint64_t k = 0; k < (1ULL << 32); k += 65537ULL * 3 + 1) ASSERT_EQ(sobol1(uint32_t(k)), sobol1Reference(uint32_t(k)));
+  for (uint64_t k = 0; k < (1ULL << 32); k += 65537ULL * 3 + 1)
+    ASSERT_EQ(sobol1(uint32_t(k)), sobol1Reference(uint32_t(k)));
   EXPECT_EQ(sobol1(0xffffffffU), sobol1Reference(0xffffffffU));
   // The reversed tables are the bit reversal; dimension 0 is van der Corput.
   for (uint32_t i = 0; i < (1U << 16); ++i) {

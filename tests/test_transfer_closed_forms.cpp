@@ -84,13 +84,13 @@ double moved(const std::function<double(double)>& g, double O, double dO) {
 // of mu (den = mu + (1 - mu)(1 - a) = b + a mu per sample). With E[m] = O,
 // Taylor's theorem with the Lagrange remainder gives
 // |E g(m) - g(O)| <= sup|g''| Var(m) / 2, and |g''| = 2ab / (b + am)^3 <= 2a / b^2
-// on [0, 1]. Var(m) = Var(mu) / n for independent samples; for the
-// scrambled (0,m,2)-net prefixes a pixel draws, Owen's bound is 2 Var(mu) / n
-// (and all samples of a pixel see the same chord distribution here).
+// on [0, 1]. Var(m) = Var(mu) / n for independent samples; a pixel's n = 2^10
+// directions are a scrambled (0,10,2)-net (test_sampler_nets.cpp), for which
+// Owen (1997) bounds the variance by (b/(b-1))^(s-1) = 2 times that (the
+// integrand is the same for every sample of a pixel: each hit sees the same
+// chord distribution about its normal).
 double ratioBiasBound(double a, double varMu, int n) { return a / ((1 - a) * (1 - a)) * 2.0 * varMu / n; }
 
-// A sphere of radius rs seen from inside, with a hole of half-angle alpha
-// (0: closed), every wall of grey albedo a.
 // The recursive transfer with the closed tail (integrators/ambient_paths.h)
 // in the closed grey sphere: a path of depth N has N + 1 segments whose
 // transmittances e_j = 1 - mu_j are independent and identically distributed
@@ -119,6 +119,8 @@ ClosedTail closedTail(double m1, double m2, double a, int depth, int n) {
   return {s / d, 2 * std::abs((s * varD - d * covND) / (d * d * d * n))};
 }
 
+// A sphere of radius rs seen from inside, with a hole of half-angle alpha
+// (0: closed), every wall of grey albedo a.
 std::unique_ptr<Scene> greySphere(float rs, double alpha, float a) {
   auto scene = std::make_unique<Scene>();
   addSphereCavity(*scene, rs, alpha, kRings, kSegments, addGreyMaterial(*scene, a));
@@ -161,7 +163,8 @@ TEST(MediumClosedForms, ClosedSphereWithGreyAlbedo) {
     const std::vector<Case> cases = {
         {"gi", "gi", {"sigma=" + num(sigma), "rays=4"}, 64, W, 0.0, tess},
         {"transfer depth 0 distance", "transfer",
-         {"falloff=exponential", "sigma=" + num(sigma), "rays=16"}, 64, W, ratioBiasBound(kGrey, mediumVar(k, 1.0), n), tess},
+         {"falloff=exponential", "sigma=" + num(sigma), "rays=16"}, 64, W,
+         ratioBiasBound(kGrey, mediumVar(k, 1.0), n), tess},
         {"transfer depth 0 occlusion", "transfer",
          {"falloff=exponential", "sigma=" + num(sigma), "rays=16", "estimator=occlusion"}, 64, W,
          ratioBiasBound(kGrey, O * (1 - O), n), tess},
@@ -312,7 +315,8 @@ double chainGi(const Chain& ch, int c) {
     std::array<double, 3> next = {0, 0, 0};
     for (int s = 0; s < 3; ++s) {
       W += mass[size_t(s)] * ch.escape(s);
-      for (int t = 1; t <= 2; ++t) next[size_t(t)] += mass[size_t(s)] * ch.to(s, t) * ch.albedo[ch.sourceAlbedo ? s : t][c];
+      for (int t = 1; t <= 2; ++t)
+        next[size_t(t)] += mass[size_t(s)] * ch.to(s, t) * ch.albedo[ch.sourceAlbedo ? s : t][c];
     }
     mass = next;
   }
@@ -377,7 +381,8 @@ std::unique_ptr<Scene> bandScene() {
   scene->addWorldPrimitive(pos, hi, nrm, {}, material(kHi));
   scene->addWorldPrimitive(pos, lo, nrm, {}, material(kLo));
   const float e = kPatch;
-  scene->addWorldPrimitive({{-e, -e, 0}, {e, -e, 0}, {e, e, 0}, {-e, e, 0}}, {0, 1, 2, 0, 2, 3}, {}, {}, material(kRecv));
+  scene->addWorldPrimitive({{-e, -e, 0}, {e, -e, 0}, {e, e, 0}, {-e, e, 0}}, {0, 1, 2, 0, 2, 3}, {}, {},
+                           material(kRecv));
   scene->setRobust(true);
   scene->commit();
   return scene;
@@ -417,7 +422,8 @@ TEST(TransferColour, ReceiverAndOccludersOfDifferentAlbedo) {
       return cs.depth < 0 ? chainGi(c, channel) : chainW(c, channel, cs.depth, cs.closed);
     };
     // Wrong variants.
-    Chain recvAsOcc = bandChain(kRecv, kRecv, kRecv), reversed = bandChain(Vec3(kHi.z, kHi.y, kHi.x), Vec3(kLo.z, kLo.y, kLo.x), kRecv),
+    const auto rev = [](Vec3 v) { return Vec3(v.z, v.y, v.x); };
+    Chain recvAsOcc = bandChain(kRecv, kRecv, kRecv), reversed = bandChain(rev(kHi), rev(kLo), kRecv),
           swapped = bandChain(kLo, kHi, kRecv), source = ch;
     source.sourceAlbedo = true;
     const Chain* wrong[] = {&recvAsOcc, &reversed, &swapped, &source};
