@@ -134,19 +134,3 @@ TEST(AoAnalytic, SamplerIsUniformInTwoDimensions) {
 
 }  // namespace
 }  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
-// The table-driven Sobol' dimension 1 equals the bit-serial definition.
-TEST(Sampler, Sobol1TablesMatchTheGeneratorMatrix) {
-  for (uint64_t k = 0; k < (1ULL << 32); k += 65537ULL * 3 + 1) {
-    const uint32_t i = uint32_t(k);
-    uint32_t r = 0, x = i;
-    for (uint32_t v = 1U << 31; x; x >>= 1, v ^= v >> 1)
-      if (x & 1U) r ^= v;
-    ASSERT_EQ(sobol1(i), r) << i;
-  }
-  EXPECT_EQ(sobol1(0xffffffffU), sobol1(0xffffffffU));
-}
-}  // namespace
-}  // namespace obscura::test
