@@ -1,5 +1,5 @@
 // obscura_bench_obscurance: the obscurance integrator's two estimators
-// (MATH.md section 3), measured two ways.
+// (docs/math.md §3), measured two ways.
 //
 // 1. Speed. For each falloff in {linear, sqrt, exponential} and each
 //    estimator in {distance, occlusion}, obscura::render() runs in process

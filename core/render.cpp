@@ -227,7 +227,7 @@ class TileRenderer {
         film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
         film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
         film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
-        // shaded = albedo * W * La (MATH.md section 1), from the pixel's
+        // shaded = albedo * W * La (docs/math.md §1), from the pixel's
         // albedo and pass: exactly the product a compositor would form.
         film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * s_.sky.x * coverage);
         film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * s_.sky.y * coverage);

@@ -1,5 +1,5 @@
 // Height-field containment obscurance (Umenhoffer, Toth, Szirmay-Kalos,
-// "Efficient Methods for Ambient Lighting", sections 4 and 6; MATH.md
+// "Efficient Methods for Ambient Lighting", sections 4 and 6; docs/math.md
 // sections 2 and 3; docs/containment.md).
 //
 // The camera sees the UNDISPLACED macro surface; the displacement detail a

@@ -1,4 +1,4 @@
-// Fuzzy membership (falloff) functions mu(d) of MATH.md section 2, shared by
+// Fuzzy membership (falloff) functions mu(d) of docs/math.md §2, shared by
 // every integrator that weighs an occluder by its distance: obscurance,
 // transfer and gi. One place defines mu, the sampling of mu', the edge cases
 // and the parameters, so the integrators agree bit for bit where their math
@@ -53,7 +53,7 @@ inline const char* falloffName(Falloff f) {
   return "?";
 }
 // distance: trace the closest hit and weigh it by mu(d).
-// occlusion: draw r ~ mu'(r) and test the segment [0, r] (MATH.md section 3).
+// occlusion: draw r ~ mu'(r) and test the segment [0, r] (docs/math.md §3).
 enum class Estimator { Distance, Occlusion };
 
 // A distance for an Embree ray: +inf when beyond float range.

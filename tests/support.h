@@ -53,7 +53,7 @@ std::string missingSharedScene(const std::string& path);
 
 // Triangle list of a sphere of radius rs about the origin, normals facing the
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
-// removed (MATH.md section 7); alpha = 0 gives the closed sphere. `rings`
+// removed (docs/math.md §7); alpha = 0 gives the closed sphere. `rings`
 // latitude bands from the hole edge to the -Z pole, `segments` around;
 // vertex normals are exact (-p/rs).
 // The same triangles as position, normal and index lists.

@@ -203,7 +203,7 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
 //    grey plane of albedo a and nothing else above it, only the height field
 //    closes samples, each with a~ = a, so a pixel's ratio of sums is
 //    S / (N - a (N - S)) = O / (1 - a (1 - O)) for the obscurance O = S / N of
-//    the very same samples (albedo=false): the closed form of MATH.md's
+//    the very same samples (albedo=false): the closed form of docs/math.md's
 //    transfer with one grey occluder, to float rounding of the per-sample
 //    means (1e-6). With every albedo 1 - plane and a wall standing on it -
 //    every closed sample adds 1 - 1 = 0 to the denominator: W = 1 exactly

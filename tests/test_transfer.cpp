@@ -1,4 +1,4 @@
-// `transfer` and `gi` against the closed forms of MATH.md sections 4, 5 and 7.
+// `transfer` and `gi` against the closed forms of docs/math.md §4, §5 and §7.
 //
 // The spherical cavity (radius Rs, cap of half-angle alpha removed, every
 // wall of albedo a, f = (1 - cos alpha)/2): form factors inside a sphere are
