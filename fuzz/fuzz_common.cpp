@@ -14,7 +14,8 @@
 namespace obscura::fuzz {
 
 const std::string& workDir() {
-  static const std::string dir = [] {
+  // Never destroyed: the exit handler below still reads it.
+  static const std::string& dir = *new std::string([] {
     const auto d = std::filesystem::temp_directory_path() / ("obscura_fuzz_" + std::to_string(::getpid()));
     std::filesystem::create_directories(d);
     // A 4x4 ramp, the height map the seeds' extras.obscura.displacement name.
@@ -28,7 +29,7 @@ const std::string& workDir() {
       std::filesystem::remove_all(workDir(), ec);
     });
     return d.string();
-  }();
+  }());
   return dir;
 }
 

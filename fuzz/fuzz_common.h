@@ -8,6 +8,7 @@
 #include <string>
 
 #include "app/cli_common.h"
+#include "core/error.h"
 
 namespace obscura::fuzz {
 

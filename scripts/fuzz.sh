@@ -40,9 +40,8 @@ rm -rf "$build/seeds"
 "$build/fuzz/obscura_fuzz_corpus" "$build/seeds"
 
 # --- 4. Fuzz ------------------------------------------------------------------------
-# Leaks are not findings here: TBB and Embree keep thread-local pools that
-# LeakSanitizer reports at exit. Each input must finish within 20 s and 2 GiB.
-export ASAN_OPTIONS="detect_leaks=0:abort_on_error=1:${ASAN_OPTIONS:-}"
+# Each input must finish within 20 s and 2 GiB; leaks are findings too.
+export ASAN_OPTIONS="abort_on_error=1:${ASAN_OPTIONS:-}"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:${UBSAN_OPTIONS:-}"
 status=0
 for t in "${targets[@]}"; do

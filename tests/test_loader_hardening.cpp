@@ -282,6 +282,28 @@ TEST(LoaderHardening, ParameterValuesRoundTrip) {
   }
 }
 
+// An Int parameter declared without a range (as a plugin may) took any
+// long long and converted it to int: "n=4294967297" became n = 1.
+TEST(LoaderHardening, IntParameterBeyondIntIsOutOfRange) {
+  ParamSpec n;
+  n.name = "n";
+  n.type = ParamType::Int;
+  n.defaultValue = "0";
+  ParamSet p({n}, "plugin");
+  p.set("n", "2147483647");
+  EXPECT_EQ(p.getInt("n"), 2147483647);
+  p.set("n", "-2147483648");
+  EXPECT_EQ(p.getInt("n"), -2147483647 - 1);
+  for (const std::string v : {"2147483648", "4294967297", "-2147483649"}) {
+    try {
+      p.set("n", v);
+      ADD_FAILURE() << v << " accepted as " << p.getInt("n");
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()), "integrator 'plugin': parameter 'n': out of range (got '" + v + "', expected int [-inf, inf])");
+    }
+  }
+}
+
 // --- the fuzz seed corpus --------------------------------------------------------
 
 // Every seed is a valid input: the glTF scenes and OBJ cages load (with the
