@@ -51,7 +51,7 @@ for t in "${targets[@]}"; do
   echo "== fuzzing $t for ${seconds}s"
   if ! "$build/fuzz/obscura_fuzz_$t" "$corpus" "$build/seeds/$t" -max_total_time="$seconds" -timeout=20 \
       -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 -artifact_prefix="$findings/" \
-      2> "$build/fuzz-$t.log"; then
+      > "$build/fuzz-$t.log" 2>&1; then
     tail -n 60 "$build/fuzz-$t.log" >&2
     echo "== $t: FINDING, input in $findings/ (log: $build/fuzz-$t.log)" >&2
     status=1
