@@ -42,8 +42,15 @@ Vec3 parseSky(const std::string& s) {
 }
 
 Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
-  if (want.empty()) return scene.cameras.empty() ? makeAutoCamera(scene.bounds(), aspect) : scene.cameras[0];
-  if (want == "auto") return makeAutoCamera(scene.bounds(), aspect);
+  const auto autoCamera = [&] {
+    // Far from a scene near the coordinate limit, or framing it through a
+    // very narrow image, the camera could leave the range Embree traces.
+    Camera c = makeAutoCamera(scene.bounds(), aspect);
+    checkCameraRange(c, scene.sourcePath + ": the automatic camera (--camera auto)");
+    return c;
+  };
+  if (want.empty()) return scene.cameras.empty() ? autoCamera() : scene.cameras[0];
+  if (want == "auto") return autoCamera();
   std::string names;
   for (const auto& c : scene.cameras) {
     if (c.name == want) return c;
@@ -123,6 +130,7 @@ std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string&
                                           int height, Camera& camera) {
   LoadOptions o = sceneOptions(a);
   const float aspect = float(width) / float(height);
+  const SceneSource source(path);  // parsed once, built at most twice
   if (o.maxEdgePixels > 0) {
     LoadOptions probe = o;
     probe.subdivision = false;
@@ -130,10 +138,10 @@ std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string&
     probe.maxEdgePixels = 0;
     probe.displacementMap.clear();
     probe.backend = SubdivisionBackend::OpenSubdiv;
-    o.camera = selectCamera(*loadScene(path, probe), want, aspect);
+    o.camera = selectCamera(*source.build(probe), want, aspect);
     o.imageWidth = width, o.imageHeight = height;
   }
-  std::unique_ptr<Scene> scene = loadScene(path, o);
+  std::unique_ptr<Scene> scene = source.build(o);
   camera = o.camera ? *o.camera : selectCamera(*scene, want, aspect);
   return scene;
 }

@@ -1,6 +1,9 @@
 #include "core/camera.h"
 
 #include <cmath>
+#include <cstdio>
+
+#include "core/error.h"
 
 namespace obscura {
 
@@ -34,6 +37,21 @@ Camera makeAutoCamera(const Bounds3& bounds, float aspect) {
   const Vec3 dir = normalize(Vec3(0.8f, 0.55f, 1.0f));
   Camera cam = makeLookAtCamera(c + dir * dist, c, Vec3(0, 1, 0), yfov, "auto");
   return cam;
+}
+
+void checkCameraRange(const Camera& c, const std::string& what) {
+  const auto g = [](float v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", double(v));
+    return std::string(buf);
+  };
+  const Vec3 p = c.position();
+  for (int i = 0; i < 3; ++i)
+    if (!inTraceableRange(p[i]))
+      throw Error(what + ": camera position (" + g(p.x) + ", " + g(p.y) + ", " + g(p.z) +
+                  ") is outside the range Embree traces (|x| <= 1e+16)");
+  if (!(c.znear >= 0.0f) || !inTraceableRange(c.znear))
+    throw Error(what + ": znear " + g(c.znear) + " is outside [0, 1e+16]");
 }
 
 }  // namespace obscura

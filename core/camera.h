@@ -3,6 +3,7 @@
 // follows the image's aspect ratio.
 #pragma once
 
+#include <cmath>
 #include <string>
 
 #include "core/math.h"
@@ -10,6 +11,18 @@
 namespace obscura {
 
 class Scene;
+
+// The largest |coordinate| of a vertex, a scene's bounds or a camera that
+// Obscura accepts. Embree traces values up to FLT_LARGE = 1.844e18 only: it
+// silently ignores primitives with larger coordinates when it builds the
+// BVH, and a ray whose origin exceeds it is invalid (Embree 3,
+// rtcCommitScene and common/math/constants.h). 1e16 leaves a factor of more
+// than 100 for the automatic camera (about three bounding radii from the
+// centre) and for the products of two coordinates in intersection and
+// shading arithmetic (1e32, far below float's 3.4e38).
+constexpr float kMaxCoordinate = 1e16f;
+inline bool inTraceableRange(float x) { return std::abs(x) <= kMaxCoordinate; }  // false for NaN
+
 
 struct Camera {
   std::string name;
@@ -52,6 +65,11 @@ struct RasterCamera {
 // file has none: glTF's +Y up, looking at the bounding box centre from the
 // (+X, +Y, +Z) octant, far enough that the bounding sphere fits the view.
 Camera makeAutoCamera(const Bounds3& bounds, float aspect);
+
+// Throws obscura::Error "`what`: camera position ... outside the range Embree
+// traces" unless the camera's position and znear are finite and within
+// kMaxCoordinate (a zfar beyond it is as good as infinity).
+void checkCameraRange(const Camera& camera, const std::string& what);
 
 // Camera from the look-at form (rigid, orthonormal).
 Camera makeLookAtCamera(Vec3 eye, Vec3 target, Vec3 up, float yfov, std::string name);

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 
 #include "core/error.h"
 
@@ -83,7 +84,11 @@ ParamSet::Value ParamSet::parse(const ParamSpec& s, const std::string& text) con
       char* end = nullptr;
       const long long v = std::strtoll(text.c_str(), &end, 10);
       if (text.empty() || *end != '\0' || errno == ERANGE) throw bad("not an integer");
-      if (double(v) < s.min || double(v) > s.max) throw bad("out of range");
+      // An int holds the value: a spec without a range (a plugin's) must
+      // not let 4294967297 wrap around to 1.
+      if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max() || double(v) < s.min ||
+          double(v) > s.max)
+        throw bad("out of range");
       return int(v);
     }
     case ParamType::Bool:

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 
 #include "core/error.h"
@@ -113,6 +114,7 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
   const size_t corners = cage.faceIndices.size(), faces = cage.faceSizes.size();
   if (edgeLevels.size() != 1 && edgeLevels.size() != corners) throw Error("internal: edge levels do not match the cage");
   if (height && cage.uvIndices.size() != corners) throw Error("internal: a displaced subdivision surface needs uvs at every corner");
+  for (const Vec3& v : cage.positions) cageBounds_.extend(v);  // the limit surface lies in the cage's hull
   const auto level = [&](size_t k) { return std::clamp(edgeLevels.size() == 1 ? edgeLevels[0] : edgeLevels[k], 1.0f, 4096.0f); };
   surface->faceRate.resize(faces);
   for (size_t f = 0, k = 0; f < faces; ++f) {
@@ -233,6 +235,18 @@ void Scene::setUvsRunDown() {
 
 void Scene::commit() {
   if (committed_) return;
+  // Embree silently leaves out primitives beyond its range, and rays from a
+  // camera framing them would be invalid (kMaxCoordinate, core/camera.h).
+  Bounds3 all = bounds_;
+  all.extend(cageBounds_);
+  if (!all.empty())
+    for (const float x : {all.lo.x, all.lo.y, all.lo.z, all.hi.x, all.hi.y, all.hi.z})
+      if (!inTraceableRange(x)) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%g", double(x));
+        throw Error((sourcePath.empty() ? "" : sourcePath + ": ") + "the scene's bounds reach " + buf +
+                    " (after node transforms), outside the range Embree traces (|x| <= 1e+16)");
+      }
   const auto t0 = std::chrono::steady_clock::now();
   const RTCSceneFlags flags = robust_ ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
   rtcSetSceneFlags(top_, flags);

@@ -191,6 +191,7 @@ class Scene {
   std::vector<Instance> instances_;
   std::vector<TopLevelGeometry> topLevel_;  // indexed by top-level geomID
   Bounds3 bounds_;
+  Bounds3 cageBounds_;  // of Embree subdivision surfaces' cages, for the range check
   double buildSeconds_ = 0;
   bool committed_ = false;
   bool robust_ = false;

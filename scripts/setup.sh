@@ -20,22 +20,10 @@ build="${BUILD_DIR:-build}"
 jobs="${JOBS:-$(nproc)}"
 
 # --- 1. Debian packages (only the missing ones) -------------------------------
-packages=(build-essential cmake ninja-build pkg-config libembree-dev libopenimageio-dev
-  openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev
-  libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev)
-missing=()
-for p in "${packages[@]}"; do
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
-    missing+=("$p")
-  fi
-done
-if ((${#missing[@]})); then
-  echo "== installing: ${missing[*]}"
-  sudo=""
-  if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+source scripts/install_missing.sh
+install_missing build-essential cmake ninja-build pkg-config libembree-dev libopenimageio-dev \
+  openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev \
+  libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev
 
 # --- 2. Build ------------------------------------------------------------------
 configure() {  # dir, extra cmake args...

@@ -1,0 +1,134 @@
+#include "tests/fuzz_seeds.h"
+
+#include <filesystem>
+
+#include "core/image_io.h"
+#include "core/integrator.h"
+#include "tests/gltf_builder.h"
+#include "tests/support.h"
+
+namespace obscura::test {
+namespace {
+
+std::string base64(const std::vector<unsigned char>& b) {
+  static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  for (size_t i = 0; i < b.size(); i += 3) {
+    const uint32_t n = uint32_t(b[i]) << 16 | (i + 1 < b.size() ? uint32_t(b[i + 1]) << 8 : 0) |
+                       (i + 2 < b.size() ? uint32_t(b[i + 2]) : 0);
+    out += abc[n >> 18 & 63];
+    out += abc[n >> 12 & 63];
+    out += i + 1 < b.size() ? abc[n >> 6 & 63] : '=';
+    out += i + 2 < b.size() ? abc[n & 63] : '=';
+  }
+  return out;
+}
+
+// A camera looking at the origin from +Z, as a node.
+int cameraNode(GltfBuilder& g) {
+  const int c = g.push("cameras", perspective("front", 0.8, 0.01, 100));
+  return g.node({{"camera", c}, {"translation", {0, 0, 3}}});
+}
+
+// A 2x2 PNG's bytes (a texture).
+std::vector<unsigned char> tinyPng(const std::string& dir) {
+  const unsigned char rgb[12] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
+  const std::string path = dir + "/tiny.png";
+  writePngRgb8(path, 2, 2, rgb);
+  std::vector<unsigned char> bytes = readBytes(path);
+  std::filesystem::remove(path);
+  return bytes;
+}
+
+void gltfSeeds(const std::string& dir) {
+  {  // a quad and a camera, .glb and .gltf with its buffer embedded
+    GltfBuilder g;
+    const int m = g.quadMesh(1);
+    g.scene({g.node({{"mesh", m}}), cameraNode(g)});
+    g.writeGlb(dir, "quad");
+    g.doc["buffers"] = json::array({{{"byteLength", g.bin.size()},
+                                     {"uri", "data:application/octet-stream;base64," + base64(g.bin)}}});
+    g.writeGltf(dir, "quad_embedded");
+  }
+  {  // one mesh used twice (an instance), TRS and matrix nodes, a hierarchy,
+     // strips and fans, uint8/uint32 indices, normals, a textured material
+    GltfBuilder g;
+    const std::vector<unsigned char> png = tinyPng(dir);
+    const int view = g.bufferView(png.data(), png.size());
+    g.push("images", {{"bufferView", view}, {"mimeType", "image/png"}});
+    g.push("samplers", {{"wrapS", 33071}, {"wrapT", 33648}});
+    g.push("textures", {{"source", 0}, {"sampler", 0}});
+    g.push("materials", {{"pbrMetallicRoughness", {{"baseColorFactor", {0.8, 0.7, 0.6, 1}}, {"baseColorTexture", {{"index", 0}}}}}});
+    const int quad = g.quadMesh(0.5f, 0, true);
+    const int pos = g.positions({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}, {0, 2, 0}});
+    const int nrm = g.vec3({{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}});
+    json strip = {{"attributes", {{"POSITION", pos}, {"NORMAL", nrm}}}, {"mode", kStrip},
+                  {"indices", g.indices(std::vector<uint8_t>{0, 1, 2, 3, 4})}};
+    json fan = {{"attributes", {{"POSITION", pos}}}, {"mode", kFan}, {"indices", g.indices(std::vector<uint32_t>{0, 1, 3, 4})}};
+    const int mixed = g.push("meshes", {{"primitives", json::array({strip, fan})}});
+    const int child = g.node({{"mesh", quad}, {"rotation", {0, 0.3826834, 0, 0.9238795}}, {"scale", {1, 2, 1}}});
+    const int parent = g.node({{"children", {child}}, {"translation", {1, 0, -1}}});
+    const int other = g.node({{"mesh", quad}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 0, 1}}});
+    g.scene({parent, other, g.node({{"mesh", mixed}}), cameraNode(g)});
+    g.writeGlb(dir, "instances_modes_texture");
+  }
+  {  // subdivision and displacement extras (the mesh's and a node's own)
+    GltfBuilder g;
+    const int cc = g.quadMesh(1, -1, true);
+    g.doc["meshes"][size_t(cc)]["extras"] = {
+        {"obscura", {{"subdivision", {{"scheme", "catmull-clark"}, {"level", 1}}},
+                     {"displacement", {{"map", "height.png"}, {"scale", 0.05}, {"midlevel", 0.5}}}}}};
+    const int loop = g.quadMesh(1, -1, true);
+    g.doc["meshes"][size_t(loop)]["extras"] = {{"obscura", {{"subdivision", {{"scheme", "loop"}, {"level", 1}}}}}};
+    const int a = g.node({{"mesh", cc}});
+    const int b = g.node({{"mesh", loop}, {"translation", {2.5, 0, 0}},
+                          {"extras", {{"obscura", {{"displacement", {{"map", "height.png"}, {"scale", 0.1}}}}}}}});
+    g.scene({a, b});  // no camera: the auto camera frames it
+    g.writeGlb(dir, "subdivision_displacement");
+  }
+}
+
+void objSeeds(const std::string& dir) {
+  const std::string cube =
+      "v -1 -1 -1\nv 1 -1 -1\nv -1 1 -1\nv 1 1 -1\nv -1 -1 1\nv 1 -1 1\nv -1 1 1\nv 1 1 1\n"
+      "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+  const std::string tetra = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  std::string grid = "# a 2x2 grid of quads with uvs and a crease\n";
+  for (int y = 0; y < 3; ++y)
+    for (int x = 0; x < 3; ++x)
+      grid += "v " + std::to_string(x) + " " + std::to_string(y) + " 0\nvt " + std::to_string(x * 0.5) + " " +
+              std::to_string(y * 0.5) + "\n";
+  grid += "f 1/1 2/2 5/5 4/4\nf 2/2 3/3 6/6 5/5\nf 4/4 5/5 8/8 7/7\nf 5/5 6/6 9/9 8/8\nt crease 2/1 4 5 2.5\n";
+  // Mode byte (fuzz/fuzz_obj.cpp): bit 0 loop, bits 1-2 level, bit 3 adaptive.
+  const auto seed = [&](const std::string& name, char mode, const std::string& text) { writeText(dir + "/" + name, mode + text); };
+  seed("cube_cc1", 2, cube);
+  seed("cube_cc2", 4, cube);
+  seed("tetra_loop1", 1 | 2, tetra);
+  seed("tetra_cc_adaptive", 8, tetra);
+  seed("grid_cc0", 0, grid);
+  seed("grid_cc1", 2, grid);
+}
+
+void paramSeeds(const std::string& dir) {
+  for (const IntegratorDescriptor& d : IntegratorRegistry::instance().all()) {
+    std::string text = d.name + "\n";
+    for (const ParamSpec& s : d.params) text += s.name + "=" + s.defaultValue + "\n";
+    writeText(dir + "/" + d.name + "_defaults", text);
+  }
+  writeText(dir + "/ao", "ao\ndistance=inf\nrays=4\n");
+  writeText(dir + "/obscurance", "obscurance\nfalloff=sqrt\ndistance=0.5\nestimator=occlusion\nsigma=2.5e-3\n");
+  writeText(dir + "/transfer", "transfer\ndepth=2\ntail=zero\nfalloff=exponential\n");
+  writeText(dir + "/gi", "gi\nmax-depth=3\nsigma=0.5\nrays=2\n");
+  writeText(dir + "/multibounce", "multibounce\nmapping=improved\ndistance=1e3\n");
+}
+
+}  // namespace
+
+void writeFuzzSeeds(const std::string& dir) {
+  for (const char* sub : {"gltf", "obj", "params"}) std::filesystem::create_directories(dir + "/" + sub);
+  gltfSeeds(dir + "/gltf");
+  objSeeds(dir + "/obj");
+  paramSeeds(dir + "/params");
+}
+
+}  // namespace obscura::test
