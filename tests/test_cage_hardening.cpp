@@ -309,10 +309,12 @@ TEST(CageHardening, DisplacementBeyondTheTraceableRangeIsRefused) {
     o.displacementScale = 1.9e12;
     EXPECT_EQ(objError(dir + "/quad.obj", o), "");
     o.displacementScale = -2.1e12;
-    EXPECT_EQ(objError(dir + "/quad.obj", o).rfind("--displace-scale: -2.1e+12 moves the surface up to 1.05e+12", 0), 0u)
+    EXPECT_EQ(objError(dir + "/quad.obj", o).rfind("displacementScale: -2.1e+12 moves the surface up to 1.05e+12", 0), 0u)
         << objError(dir + "/quad.obj", o);
   }
-  // glTF: the field that set the scale is named.
+  // glTF: the field that set the scale is named. (In process the setting is
+  // named as the library calls it; the CLI names its flag, --displace-scale:
+  // tests/test_setting_names.cpp.)
   GltfBuilder g;
   g.quadMesh(0.5f, -1, true);
   g.doc["meshes"][0]["extras"] = {
