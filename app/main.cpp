@@ -124,6 +124,9 @@ int runRender(const RenderArgs& a) {
     std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
                  s.width, s.height, s.spp, desc.name.c_str(), stats.seconds, total / stats.seconds * 1e-6,
                  scene->buildSeconds());
+    if (desc.kind == IntegratorKind::ScreenSpace)
+      std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
+                   stats.gbufferSeconds, stats.screenSpaceSeconds, stats.filterSeconds);
   }
   return 0;
 }
@@ -131,7 +134,8 @@ int runRender(const RenderArgs& a) {
 int runIntegrators(const std::vector<std::string>& plugins) {
   loadPlugins(plugins);
   for (const auto& d : IntegratorRegistry::instance().all()) {
-    std::printf("%s\n    %s\n", d.name.c_str(), d.doc.c_str());
+    std::printf("%s%s\n    %s\n", d.name.c_str(), d.kind == IntegratorKind::ScreenSpace ? " (screen-space)" : "",
+                d.doc.c_str());
     for (const auto& p : d.params)
       std::printf("    -p %-10s %-6s %-16s default %-6s %s\n", (p.name + "=").c_str(), p.typeName().c_str(),
                   p.rangeText().c_str(), p.defaultValue.c_str(), p.doc.c_str());

@@ -7,6 +7,8 @@
 #include <chrono>
 
 #include "core/error.h"
+#include "core/gbuffer.h"
+#include "core/pixel_sums.h"
 #include "core/progress.h"
 #include "core/sampler.h"
 
@@ -16,21 +18,6 @@ namespace {
 // Camera samples per chunk. Large enough that per-chunk overhead
 // vanishes, small enough that the batch and its hits stay in L1/L2.
 constexpr size_t kChunk = 256;
-
-// Per-pixel sums in double: at high spp a float sum of 2^24 values stops
-// growing.
-struct Sum3 {
-  double x = 0, y = 0, z = 0;
-  void add(Vec3 v) { x += double(v.x), y += double(v.y), z += double(v.z); }
-};
-struct PixelSums {
-  Sum3 num, den, albedo, N;
-  double Z;
-  uint32_t hits;
-};
-
-// Sum num / Sum den, one channel; 0/0 is 1 (core/integrator.h).
-inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
 
 struct ThreadScratch {
   ThreadScratch(const Scene& scene, const Tracer& tracer) : ctx(scene, tracer) {
@@ -51,11 +38,51 @@ struct ThreadScratch {
 
 }  // namespace
 
+void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo, Vec3 sky,
+                      Film& film, int fx, int fy) {
+  const bool aovs = film.hasAovs();
+  const double coverage = double(p.hits) / double(spp);
+  film.at(kA, fx, fy) = float(coverage);
+  if (p.hits == 0) {  // background: zero (premultiplied), Z = inf
+    if (aovs) film.at(kZ, fx, fy) = kInfinity;
+    return;
+  }
+  // The pass and the albedo are means over the pixel's hits, then
+  // premultiplied by coverage.
+  const double invHits = 1.0 / double(p.hits);
+  const Vec3 albedo = wantAlbedo ? Vec3(float(p.albedo.x * invHits), float(p.albedo.y * invHits),
+                                        float(p.albedo.z * invHits))
+                                 : Vec3(1, 1, 1);
+  const Vec3 W = integrator.resolvePixel(
+      Vec3(resolveRatio(p.num.x, p.den.x), resolveRatio(p.num.y, p.den.y), resolveRatio(p.num.z, p.den.z)), albedo);
+  film.at(kR, fx, fy) = float(double(W.x) * coverage);
+  film.at(kG, fx, fy) = float(double(W.y) * coverage);
+  film.at(kB, fx, fy) = float(double(W.z) * coverage);
+  if (!aovs) return;
+  film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
+  film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
+  film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
+  // shaded = albedo * W * La (MATH.md section 1), from the pixel's
+  // albedo and pass: exactly the product a compositor would form.
+  film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * sky.x * coverage);
+  film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * sky.y * coverage);
+  film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * sky.z * coverage);
+  const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
+  const float nl = length(nsum);
+  const Vec3 n = nl > 0.0f ? nsum * (1.0f / nl) : Vec3(0, 0, 0);
+  film.at(kNX, fx, fy) = n.x;
+  film.at(kNY, fx, fy) = n.y;
+  film.at(kNZ, fx, fy) = n.z;
+  film.at(kZ, fx, fy) = float(p.Z * invHits);
+}
+
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
             const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
   if (s.spp <= 0) throw Error("--spp must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
+  if (const ScreenSpaceIntegrator* ss = integrator.screenSpace())
+    return renderScreenSpace(scene, camera, *ss, needs, s, stats, cancel);
   const bool wantAlbedo = needs.albedo || s.aovs;
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();
@@ -64,7 +91,6 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
   const Tracer tracer(scene.rtcScene(), s.recorder);
   const RasterCamera raster(camera, s.width, s.height);
   const Sampler sampler(s.seed);
-  const GaussianFilterSampler& gauss = GaussianFilterSampler::instance();
   const int tilesX = (s.width + s.tileSize - 1) / s.tileSize, tilesY = (s.height + s.tileSize - 1) / s.tileSize;
   const float tnear = camera.znear;
   const float tfar = camera.zfar;
@@ -96,16 +122,9 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
       IntersectBatch& cam = ts.camera;
       cam.clear();
       for (size_t l = 0; l < n; ++l) {
-        const Sample2 f = Sampler::get2D(filterSeeds, si);
-        float ox, oy;
-        if (s.filter == PixelFilter::Box) {
-          ox = f.u;
-          oy = f.v;
-        } else {
-          ox = 0.5f + gauss.sample(f.u);
-          oy = 0.5f + gauss.sample(f.v);
-        }
-        cam.push(raster.org, raster.direction(float(px) + ox, float(py) + oy), tnear, tfar);
+        float fx, fy;
+        cameraSampleFilm(s.filter, filterSeeds, si, px, py, fx, fy);
+        cam.push(raster.org, raster.direction(fx, fy), tnear, tfar);
         ts.lanePixel[l] = pix;
         ts.laneKey[l] = key;
         ts.laneSample[l] = si;
@@ -154,46 +173,9 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     }
 
     // Resolve: each pixel belongs to exactly one tile, so no locking.
-    for (int y = 0; y < th; ++y) {
-      for (int x = 0; x < tw; ++x) {
-        const PixelSums& p = ts.sums[size_t(y) * tw + x];
-        const int fx = x0 + x, fy = y0 + y;
-        const double coverage = double(p.hits) / double(s.spp);
-        film.at(kA, fx, fy) = float(coverage);
-        if (p.hits == 0) {  // background: zero (premultiplied), Z = inf
-          if (s.aovs) film.at(kZ, fx, fy) = kInfinity;
-          continue;
-        }
-        // The pass and the albedo are means over the pixel's hits, then
-        // premultiplied by coverage.
-        const double invHits = 1.0 / double(p.hits);
-        const Vec3 albedo = wantAlbedo ? Vec3(float(p.albedo.x * invHits), float(p.albedo.y * invHits),
-                                              float(p.albedo.z * invHits))
-                                       : Vec3(1, 1, 1);
-        const Vec3 W = integrator.resolvePixel(
-            Vec3(resolveRatio(p.num.x, p.den.x), resolveRatio(p.num.y, p.den.y), resolveRatio(p.num.z, p.den.z)),
-            albedo);
-        film.at(kR, fx, fy) = float(double(W.x) * coverage);
-        film.at(kG, fx, fy) = float(double(W.y) * coverage);
-        film.at(kB, fx, fy) = float(double(W.z) * coverage);
-        if (!s.aovs) continue;
-        film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
-        film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
-        film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
-        // shaded = albedo * W * La (MATH.md section 1), from the pixel's
-        // albedo and pass: exactly the product a compositor would form.
-        film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * s.sky.x * coverage);
-        film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * s.sky.y * coverage);
-        film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * s.sky.z * coverage);
-        const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
-        const float nl = length(nsum);
-        const Vec3 n = nl > 0.0f ? nsum * (1.0f / nl) : Vec3(0, 0, 0);
-        film.at(kNX, fx, fy) = n.x;
-        film.at(kNY, fx, fy) = n.y;
-        film.at(kNZ, fx, fy) = n.z;
-        film.at(kZ, fx, fy) = float(p.Z * invHits);
-      }
-    }
+    for (int y = 0; y < th; ++y)
+      for (int x = 0; x < tw; ++x)
+        resolvePixelSums(ts.sums[size_t(y) * tw + x], s.spp, integrator, wantAlbedo, s.sky, film, x0 + x, y0 + y);
     progress.advance(pixels);
   };
 
