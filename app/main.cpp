@@ -62,6 +62,37 @@ struct RenderArgs : SceneArgs {
   std::vector<std::string> plugins;
 };
 
+// True when a and b name the same file (existing or not).
+bool samePath(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ea, eb;
+  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea);
+  return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
+}
+
+// Fail before a long render, not after it: outputs that cannot be written,
+// outputs that would overwrite the scene or each other, and a film larger
+// than the memory the system has available.
+void checkOutputs(const RenderArgs& a, const RenderSettings& s) {
+  checkWritable(a.output);
+  if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
+  if (!a.preview.empty()) {
+    checkWritable(a.preview);
+    if (samePath(a.preview, a.output)) throw Error("--preview " + a.preview + ": is the same file as -o");
+    if (samePath(a.preview, a.scene)) throw Error("--preview " + a.preview + ": is the scene file; refusing to overwrite it");
+  }
+  // The film's planes, plus the preview's bytes; the EXR is written from the
+  // planes a band at a time, so it needs no second copy.
+  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3);
+  const uint64_t avail = availableMemoryBytes();
+  if (avail > 0 && need > avail) {
+    char msg[160];
+    std::snprintf(msg, sizeof msg, "the film needs %.1f GiB, but only %.1f GiB of memory is available", double(need) / (1 << 30),
+                  double(avail) / (1 << 30));
+    throw Error("--res " + a.res + ": " + msg);
+  }
+}
+
 int runRender(const RenderArgs& a) {
   loadPlugins(a.plugins);
   const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(a.integrator);
@@ -88,15 +119,7 @@ int runRender(const RenderArgs& a) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
-  // Fail before a long render, not after it.
-  const std::filesystem::path outDir = std::filesystem::path(a.output).parent_path();
-  if (!outDir.empty() && !std::filesystem::is_directory(outDir))
-    throw Error(a.output + ": cannot write: directory '" + outDir.string() + "' does not exist");
-  if (!a.preview.empty()) {
-    const std::filesystem::path pd = std::filesystem::path(a.preview).parent_path();
-    if (!pd.empty() && !std::filesystem::is_directory(pd))
-      throw Error(a.preview + ": cannot write: directory '" + pd.string() + "' does not exist");
-  }
+  checkOutputs(a, s);
 
   auto integrator = desc.create(params);
   const IntegratorNeeds needs = desc.needs(params);
@@ -116,8 +139,11 @@ int runRender(const RenderArgs& a) {
                                         .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
                                         .bvhSeconds = scene->buildSeconds()});
   exr.half = a.half;
-  writeExr(a.output, film, exr);
-  if (!a.preview.empty()) writePreviewPng(a.preview, film);
+  // The pass and its preview land together or not at all.
+  OutputSet out;
+  out.addExr(a.output, film, exr);
+  if (!a.preview.empty()) out.addPreviewPng(a.preview, film);
+  out.commit();
 
   if (!a.quiet) {
     const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cinttypes>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,21 +16,18 @@ namespace obscura {
 namespace fs = std::filesystem;
 namespace {
 
-// Temporary sibling of `path` (same directory, so rename is atomic).
-std::string temporaryPath(const std::string& path) {
+// Temporary sibling of `path` (same directory, so rename is atomic); `tag`
+// tells a backup from a new file.
+std::string siblingPath(const std::string& path, const char* tag) {
   const fs::path p(path);
-  const std::string name = "." + p.filename().string() + ".tmp" + std::to_string(getpid());
+  const std::string name = "." + p.filename().string() + tag + std::to_string(getpid());
   return (p.parent_path() / name).string();
 }
 
-// Writes `pixels` (interleaved, of type `bufferType`) in the file format
-// `format`; OIIO converts to spec.format on the way.
-void writeAtomically(const std::string& path, const char* format, const OIIO::ImageSpec& spec,
-                     OIIO::TypeDesc bufferType, const void* pixels) {
-  const fs::path parent = fs::path(path).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent))
-    throw Error(path + ": cannot write: directory '" + parent.string() + "' does not exist");
-  const std::string tmp = temporaryPath(path);
+// Opens `tmp` for `format` or throws naming `path` (the destination).
+std::unique_ptr<OIIO::ImageOutput> openOutput(const std::string& path, const std::string& tmp, const char* format,
+                                              const OIIO::ImageSpec& spec) {
+  checkWritable(path);
   auto out = OIIO::ImageOutput::create(format);
   if (!out) throw Error(path + ": OpenImageIO has no '" + format + "' writer: " + OIIO::geterror());
   if (!out->open(tmp, spec)) {
@@ -37,25 +35,23 @@ void writeAtomically(const std::string& path, const char* format, const OIIO::Im
     std::remove(tmp.c_str());
     throw Error(path + ": cannot open for writing: " + e);
   }
-  const bool ok = out->write_image(bufferType, pixels);
-  std::string e = ok ? "" : out->geterror();
-  const bool closed = out->close();
-  if (ok && !closed) e = out->geterror();
+  return out;
+}
+
+// Closes `out`, or removes `tmp` and throws naming `path`.
+void closeOutput(OIIO::ImageOutput& out, bool ok, const std::string& path, const std::string& tmp) {
+  std::string e = ok ? "" : out.geterror();
+  const bool closed = out.close();
+  if (ok && !closed) e = out.geterror();
   if (!ok || !closed) {
     std::remove(tmp.c_str());
     throw Error(path + ": write failed: " + e);
   }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    throw Error(path + ": cannot rename the temporary file into place: " + ec.message());
-  }
 }
 
-}  // namespace
-
-void writeExr(const std::string& path, const Film& film, const ExrOptions& options) {
+// Writes the film's channels to `tmp` as an EXR, a band of scanlines at a
+// time (interleaved, OIIO's native layout).
+void writeExrFile(const std::string& path, const std::string& tmp, const Film& film, const ExrOptions& options) {
   const std::vector<int>& chans = film.channels();
   const int nc = int(chans.size());
   OIIO::ImageSpec spec(film.width(), film.height(), nc, options.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
@@ -76,13 +72,131 @@ void writeExr(const std::string& path, const Film& film, const ExrOptions& optio
       if (m.size() == 16) spec.attribute(a.name, OIIO::TypeMatrix44, m.data());
     }
   }
-  // Interleave the planes (OIIO's native layout); float, converted on write.
-  std::vector<float> pixels(size_t(film.width()) * film.height() * nc);
-  for (int y = 0; y < film.height(); ++y)
-    for (int x = 0; x < film.width(); ++x)
-      for (int i = 0; i < nc; ++i)
-        pixels[(size_t(y) * film.width() + x) * nc + i] = film.at(chans[size_t(i)], x, y);
-  writeAtomically(path, "openexr", spec, OIIO::TypeDesc::FLOAT, pixels.data());
+  auto out = openOutput(path, tmp, "openexr", spec);
+  // 64 rows: a multiple of ZIP's 16-line blocks, and a few MiB at most.
+  const int band = 64;
+  const size_t w = size_t(film.width());
+  std::vector<float> rows(w * size_t(std::min(band, film.height())) * size_t(nc));
+  bool ok = true;
+  for (int y0 = 0; ok && y0 < film.height(); y0 += band) {
+    const int y1 = std::min(film.height(), y0 + band);
+    for (int y = y0; y < y1; ++y)
+      for (int i = 0; i < nc; ++i) {
+        const float* src = film.plane(chans[size_t(i)]) + size_t(y) * w;
+        float* dst = rows.data() + size_t(y - y0) * w * size_t(nc) + size_t(i);
+        for (size_t x = 0; x < w; ++x) dst[x * size_t(nc)] = src[x];
+      }
+    ok = out->write_scanlines(y0, y1, 0, OIIO::TypeDesc::FLOAT, rows.data());
+  }
+  closeOutput(*out, ok, path, tmp);
+}
+
+void writePngFile(const std::string& path, const std::string& tmp, int width, int height, const unsigned char* rgb) {
+  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+  spec.attribute("oiio:ColorSpace", "sRGB");
+  auto out = openOutput(path, tmp, "png", spec);
+  const bool ok = out->write_image(OIIO::TypeDesc::UINT8, rgb);
+  closeOutput(*out, ok, path, tmp);
+}
+
+std::vector<unsigned char> previewPixels(const Film& film) {
+  const int w = film.width(), h = film.height();
+  std::vector<unsigned char> px(size_t(w) * h * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) px[(size_t(y) * w + x) * 3 + c] = linearToSrgb8(film.at(kR + c, x, y));
+  return px;
+}
+
+}  // namespace
+
+void checkWritable(const std::string& path) {
+  const fs::path p(path);
+  const fs::path parent = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec))
+    throw Error(path + ": cannot write: directory '" + parent.string() + "' does not exist");
+  if (fs::is_directory(p, ec)) throw Error(path + ": cannot write: it is a directory");
+  if (::access(parent.c_str(), W_OK | X_OK) != 0)
+    throw Error(path + ": cannot write: directory '" + parent.string() + "' is not writable");
+}
+
+uint64_t filmBytes(int width, int height, bool aovs) {
+  return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * uint64_t(aovs ? kChannelCount : 4) *
+         sizeof(float);
+}
+
+uint64_t availableMemoryBytes() {
+  std::FILE* f = std::fopen("/proc/meminfo", "r");
+  if (!f) return 0;
+  char line[256];
+  uint64_t kib = 0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "MemAvailable: %" SCNu64 " kB", &kib) == 1) break;
+  std::fclose(f);
+  return kib * 1024;
+}
+
+OutputSet::~OutputSet() {
+  for (const Staged& s : staged_) std::remove(s.tmp.c_str());
+}
+
+void OutputSet::addExr(const std::string& path, const Film& film, const ExrOptions& options) {
+  Staged s{path, siblingPath(path, ".tmp")};
+  writeExrFile(path, s.tmp, film, options);
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
+  Staged s{path, siblingPath(path, ".tmp")};
+  writePngFile(path, s.tmp, width, height, rgb);
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addPreviewPng(const std::string& path, const Film& film) {
+  const std::vector<unsigned char> px = previewPixels(film);
+  addPngRgb8(path, film.width(), film.height(), px.data());
+}
+
+void OutputSet::commit() {
+  // Keep each destination's current file under a second name (a hard link:
+  // no copy) so a later failed move can put it back.
+  std::vector<std::string> backups(staged_.size());
+  for (size_t i = 0; i < staged_.size(); ++i) {
+    std::error_code ec;
+    if (!fs::exists(staged_[i].dest, ec)) continue;
+    backups[i] = siblingPath(staged_[i].dest, ".bak");
+    fs::remove(backups[i], ec);
+    fs::create_hard_link(staged_[i].dest, backups[i], ec);
+    if (ec) backups[i].clear();  // no hard links here: the move itself is still atomic per file
+  }
+  auto dropBackups = [&] {
+    for (const std::string& b : backups)
+      if (!b.empty()) std::remove(b.c_str());
+  };
+  for (size_t i = 0; i < staged_.size(); ++i) {
+    std::error_code ec;
+    fs::rename(staged_[i].tmp, staged_[i].dest, ec);
+    if (!ec) continue;
+    // Undo the moves already made: restore the old file or remove the new one.
+    for (size_t j = 0; j < i; ++j) {
+      std::error_code ignored;
+      if (!backups[j].empty())
+        fs::rename(backups[j], staged_[j].dest, ignored);
+      else
+        fs::remove(staged_[j].dest, ignored);
+    }
+    dropBackups();
+    throw Error(staged_[i].dest + ": cannot rename the temporary file into place: " + ec.message());
+  }
+  dropBackups();
+  staged_.clear();
+}
+
+void writeExr(const std::string& path, const Film& film, const ExrOptions& options) {
+  OutputSet out;
+  out.addExr(path, film, options);
+  out.commit();
 }
 
 unsigned char linearToSrgb8(float v) {
@@ -91,21 +205,15 @@ unsigned char linearToSrgb8(float v) {
 }
 
 void writePreviewPng(const std::string& path, const Film& film) {
-  const int w = film.width(), h = film.height();
-  std::vector<unsigned char> px(size_t(w) * h * 3);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) {
-        const float v = film.at(kR + c, x, y);
-        px[(size_t(y) * w + x) * 3 + c] = linearToSrgb8(v);
-      }
-  writePngRgb8(path, w, h, px.data());
+  OutputSet out;
+  out.addPreviewPng(path, film);
+  out.commit();
 }
 
 void writePngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
-  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-  spec.attribute("oiio:ColorSpace", "sRGB");
-  writeAtomically(path, "png", spec, OIIO::TypeDesc::UINT8, rgb);
+  OutputSet out;
+  out.addPngRgb8(path, width, height, rgb);
+  out.commit();
 }
 
 std::string readExrAttribute(const std::string& path, const std::string& name) {

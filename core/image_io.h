@@ -2,8 +2,12 @@
 // sRGB PNG preview. Both are written atomically: to a temporary file in the
 // destination's directory, then renamed over the destination, so a failed or
 // interrupted write never leaves a truncated file where a good one was.
+// Several files that belong together (a pass and its preview) go through one
+// OutputSet: all are written first, then all are moved into place, so either
+// every destination is new or none changed.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <variant>
 #include <vector>
@@ -23,7 +27,44 @@ struct ExrOptions {
 };
 
 // Throws obscura::Error naming the path on failure (nothing is left behind).
+// The EXR is written in bands of scanlines straight from the film's planes,
+// so writing needs no second copy of the film.
 void writeExr(const std::string& path, const Film& film, const ExrOptions& options);
+
+// Files written together: each add*() writes a temporary sibling of its
+// destination (throwing obscura::Error naming the destination on failure);
+// commit() moves them all into place. If a move fails, the destinations
+// already replaced get their previous contents back (kept as hard-linked
+// backups until the end), so a failure leaves every destination as it was.
+// Without commit(), the destructor removes the temporaries.
+class OutputSet {
+ public:
+  OutputSet() = default;
+  OutputSet(const OutputSet&) = delete;
+  OutputSet& operator=(const OutputSet&) = delete;
+  ~OutputSet();
+  void addExr(const std::string& path, const Film& film, const ExrOptions& options);
+  void addPreviewPng(const std::string& path, const Film& film);
+  // An 8-bit sRGB PNG from interleaved RGB bytes, row-major, top row first.
+  void addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb);
+  void commit();
+
+ private:
+  struct Staged {
+    std::string dest, tmp;
+  };
+  std::vector<Staged> staged_;
+};
+
+// Refuses, before any work, an output that cannot be written: its directory
+// is missing or not writable, or the path is a directory (the message names
+// the path).
+void checkWritable(const std::string& path);
+// Bytes a film of w x h pixels takes (with or without AOVs).
+uint64_t filmBytes(int width, int height, bool aovs);
+// Physical memory the system reports as available (MemAvailable), or 0 if
+// unknown.
+uint64_t availableMemoryBytes();
 // A header attribute of an image file as text ("" if absent); throws
 // obscura::Error naming the path if the file cannot be opened.
 std::string readExrAttribute(const std::string& path, const std::string& name);

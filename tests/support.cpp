@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -24,6 +25,24 @@ std::string tempDir(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();
+}
+
+std::string sharedScenesDir() {
+  const char* env = std::getenv("OBSCURA_SCENES");
+  return env && *env ? std::string(env) : std::string(OBSCURA_DEFAULT_SCENES);
+}
+
+std::string sharedScene(const std::string& rel) { return sharedScenesDir() + "/" + rel; }
+
+bool sharedScenesRequired() {
+  const char* env = std::getenv("OBSCURA_REQUIRE_SCENES");
+  return env && *env && std::string(env) != "0";
+}
+
+std::string missingSharedScene(const std::string& path) {
+  if (std::filesystem::exists(path)) return "";
+  return "skipped: needs the third-party scene " + path +
+         " (not in the repository; set OBSCURA_SCENES to the folder holding the shared scenes)";
 }
 
 int addGreyMaterial(Scene& scene, float a) {

@@ -27,6 +27,30 @@ namespace obscura::test {
 // A fresh, empty directory under the build tree's temp area for one test.
 std::string tempDir(const std::string& name);
 
+// --- the third-party scenes (not in the repository) -------------------------
+// They live in one folder: $OBSCURA_SCENES if set, else ../shared/scenes beside
+// the checkout (OBSCURA_DEFAULT_SCENES, set by tests/CMakeLists.txt). A test
+// that needs them calls OBSCURA_NEED_SHARED_SCENE(path): when the file is
+// absent the test is skipped with one line naming it and why, unless
+// OBSCURA_REQUIRE_SCENES=1 (set by .ci/run), which turns the skip into a
+// failure so CI always runs them.
+std::string sharedScenesDir();
+// sharedScenesDir() + "/" + rel.
+std::string sharedScene(const std::string& rel);
+// True when OBSCURA_REQUIRE_SCENES is set to a non-empty value other than 0.
+bool sharedScenesRequired();
+// "" if `path` exists, else the one-line reason the test cannot run.
+std::string missingSharedScene(const std::string& path);
+
+#define OBSCURA_NEED_SHARED_SCENE(path)                                              \
+  do {                                                                               \
+    const std::string obscuraMissing_ = ::obscura::test::missingSharedScene(path);   \
+    if (!obscuraMissing_.empty()) {                                                  \
+      if (::obscura::test::sharedScenesRequired()) FAIL() << obscuraMissing_;       \
+      GTEST_SKIP() << obscuraMissing_;                                               \
+    }                                                                                \
+  } while (0)
+
 // Triangle list of a sphere of radius rs about the origin, normals facing the
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
 // removed (MATH.md section 7). `rings` latitude bands from the hole edge to

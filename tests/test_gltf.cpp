@@ -722,11 +722,16 @@ TEST(GltfMaterials, RepeatAndMirroredRepeatSampleTheRightTexel) {
 
 // --- the bundled third-party scenes -----------------------------------------
 
-std::string shared(const std::string& rel) { return std::string(OBSCURA_SHARED_SCENES) + "/" + rel; }
+// Skips (or, under OBSCURA_REQUIRE_SCENES, fails) the calling test when a
+// scene is absent; otherwise its path.
+#define SHARED(var, rel)                     \
+  const std::string var = sharedScene(rel); \
+  OBSCURA_NEED_SHARED_SCENE(var)
 
 TEST(GltfSharedScenes, VikingRoomGlbLoads) {
+  SHARED(path, "viking_room/viking_room.glb");
   WarningCapture warnings;
-  auto scene = loadGltf(shared("viking_room/viking_room.glb"));
+  auto scene = loadGltf(path);
   const SceneStats st = scene->stats();
   EXPECT_EQ(st.uniqueTriangles, 3828u);
   EXPECT_TRUE(scene->cameras.empty());
@@ -737,20 +742,23 @@ TEST(GltfSharedScenes, VikingRoomGlbLoads) {
 }
 
 TEST(GltfSharedScenes, CornellBoxesLoad) {
+  SHARED(classicPath, "cornell_box_classic/cornell-box.gltf");
+  SHARED(suzannePath, "cornell_box_suzanne/cornell-box.glb");
   WarningCapture warnings;
-  auto classic = loadGltf(shared("cornell_box_classic/cornell-box.gltf"));
+  auto classic = loadGltf(classicPath);
   EXPECT_EQ(classic->cameras.size(), 1u);
   EXPECT_EQ(classic->stats().uniqueTriangles, 32u);
   expectNear3(toD(classic->bounds().lo), {0, 0, 0}, 0.01, "classic bounds.lo");
   expectNear3(toD(classic->bounds().hi), {5.56, 5.488, 5.592}, 0.01, "classic bounds.hi");
-  auto suzanne = loadGltf(shared("cornell_box_suzanne/cornell-box.glb"));
+  auto suzanne = loadGltf(suzannePath);
   EXPECT_EQ(suzanne->stats().uniqueTriangles, 1040u);
   EXPECT_TRUE(suzanne->cameras.empty());
 }
 
 TEST(GltfSharedScenes, DamagedHelmetLoadsWithItsTextures) {
+  SHARED(path, "damaged_helmet/DamagedHelmet.gltf");
   WarningCapture warnings;
-  auto scene = loadGltf(shared("damaged_helmet/DamagedHelmet.gltf"));
+  auto scene = loadGltf(path);
   EXPECT_EQ(scene->stats().uniqueTriangles, 15452u);
   ASSERT_EQ(scene->materials.size(), 1u);
   // Only the base colour texture matters for albedo.
@@ -767,8 +775,9 @@ TEST(GltfSharedScenes, DamagedHelmetLoadsWithItsTextures) {
 }
 
 TEST(GltfSharedScenes, SuzanneLoadsWithItsTexture) {
+  SHARED(path, "suzanne/Suzanne.gltf");
   WarningCapture warnings;
-  auto scene = loadGltf(shared("suzanne/Suzanne.gltf"));
+  auto scene = loadGltf(path);
   EXPECT_EQ(scene->stats().uniqueTriangles, 3936u);
   ASSERT_EQ(scene->textures.size(), 1u);
   ASSERT_NO_THROW(scene->textures[0]->decode());

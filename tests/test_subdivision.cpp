@@ -145,8 +145,8 @@ TEST(Subdivision, BadCagesAreRefusedWithTheFace) {
 // a malformed OBJ gives one error line.
 TEST(Subdivision, SpotCageRendersAndBadObjIsRefused) {
   const std::string dir = tempDir("subdiv_cli");
-  const std::string spot = std::string(OBSCURA_SHARED_SCENES) + "/spot_cage/spot_control_mesh.obj";
-  ASSERT_TRUE(std::filesystem::exists(spot)) << spot << " (the shared scenes sit beside the checkout)";
+  const std::string spot = sharedScene("spot_cage/spot_control_mesh.obj");
+  OBSCURA_NEED_SHARED_SCENE(spot);
   const CliResult r = runCli({"render", spot, "--subdiv", "catmull-clark", "--subdiv-level", "2", "-o", dir + "/spot.exr",
                               "--res", "64x48", "--spp", "2", "-q", "-i", "transfer"},
                              dir + "/err.txt");

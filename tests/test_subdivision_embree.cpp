@@ -286,12 +286,10 @@ TEST(EmbreeSubdivision, RefusesWhatItCannotDo) {
 // silhouette's outline (the same limit surface and displacement, tessellated
 // alike: 2^3 segments per cage edge).
 TEST(EmbreeSubdivision, SpotRendersDisplacedWithEitherBackend) {
-  const std::string spot = std::string(OBSCURA_SHARED_SCENES) + "/spot_cage/spot_control_mesh.obj";
-  const std::string lava = std::string(OBSCURA_SHARED_SCENES) + "/lava_heightmap/lava_01_height_1k.png";
-  // The shared scenes sit beside the checkout (README); like the glTF ones,
-  // their absence is a failure, not a skip: this test is what shows Spot renders.
-  ASSERT_TRUE(std::filesystem::exists(spot)) << spot;
-  ASSERT_TRUE(std::filesystem::exists(lava)) << lava;
+  const std::string spot = sharedScene("spot_cage/spot_control_mesh.obj");
+  const std::string lava = sharedScene("lava_heightmap/lava_01_height_1k.png");
+  OBSCURA_NEED_SHARED_SCENE(spot);
+  OBSCURA_NEED_SHARED_SCENE(lava);
   const std::string dir = tempDir("spot_backends");
   std::map<std::string, std::vector<float>> alpha;
   for (const std::string backend : {"osd", "embree"}) {

@@ -1,0 +1,126 @@
+// The render's outputs as a unit: a pass and its preview land together or not
+// at all, outputs are checked before the render (writable, not the scene, not
+// each other), a film larger than the available memory is refused up front,
+// and the EXR is written in bands (large images round-trip).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/image_io.h"
+#include "tests/support.h"
+
+namespace obscura::test {
+namespace {
+
+std::string fileBytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+Film rampFilm(int w, int h, bool aovs) {
+  Film f(w, h, aovs);
+  for (int c : f.channels())
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) f.at(c, x, y) = float(c) * 0.01f + float(x) / float(w) + float(y) * 1e-4f;
+  return f;
+}
+
+// When the second of two staged files cannot be moved into place, the first
+// destination gets its previous bytes back and no temporary is left behind.
+TEST(Outputs, FailedSecondMoveRestoresTheFirstFile) {
+  const std::string dir = tempDir("outputs_rollback");
+  const std::string exr = dir + "/pass.exr", png = dir + "/pass.png";
+  writeExr(exr, rampFilm(8, 4, true), {});
+  const std::string good = fileBytes(exr);
+  {
+    OutputSet out;
+    out.addExr(exr, rampFilm(3, 2, false), {});
+    out.addPreviewPng(png, rampFilm(3, 2, false));
+    // The preview's destination turns into a non-empty directory after it
+    // was staged: renaming a file over it fails.
+    std::filesystem::create_directories(png + "/occupied");
+    EXPECT_THROW(out.commit(), Error);
+  }
+  EXPECT_EQ(fileBytes(exr), good);
+  size_t entries = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    ++entries;
+    EXPECT_TRUE(e.path() == exr || e.path() == png) << "left behind: " << e.path();
+  }
+  EXPECT_EQ(entries, 2u);
+}
+
+// Without commit() nothing reaches the destinations.
+TEST(Outputs, UncommittedSetLeavesNothing) {
+  const std::string dir = tempDir("outputs_uncommitted");
+  {
+    OutputSet out;
+    out.addExr(dir + "/a.exr", rampFilm(4, 4, true), {});
+    out.addPreviewPng(dir + "/a.png", rampFilm(4, 4, true));
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(dir));
+}
+
+// Bands of 64 scanlines: a film of several bands and a ragged last band
+// round-trips every value of every channel.
+TEST(Outputs, BandedExrRoundTripsEveryPixel) {
+  const std::string dir = tempDir("outputs_bands");
+  const Film film = rampFilm(37, 64 * 3 + 5, true);
+  writeExr(dir + "/b.exr", film, {});
+  const ReadBack r = readExr(dir + "/b.exr");
+  ASSERT_TRUE(r.ok);
+  for (int c : film.channels()) {
+    const std::vector<float>& p = r.planes.at(channelName(c));
+    for (int y = 0; y < film.height(); ++y)
+      for (int x = 0; x < film.width(); ++x)
+        ASSERT_EQ(p[size_t(y) * film.width() + x], film.at(c, x, y)) << channelName(c) << " " << x << "," << y;
+  }
+}
+
+// The CLI refuses, before loading or rendering, outputs that would clobber
+// the scene or each other or cannot be written, and a film that does not fit
+// in memory; a good existing pass is left as it was.
+TEST(Outputs, CliRefusesBadOutputsBeforeRendering) {
+  const std::string dir = tempDir("outputs_cli");
+  const std::string scene = OBSCURA_SOURCE_DIR "/scenes/default.gltf";
+  const std::string exr = dir + "/good.exr";
+  ASSERT_EQ(runCli({"render", scene, "-o", exr, "--res", "16x9", "--spp", "1", "-q"}, dir + "/e0.txt").exitCode, 0);
+  const std::string good = fileBytes(exr);
+  std::filesystem::create_directories(dir + "/a_directory");
+  const std::string sceneCopy = dir + "/scene.gltf";
+  std::filesystem::copy_file(scene, sceneCopy);
+  const std::string sceneBytes = fileBytes(sceneCopy);
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {{"--preview", exr}, "same file as -o"},
+      {{"--preview", dir + "/a_directory"}, "it is a directory"},
+      {{"--preview", dir + "/missing/p.png"}, "does not exist"},
+      {{"--res", "60000x60000"}, "--res 60000x60000: the film needs"},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"render", scene, "-o", exr, "-q"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const CliResult r = runCli(args, dir + "/err" + std::to_string(k++) + ".txt");
+    EXPECT_EQ(r.exitCode, 1) << c.says << ": " << r.stderrText;
+    EXPECT_NE(r.stderrText.find(c.says), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+    EXPECT_EQ(fileBytes(exr), good) << c.says;
+  }
+  // -o naming the scene itself (via another spelling of its path).
+  const CliResult r = runCli({"render", sceneCopy, "-o", dir + "/./scene.gltf", "-q"}, dir + "/errs.txt");
+  EXPECT_EQ(r.exitCode, 1) << r.stderrText;
+  EXPECT_NE(r.stderrText.find("is the scene file"), std::string::npos) << r.stderrText;
+  EXPECT_EQ(fileBytes(sceneCopy), sceneBytes);
+}
+
+}  // namespace
+}  // namespace obscura::test
