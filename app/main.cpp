@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/gbuffer.h"
 #include "core/gltf_loader.h"
 #include "core/image_io.h"
 #include "core/integrator.h"
@@ -73,7 +74,7 @@ bool samePath(const std::string& a, const std::string& b) {
 // Fail before a long render, not after it: outputs that cannot be written,
 // outputs that would overwrite the scene or each other, and a film larger
 // than the memory the system has available.
-void checkOutputs(const RenderArgs& a, const RenderSettings& s) {
+void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace) {
   checkWritable(a.output);
   if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
   if (!a.preview.empty()) {
@@ -83,7 +84,10 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s) {
   }
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
-  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3);
+  // A screen-space integrator also keeps whole-image state (a G-buffer
+  // layer, the pixel sums, the estimates: core/gbuffer.h).
+  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3) +
+                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0);
   const uint64_t avail = availableMemoryBytes();
   if (avail > 0 && need > avail) {
     char msg[160];
@@ -119,7 +123,7 @@ int runRender(const RenderArgs& a) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
-  checkOutputs(a, s);
+  checkOutputs(a, s, desc.kind == IntegratorKind::ScreenSpace);
 
   auto integrator = desc.create(params);
   const IntegratorNeeds needs = desc.needs(params);

@@ -35,6 +35,14 @@ void parallelRows(int height, F&& f) {
 
 }  // namespace
 
+uint64_t screenSpaceWorkingBytes(int w, int h) {
+  const uint64_t n = uint64_t(w) * uint64_t(h);
+  const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) + 2 * sizeof(uint32_t) +
+                              2 * sizeof(float));
+  const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
+  return layer + moments + n * (sizeof(PixelSums) + 2 * sizeof(SampleEstimate));
+}
+
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
                         uint32_t sampleIndex, bool albedo, GBufferLayer& g, uint64_t& cameraRays) {
   const size_t n = size_t(s.width) * size_t(s.height);
@@ -46,6 +54,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   g.position.resize(n);
   g.normal.resize(n);
   g.plane.resize(n);
+  g.depthSlack.resize(n);
   g.object.resize(n);
   g.pixelKey.resize(n);
   g.filmX.resize(n);
@@ -85,6 +94,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
           g.position[i] = Vec3(0, 0, 0);
           g.normal[i] = Vec3(0, 0, 0);
           g.plane[i] = {0, 0, 0, 0};
+          g.depthSlack[i] = {kInfinity, 0.0f};
           g.object[i] = ~0U;
           if (albedo) g.albedo[i] = Vec3(0, 0, 0);
           continue;
@@ -100,6 +110,20 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
         g.normal[i] = g.view.vectorToView(h.ns);
         const Vec3 ng = g.view.vectorToView(h.ng);
         g.plane[i] = {ng.x, ng.y, ng.z, dot(ng, v)};
+        // The plane's depth at the pixel's four corners: its range over the
+        // pixel (depth along a ray is monotone between corners of a plane
+        // not crossing the eye, so the corners bound it).
+        float slack = 0.0f;
+        const int px = int(i % size_t(s.width)), py = int(i / size_t(s.width));
+        for (int c = 0; c < 4; ++c) {
+          const float cx = float(px + (c & 1)), cy = float(py + (c >> 1));
+          const float a = (cx - 0.5f * g.view.width) / g.view.filmScaleX;
+          const float b = (0.5f * g.view.height - cy) / g.view.filmScaleY;
+          const float den = ng.x * a + ng.y * b - ng.z;
+          const float z = den != 0.0f ? dot(ng, v) / den : -1.0f;
+          slack = z > 0.0f ? std::max(slack, std::abs(z - g.depth[i])) : kInfinity;
+        }
+        g.depthSlack[i] = {g.depth[i], slack};
         g.object[i] = h.geomID ^ (h.instID << 20);
         if (albedo) g.albedo[i] = h.albedo;
       }

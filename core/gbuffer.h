@@ -51,6 +51,7 @@ struct ViewTransform {
   Vec3 row0, row1, row2;   // rows of the world-to-view rotation
   float tanHalfX, tanHalfY;
   float width, height;
+  float filmScaleX, filmScaleY;  // film pixels per unit of x/-z and y/-z
   ViewTransform() = default;
   ViewTransform(const Camera& c, int w, int h) : toWorld(c.toWorld), origin(c.position()) {
     const Vec3 ax = c.toWorld.vector(Vec3(1, 0, 0)), ay = c.toWorld.vector(Vec3(0, 1, 0)),
@@ -59,6 +60,8 @@ struct ViewTransform {
     tanHalfY = std::tan(0.5f * c.yfov);
     tanHalfX = tanHalfY * float(w) / float(h);
     width = float(w), height = float(h);
+    filmScaleX = 0.5f * width / tanHalfX;
+    filmScaleY = 0.5f * height / tanHalfY;
   }
   Vec3 pointToView(Vec3 p) const {
     const Vec3 d = p - origin;
@@ -70,8 +73,8 @@ struct ViewTransform {
   // Film position of a view-space point in front of the camera (z < 0).
   void project(Vec3 v, float& fx, float& fy) const {
     const float inv = 1.0f / -v.z;
-    fx = (v.x * inv / tanHalfX + 1.0f) * 0.5f * width;
-    fy = (1.0f - v.y * inv / tanHalfY) * 0.5f * height;
+    fx = 0.5f * width + v.x * inv * filmScaleX;
+    fy = 0.5f * height - v.y * inv * filmScaleY;
   }
 };
 
@@ -104,6 +107,12 @@ struct GBufferLayer {
   // jittered, sample: exact for planar surfaces, first order for curved
   // ones; the stored depth stays the fallback for rays along the plane.
   std::vector<std::array<float, 4>> plane;
+  // (depth, slack) per pixel, packed for the z-buffer read: slack bounds how
+  // far the plane's depth strays from `depth` over the pixel, so a point
+  // farther than that from `depth` is decided without reading `plane`
+  // (half the memory traffic of the screen-space loops). +inf slack where
+  // the plane is seen edge-on within the pixel.
+  std::vector<std::array<float, 2>> depthSlack;
   std::vector<Vec3> albedo;        // diffuse albedo (only with IntegratorNeeds::albedo; else empty)
   std::vector<uint32_t> object;    // geomID ^ (instID << 20): which object (background: ~0u)
   std::vector<uint32_t> pixelKey;  // the pixel's Sampler key (as SurfaceHit::pixelKey)
@@ -143,6 +152,11 @@ class ScreenSpaceIntegrator : public Integrator {
 
 // Builds g.moments from g.depth (parallel over rows; the caller's TBB arena).
 void buildDepthMoments(GBufferLayer& g);
+
+// An upper bound of the bytes renderScreenSpace keeps for a w x h image
+// besides the film: one layer with every optional array (albedo, moments),
+// the per-pixel sums, the estimates and their filtered copy.
+uint64_t screenSpaceWorkingBytes(int w, int h);
 
 // Renders layer s of an image into g (parallel over rows; the caller's TBB
 // arena). Counts camera rays into `cameraRays`.

@@ -16,7 +16,8 @@
 
 namespace obscura::screen_space {
 
-enum class DepthSource { GBuffer, Traced };
+// None: the integrator reads depth otherwise (vo's area samples: moments).
+enum class DepthSource { GBuffer, Traced, None };
 
 // A point q is behind the surface seen through it when depth(q) exceeds z*
 // by more than this fraction of z*: a point on the plane a z-buffer read
@@ -89,15 +90,25 @@ inline bool pixelOf(const GBufferLayer& g, Vec3 q, int& x, int& y) {
 // ray (GBufferLayer::plane), or its stored depth when the ray runs along the
 // plane; +inf when q is behind the camera, off the image, or over the
 // background (no occluder known there).
-inline float zBufferDepth(const GBufferLayer& g, Vec3 q) {
+// Without `exact` (enough to classify q as in front or behind, and for the
+// thresholds of the silhouette rule and the thickness model, which move by
+// at most the pixel's depth range) a q far from the pixel's surface gets the
+// stored depth; line samples, which place the surface on their chord, ask
+// for the plane always.
+inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
   if (!(q.z < 0.0f)) return kInfinity;
   // The ray through q is depth x (a, b, -1).
   const float inv = 1.0f / -q.z;
   const float a = q.x * inv, b = q.y * inv;
-  const float fx = (a / g.view.tanHalfX + 1.0f) * 0.5f * g.view.width;
-  const float fy = (1.0f - b / g.view.tanHalfY) * 0.5f * g.view.height;
+  const float fx = 0.5f * g.view.width + a * g.view.filmScaleX;
+  const float fy = 0.5f * g.view.height - b * g.view.filmScaleY;
   if (!(fx >= 0.0f && fy >= 0.0f && fx < float(g.width) && fy < float(g.height))) return kInfinity;
   const size_t j = g.index(int(fx), int(fy));
+  // Far from the pixel's surface (beyond its depth range over the pixel,
+  // with the bias's margin) the answer does not depend on where exactly:
+  // the stored depth serves, and `plane` is not read.
+  const std::array<float, 2> ds = g.depthSlack[j];
+  if (!exact && std::abs(-q.z - ds[0]) > ds[1] + 4.0f * kDepthBias * ds[0]) return ds[0];
   const std::array<float, 4>& p = g.plane[j];
   const float den = p[0] * a + p[1] * b - p[2];
   // A plane seen nearly edge-on (|cos| below 1e-3 of the ray's length) or a
@@ -107,34 +118,39 @@ inline float zBufferDepth(const GBufferLayer& g, Vec3 q) {
   return z > 0.0f ? z : g.depth[j];
 }
 
-// Lookups of z* for a list of view-space points: from the z-buffer, or by
-// tracing the camera ray through each point (closest hit; z* = the hit's
-// depth, +inf on a miss). Keeps its memory between calls.
+// Pixels per run of forEachPixelRun.
+constexpr int kPixelRun = 64;
+
+// Lookups of z* for a list of view-space points: from the z-buffer (at
+// push, no second pass), or by tracing the camera ray through each point
+// (closest hit; z* = the hit's depth, +inf on a miss) in one stream at
+// run(). Fixed capacity, allocated once per use: nothing allocates per point.
 class DepthLookup {
  public:
-  explicit DepthLookup(DepthSource src) : src_(src) {}
-  void clear() { q_.clear(); }
-  void push(Vec3 q) { q_.push_back(q); }
-  size_t size() const { return q_.size(); }
-  // Fills z(i) for every pushed point.
+  // `exact`: see zBufferDepth.
+  DepthLookup(DepthSource src, size_t capacity, bool exact) : src_(src), exact_(exact), q_(capacity), z_(capacity) {}
+  void clear() { n_ = 0; }
+  void push(const GBufferLayer& g, Vec3 q) {
+    q_[n_] = q;
+    if (src_ == DepthSource::GBuffer) z_[n_] = zBufferDepth(g, q, exact_);
+    ++n_;
+  }
+  size_t size() const { return n_; }
+  // Traced: fills z(i) for every pushed point (the z-buffer's are filled).
   void run(const GBufferLayer& g, IntegratorContext& ctx) {
-    z_.resize(q_.size());
-    if (src_ == DepthSource::GBuffer) {
-      for (size_t i = 0; i < q_.size(); ++i) z_[i] = zBufferDepth(g, q_[i]);
-      return;
-    }
-    IntersectBatch& b = ctx.intersectBatch(q_.size());
+    if (src_ != DepthSource::Traced) return;
+    IntersectBatch& b = ctx.intersectBatch(n_);
     const Vec3 org = g.view.origin;
-    for (const Vec3& q : q_) {
-      const Vec3 d = g.view.vectorToWorld(q);
+    for (size_t i = 0; i < n_; ++i) {
+      const Vec3 d = g.view.vectorToWorld(q_[i]);
       const float len = length(d);
-      if (q.z < 0.0f && len > 0.0f)
+      if (q_[i].z < 0.0f && len > 0.0f)
         b.push(org, d * (1.0f / len), 0.0f, kInfinity);
       else  // behind the camera: nothing known (inactive ray)
         b.push(org, Vec3(0, 0, -1), kInfinity, 0.0f);
     }
     ctx.trace(b);
-    for (size_t i = 0; i < q_.size(); ++i) {
+    for (size_t i = 0; i < n_; ++i) {
       const float len = length(q_[i]);
       z_[i] = b.hit(i) && len > 0.0f ? b.t(i) * (-q_[i].z / len) : kInfinity;
     }
@@ -144,8 +160,10 @@ class DepthLookup {
 
  private:
   DepthSource src_;
+  bool exact_;
   std::vector<Vec3> q_;
   std::vector<float> z_;
+  size_t n_ = 0;
 };
 
 // Rows [y0, y1) of layer g in runs of pixels, so that the lookups of a whole
@@ -156,7 +174,7 @@ class DepthLookup {
 template <class Push, class Evaluate>
 void forEachPixelRun(const GBufferLayer& g, int y0, int y1, size_t perPixel, IntegratorContext& ctx,
                      DepthLookup& look, SampleEstimate* out, Push&& push, Evaluate&& evaluate) {
-  constexpr int kRun = 64;
+  constexpr int kRun = kPixelRun;
   for (int y = y0; y < y1; ++y) {
     for (int xr = 0; xr < g.width; xr += kRun) {
       const int xe = std::min(g.width, xr + kRun);

@@ -92,14 +92,14 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
     const size_t perPixel = size_t(c_.count) * size_t(c_.steps);
     float ox[kMaxCount], oy[kMaxCount], oz[kMaxCount];
     layerOffsets(g.imageKey, g.sampleIndex, ox, oy, oz);
-    DepthLookup look(c_.depth);
+    DepthLookup look(c_.depth, size_t(kPixelRun) * perPixel, false);
     const auto push = [&](size_t i, int x, int y) {
       const Vec3 P = g.position[i];
       // The set rotated about the normal per pixel (AT §4.2, §5).
       const Frame f = rotateAboutNormal(Frame::fromNormal(g.normal[i]), rotationSample(g, i, x, y, c_.interleave).x);
       for (int k = 0; k < c_.count; ++k) {
         const Vec3 off = f.s * ox[k] + f.t * oy[k] + f.n * oz[k];
-        for (int j = 1; j <= c_.steps; ++j) look.push(P + off * (float(j) / float(c_.steps)));
+        for (int j = 1; j <= c_.steps; ++j) look.push(g, P + off * (float(j) / float(c_.steps)));
       }
     };
     const auto evaluate = [&](size_t, int, int, size_t at, SampleEstimate& o) {

@@ -102,7 +102,8 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
         radial[k] = rad_[k] > 0.0f ? std::cbrt(u) / rad_[k] : 0.0f;
       }
     }
-    DepthLookup look(c_.depth);
+    DepthLookup look(c_.samples == VoSamples::Area ? DepthSource::None : c_.depth, size_t(kPixelRun) * perPixel,
+                     c_.samples == VoSamples::Line);
     forEachPixelRun(
         g, y0, y1, perPixel, ctx, look, out,
         [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, look); },
@@ -141,9 +142,9 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           Vec3 p = (f.s * px_[k] + f.t * py_[k] + f.n * pz_[k]) * radial[k];
           const float pn = dot(p, n);
           if (c_.normalClamp && pn < 0.0f) p = p - n * (2.0f * pn);  // reflected into the half-ball (VO §4.4)
-          look.push(P + p * R);
+          look.push(g, P + p * R);
         } else {
-          look.push(P + (f.s * px_[k] + f.t * py_[k]) * R);
+          look.push(g, P + (f.s * px_[k] + f.t * py_[k]) * R);
         }
       }
     }
