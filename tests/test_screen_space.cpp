@@ -204,6 +204,24 @@ TEST(ScreenSpacePlane, WithoutTheNormalIsHalf) {
     }
 }
 
+// Interleaving (16 rotations in a 4x4 pattern, shifted per layer) and the
+// depth-aware 4x4 box filter keep that mean: each rotation is uniformly
+// distributed and the filter is an average of neighbours on the same plane.
+// The 16 rotations are shared by all pixels, so the standard error comes
+// from 16 independent renders; bounds as above.
+TEST(ScreenSpacePlane, InterleavingAndFilterKeepTheMean) {
+  const FloorView v;
+  const double R = 0.05, h = 4.0;
+  for (const char* kind : {"samples=point", "samples=line"}) {
+    const MeanSe m = replicateMean(16, [&](uint32_t seed) {
+      const Film f = renderWith(v.scene, v.cam, "vo", {kind, "normal=false", "radius=0.05", "interleave=on", "filter-depth=0.5"},
+                                passSettings(48, 36, 1, seed));
+      return meanSe(coveredW(f, 2)).mean;
+    });
+    EXPECT_NEAR(m.mean, 0.5, 4 * m.se + (kind[8] == 'l' ? 0.75 * R / h : 0.0)) << kind << " se " << m.se;
+  }
+}
+
 // Area samples with the normal on a plane facing the camera head-on: the
 // depth over every footprint is one value up to perspective, variance ~0,
 // so the box model is the line model and W = 1 up to that spread (the ramp
