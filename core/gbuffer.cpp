@@ -37,10 +37,11 @@ void parallelRows(int height, F&& f) {
 
 uint64_t screenSpaceWorkingBytes(int w, int h) {
   const uint64_t n = uint64_t(w) * uint64_t(h);
-  const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) + 2 * sizeof(uint32_t) +
-                              2 * sizeof(float));
+  const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) +
+                              sizeof(std::array<float, 2>) + 2 * sizeof(uint32_t));
   const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
-  return layer + moments + n * (sizeof(PixelSums) + 2 * sizeof(SampleEstimate));
+  // Sums: num, den, hits, and the AOVs' albedo, normal and distance.
+  return layer + moments + n * (2 * sizeof(Vec3) + sizeof(uint32_t) + 2 * sizeof(Vec3) + sizeof(float) + 2 * sizeof(SampleEstimate));
 }
 
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
@@ -57,8 +58,6 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   g.depthSlack.resize(n);
   g.object.resize(n);
   g.pixelKey.resize(n);
-  g.filmX.resize(n);
-  g.filmY.resize(n);
   g.albedo.resize(albedo ? n : 0);
   const RasterCamera raster(camera, s.width, s.height);
   const Sampler sampler(s.seed);
@@ -82,8 +81,6 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
         cameraSampleFilm(s.filter, Sampler::seeds2D(key, kDimPixelFilter), sampleIndex, px, py, fx, fy);
         cam.push(raster.org, raster.direction(fx, fy), camera.znear, camera.zfar);
         g.pixelKey[i] = key;
-        g.filmX[i] = fx;
-        g.filmY[i] = fy;
       }
       tracer.intersect(cam, RayCoherence::Coherent);
       rays.local() += end - begin;
@@ -236,12 +233,21 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   const Tracer tracer(scene.rtcScene(), s.recorder);
   const size_t n = size_t(s.width) * size_t(s.height);
   // Whole-image state: the pixel sums, one layer, its estimates (and their
-  // filtered copy when the integrator interleaves).
-  std::vector<PixelSums> sums(n, PixelSums{});
+  // filtered copy when the integrator interleaves). The sums are float and
+  // the AOVs' only kept when written: each sums at most spp values in
+  // [0, 1] (relative rounding below spp 2^-24), and at 1920x1080 every byte
+  // per pixel is 2 MB to fault in and clear.
+  struct LayerSums {
+    Vec3 num{0, 0, 0}, den{0, 0, 0};
+    uint32_t hits = 0;
+  };
+  LargeVector<LayerSums> sums(n);
+  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0, Vec3(0, 0, 0)), normalSums(s.aovs ? n : 0, Vec3(0, 0, 0));
+  LargeVector<float> distanceSums(s.aovs ? n : 0, 0.0f);
   GBufferLayer g;
-  std::vector<SampleEstimate> est(n);
+  LargeVector<SampleEstimate> est(n);
   const float tolerance = integrator.interleaveFilterTolerance();
-  std::vector<SampleEstimate> filtered(tolerance > 0.0f ? n : 0);
+  LargeVector<SampleEstimate> filtered(tolerance > 0.0f ? n : 0);
   tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
 
   Progress progress("render", uint64_t(s.spp), s.progress);
@@ -281,24 +287,35 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       parallelRows(s.height, [&](int y0, int y1) {
         for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i) {
           if (!g.covered(i)) continue;
-          PixelSums& p = sums[i];
-          p.num.add(result[i].num);
-          p.den.add(result[i].den);
+          LayerSums& p = sums[i];
+          p.num += result[i].num;
+          p.den += result[i].den;
           p.hits += 1;
-          if (wantAlbedo) p.albedo.add(g.albedo[i]);
+          if (wantAlbedo) albedoSums[i] += g.albedo[i];
           if (s.aovs) {
             // The ray-traced loop's AOVs: world normal, distance along the ray.
-            p.N.add(g.view.vectorToWorld(g.normal[i]));
-            p.Z += double(length(g.position[i]));
+            normalSums[i] += g.view.vectorToWorld(g.normal[i]);
+            distanceSums[i] += length(g.position[i]);
           }
         }
       });
       progress.advance(1);
     }
+    // The shared resolution (core/pixel_sums.h) from these sums.
+    const auto pixelSums = [&](int y, int x) {
+      const size_t i = size_t(y) * size_t(s.width) + size_t(x);
+      PixelSums p{};
+      p.num.add(sums[i].num);
+      p.den.add(sums[i].den);
+      p.hits = sums[i].hits;
+      if (wantAlbedo) p.albedo.add(albedoSums[i]);
+      if (s.aovs) p.N.add(normalSums[i]), p.Z = double(distanceSums[i]);
+      return p;
+    };
     parallelRows(s.height, [&](int y0, int y1) {
       for (int y = y0; y < y1; ++y)
         for (int x = 0; x < s.width; ++x)
-          resolvePixelSums(sums[size_t(y) * size_t(s.width) + size_t(x)], s.spp, integrator, wantAlbedo, s.sky, film, x, y);
+          resolvePixelSums(pixelSums(y, x), s.spp, integrator, wantAlbedo, s.sky, film, x, y);
     });
   });
   stats.seconds = secondsSince(t0);

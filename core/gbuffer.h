@@ -20,6 +20,7 @@
 
 #include "core/camera.h"
 #include "core/integrator.h"
+#include "core/large_vector.h"
 #include "core/sampler.h"
 #include "core/warp.h"
 
@@ -87,7 +88,7 @@ struct ViewTransform {
 // E[z^2] - E[z]^2, which cancels in float.
 struct DepthMoments {
   int width = 0, height = 0;
-  std::vector<float> mean, variance, coverage;
+  LargeVector<float> mean, variance, coverage;
 };
 
 // One G-buffer layer: camera sample `sampleIndex` of every pixel, in view
@@ -97,30 +98,29 @@ struct GBufferLayer {
   int width = 0, height = 0;
   uint32_t sampleIndex = 0;
   ViewTransform view;
-  std::vector<float> depth;        // view depth -z of the visible point; +inf where nothing was hit
-  std::vector<Vec3> position;      // view-space position of the visible point
-  std::vector<Vec3> normal;        // view-space unit shading normal, facing the camera
+  LargeVector<float> depth;        // view depth -z of the visible point; +inf where nothing was hit
+  LargeVector<Vec3> position;      // view-space position of the visible point
+  LargeVector<Vec3> normal;        // view-space unit shading normal, facing the camera
   // The visible triangle's plane, view space: (n, n.p) with n its unit
   // geometric normal and p the visible point. A depth-buffer read at film
   // position (fx, fy) within the pixel intersects its camera ray with this
   // plane (zBufferDepth) instead of returning the depth of the pixel's own,
   // jittered, sample: exact for planar surfaces, first order for curved
   // ones; the stored depth stays the fallback for rays along the plane.
-  std::vector<std::array<float, 4>> plane;
+  LargeVector<std::array<float, 4>> plane;
   // (depth, slack) per pixel, packed for the z-buffer read: slack bounds how
   // far the plane's depth strays from `depth` over the pixel, so a point
   // farther than that from `depth` is decided without reading `plane`
   // (half the memory traffic of the screen-space loops). +inf slack where
   // the plane is seen edge-on within the pixel.
-  std::vector<std::array<float, 2>> depthSlack;
-  std::vector<Vec3> albedo;        // diffuse albedo (only with IntegratorNeeds::albedo; else empty)
-  std::vector<uint32_t> object;    // geomID ^ (instID << 20): which object (background: ~0u)
-  std::vector<uint32_t> pixelKey;  // the pixel's Sampler key (as SurfaceHit::pixelKey)
+  LargeVector<std::array<float, 2>> depthSlack;
+  LargeVector<Vec3> albedo;        // diffuse albedo (only with IntegratorNeeds::albedo; else empty)
+  LargeVector<uint32_t> object;    // geomID ^ (instID << 20): which object (background: ~0u)
+  LargeVector<uint32_t> pixelKey;  // the pixel's Sampler key (as SurfaceHit::pixelKey)
   // A Sampler key for randomness shared by the whole image (the same in
   // every layer; index the draws by sampleIndex): hashed from the seed, so
   // --seed changes it like every pixel's stream.
   uint32_t imageKey = 0;
-  std::vector<float> filmX, filmY; // film position of the sample's camera ray
   // Level 0 = the pixels; built only for integrators that ask
   // (ScreenSpaceIntegrator::needsDepthMoments).
   std::vector<DepthMoments> moments;
