@@ -9,6 +9,7 @@
 
 #include "core/error.h"
 #include "core/plugin.h"
+#include "core/settings.h"
 
 namespace obscura {
 
@@ -76,6 +77,15 @@ std::vector<float> worldToCameraMatrix(const Camera& c) {
 }
 
 }  // namespace
+
+void nameSettingsAsFlags() {
+  setSettingName(Setting::Spp, "--spp");
+  setSettingName(Setting::MaxMemory, "--max-memory");
+  setSettingName(Setting::Subdivision, "--subdiv");
+  setSettingName(Setting::SubdivisionBackendOsd, "--subdiv-backend osd");
+  setSettingName(Setting::Displacement, "--displace");
+  setSettingName(Setting::DisplacementScale, "--displace-scale");
+}
 
 void loadPlugins(const std::vector<std::string>& paths) {
   loadPluginsFromEnvironment();

@@ -42,6 +42,10 @@ LoadOptions sceneOptions(const SceneArgs& a);
 std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string& path, const std::string& want, int width,
                                           int height, Camera& camera);
 
+// Core messages name settings by the flags that set them ("--spp must be at
+// least 1"; core/settings.h). Call once, first thing in main.
+void nameSettingsAsFlags();
+
 // OBSCURA_PLUGIN_PATH, then each --plugin.
 void loadPlugins(const std::vector<std::string>& paths);
 

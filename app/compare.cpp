@@ -24,6 +24,7 @@
 #include <sstream>
 
 #include "app/cli_common.h"
+#include "app/interrupt.h"
 #include "app/report.h"
 #include "core/error.h"
 #include "core/gltf_loader.h"
@@ -99,15 +100,7 @@ std::vector<double> parseTargets(const std::string& s) {
   return v;
 }
 
-struct Cell {
-  std::string key, config, canonical, integrator, params;
-  int spp = 0, seeds = 0;
-  double seconds = 0;
-  uint64_t rays = 0;
-  ErrorMetrics error;
-  std::optional<BiasVariance> bv;
-  std::string pass;  // EXR of the first seed, relative to DIR
-};
+using Cell = ReportCell;
 
 const char* kCsvHeader = "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass";
 
@@ -189,16 +182,6 @@ Film filmFromPass(const PassImage& p) {
   return f;
 }
 
-PassImage averagePasses(const PassImage& x, const PassImage& y) {
-  PassImage m = x;
-  for (size_t i = 0; i < m.pixels(); ++i) {
-    m.r[i] = 0.5f * (x.r[i] + y.r[i]);
-    m.g[i] = 0.5f * (x.g[i] + y.g[i]);
-    m.b[i] = 0.5f * (x.b[i] + y.b[i]);
-    m.a[i] = 0.5f * (x.a[i] + y.a[i]);
-  }
-  return m;
-}
 
 }  // namespace
 
@@ -236,222 +219,287 @@ CompareConfig parseCompareConfig(const std::string& text) {
   return c;
 }
 
-int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
-  // --- validate everything before any work ---------------------------------
+namespace {
+
+// --- stage 1: the plan --------------------------------------------------------
+// Everything the arguments say, validated before any work.
+struct ComparePlan {
+  std::vector<CompareConfig> configs;
+  std::vector<int> spps;
+  std::vector<double> targets;
+  RenderSettings base;  // resolution, sky, threads; spp and seed per render
+  fs::path dir;
+  std::optional<PassImage> givenReference;
+};
+
+ComparePlan planCompare(const CompareArgs& a) {
+  ComparePlan p;
   loadPlugins(a.plugins);
   if (a.configs.empty()) throw Error("-c: at least one CONFIG is required, e.g. -c ao -c transfer:depth=1");
-  std::vector<CompareConfig> configs;
-  for (const auto& t : a.configs) configs.push_back(parseCompareConfig(t));
-  const std::vector<int> spps = parseSppList(a.sppList);
-  const std::vector<double> targets = parseTargets(a.targets);
+  for (const auto& t : a.configs) p.configs.push_back(parseCompareConfig(t));
+  p.spps = parseSppList(a.sppList);
+  p.targets = parseTargets(a.targets);
   if (a.seeds < 1 || a.seeds > 64) throw Error("--seeds: must be in [1, 64], got " + std::to_string(a.seeds));
   if (a.referenceSpp < 2) throw Error("--reference-spp: must be at least 2, got " + std::to_string(a.referenceSpp));
   if (a.seed < 0 || a.seed > 0xffffffffLL - 64) throw Error("--seed: must be in [0, 4294967231]");
   if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
-  RenderSettings base;
-  parseResolution(a.res, base.width, base.height);
-  base.sky = parseSky(a.sky);
-  base.threads = a.threads;
-  base.aovs = false;
-  base.progress = !a.quiet;
+  parseResolution(a.res, p.base.width, p.base.height);
+  p.base.sky = parseSky(a.sky);
+  p.base.threads = a.threads;
+  p.base.aovs = false;
+  p.base.progress = !a.quiet;
   if (a.output.empty()) throw Error("-o: an output directory is required");
-  const fs::path dir(a.output);
-  if (fs::exists(dir) && !fs::is_directory(dir)) throw Error(a.output + ": exists and is not a directory");
-  if (!dir.parent_path().empty() && !fs::is_directory(dir.parent_path()))
-    throw Error(a.output + ": cannot create: directory '" + dir.parent_path().string() + "' does not exist");
-  std::optional<PassImage> givenReference;
-  if (!a.reference.empty()) givenReference = readPass(a.reference);
+  p.dir = fs::path(a.output);
+  if (fs::exists(p.dir) && !fs::is_directory(p.dir)) throw Error(a.output + ": exists and is not a directory");
+  if (!p.dir.parent_path().empty() && !fs::is_directory(p.dir.parent_path()))
+    throw Error(a.output + ": cannot create: directory '" + p.dir.parent_path().string() + "' does not exist");
+  if (!a.reference.empty()) p.givenReference = readPass(a.reference);
+  return p;
+}
 
-  std::optional<tbb::global_control> limit;
-  if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
+// The image every cell is measured against.
+struct Reference {
+  PassImage image;
+  std::string path, key;
+  double noiseRmse = -1;  // RMSE of the reference itself; < 0: unknown (a given reference)
+};
 
-  Camera camera;
-  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, base.width, base.height, camera);
-  std::error_code ec;
-  fs::create_directories(dir / "passes", ec);
-  if (ec) throw Error(a.output + ": cannot create: " + ec.message());
-  fs::create_directories(dir / "cache", ec);
+// The stages that render (reference, cells) and the report, over one loaded
+// scene and view.
+class CompareRun {
+ public:
+  CompareRun(const CompareArgs& a, const ComparePlan& plan, const Scene& scene, const Camera& camera,
+             const std::atomic<bool>* cancel)
+      : a_(a), plan_(plan), scene_(scene), camera_(camera), cancel_(cancel) {
+    // What makes two images comparable: scene, view, resolution, sky.
+    viewHash_.add(fileHash(a.scene)).add(camera.name).add(&camera.toWorld, sizeof camera.toWorld);
+    viewHash_.add(&camera.yfov, sizeof camera.yfov).add(a.res);
+    viewHash_.add(formatFloat(plan.base.sky.x) + "," + formatFloat(plan.base.sky.y) + "," + formatFloat(plan.base.sky.z));
+    viewHash_.add(a.robust ? "robust" : "fast");
+  }
 
-  // What makes two images comparable: scene, view, resolution, sky.
-  Hash64 viewHash;
-  viewHash.add(fileHash(a.scene)).add(camera.name).add(&camera.toWorld, sizeof camera.toWorld);
-  viewHash.add(&camera.yfov, sizeof camera.yfov).add(a.res).add(formatFloat(base.sky.x) + "," + formatFloat(base.sky.y) + "," + formatFloat(base.sky.z));
-  viewHash.add(a.robust ? "robust" : "fast");
+  // --- stage 2: the reference (given, cached or rendered); nullopt when interrupted.
+  std::optional<Reference> reference() const;
+  // --- stage 3: every cell, each saved to results.csv as it finishes. Returns
+  // false when interrupted; `cells` then holds the finished ones.
+  bool measureCells(const Reference& ref, std::vector<Cell>& cells) const;
+  // --- stage 4: the report files and the summary on stdout.
+  void report(const Reference& ref, const std::vector<Cell>& cells) const;
 
-  const auto renderPass = [&](const IntegratorDescriptor& d, const ParamSet& p, int spp, uint32_t seed,
-                              RenderStats& stats) -> std::optional<PassImage> {
-    RenderSettings s = base;
+ private:
+  std::optional<PassImage> renderPass(const IntegratorDescriptor& d, const ParamSet& p, int spp, uint32_t seed,
+                                      RenderStats& stats) const {
+    RenderSettings s = plan_.base;
     s.spp = spp;
     s.seed = seed;
     auto integ = d.create(p);
-    Film film = render(*scene, camera, *integ, d.needs(p), s, stats, cancel);
-    if (cancel && cancel->load()) return std::nullopt;
+    Film film = render(scene_, camera_, *integ, d.needs(p), s, stats, cancel_);
+    if (cancel_ && cancel_->load()) return std::nullopt;
     return passFromFilm(film);
-  };
-  const auto interrupted = [&](size_t kept) {
-    std::fprintf(stderr, "obscura: interrupted; %zu finished cell%s kept in %s/results.csv (run again to resume)\n", kept,
-                 kept == 1 ? "" : "s", a.output.c_str());
-    return 130;
-  };
+  }
+  ExrOptions header(const IntegratorDescriptor& d, const ParamSet& p, int spp, uint32_t seed, const RenderStats& stats) const {
+    RenderSettings s = plan_.base;
+    s.spp = spp;
+    s.seed = seed;
+    return passHeader(PassInfo{.scenePath = a_.scene, .camera = camera_, .integrator = d, .params = p, .settings = s,
+                               .stats = stats, .filterName = "box", .robust = a_.robust, .sceneArgs = &a_,
+                               .bvhSeconds = scene_.buildSeconds()});
+  }
+  // One cell: renders its seeds and measures them; nullopt when interrupted.
+  std::optional<Cell> measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d, const ParamSet& params,
+                                  int spp, const Reference& ref, Cell c) const;
 
-  // --- the reference -----------------------------------------------------
-  PassImage reference;
-  std::string referencePath, referenceKey;
-  double referenceNoiseRmse = -1;  // unknown for a given reference
-  if (givenReference) {
-    reference = *givenReference;
-    if (reference.width != base.width || reference.height != base.height)
-      throw Error(a.reference + ": is " + std::to_string(reference.width) + "x" + std::to_string(reference.height) +
-                  " but --res is " + a.res);
-    referencePath = fs::absolute(a.reference).lexically_normal().string();
-    referenceKey = fileHash(a.reference);
+  const CompareArgs& a_;
+  const ComparePlan& plan_;
+  const Scene& scene_;
+  const Camera& camera_;
+  const std::atomic<bool>* cancel_;
+  Hash64 viewHash_;
+};
+
+std::optional<Reference> CompareRun::reference() const {
+  Reference ref;
+  if (plan_.givenReference) {
+    ref.image = *plan_.givenReference;
+    if (ref.image.width != plan_.base.width || ref.image.height != plan_.base.height)
+      throw Error(a_.reference + ": is " + std::to_string(ref.image.width) + "x" + std::to_string(ref.image.height) +
+                  " but --res is " + a_.res);
+    ref.path = fs::absolute(a_.reference).lexically_normal().string();
+    ref.key = fileHash(a_.reference);
     // A reference written by an earlier compare records its noise.
-    const std::string noise = readExrAttribute(a.reference, "obscura:referenceNoise");
-    if (!noise.empty()) referenceNoiseRmse = std::strtod(noise.c_str(), nullptr);
-  } else {
-    Hash64 rk = viewHash;
-    rk.add("gi-reference").add(std::to_string(a.referenceSpp)).add(std::to_string(a.seed)).add(OBSCURA_VERSION);
-    referenceKey = rk.hex();
-    const fs::path cached = dir / "cache" / ("reference-" + referenceKey + ".exr");
-    referencePath = cached.string();
-    const IntegratorDescriptor& gi = IntegratorRegistry::instance().find("gi");
-    const ParamSet giParams(gi.params, gi.name);
-    bool have = false;
-    if (fs::exists(cached)) {
-      try {
-        reference = readPass(cached.string());
-        const std::string noise = readExrAttribute(cached.string(), "obscura:referenceNoise");
-        referenceNoiseRmse = noise.empty() ? -1 : std::stod(noise);
-        have = reference.width == base.width && reference.height == base.height;
-      } catch (const std::exception&) {
-        have = false;  // damaged cache: render again
-      }
-    }
-    if (have) {
-      if (!a.quiet) std::fprintf(stderr, "obscura: reference: cached %s\n", cached.string().c_str());
-    } else {
-      // Two independent halves: their mean is the reference, their
-      // difference measures its noise.
-      if (!a.quiet)
-        std::fprintf(stderr, "obscura: reference: gi at %d spp (two halves of %d) -> %s\n", a.referenceSpp,
-                     a.referenceSpp / 2, cached.string().c_str());
-      RenderStats s1, s2;
-      const uint32_t refSeed = uint32_t(a.seed) ^ 0x9e3779b9U;  // never a cell's seed
-      const auto h1 = renderPass(gi, giParams, a.referenceSpp / 2, refSeed, s1);
-      if (!h1) return interrupted(0);
-      const auto h2 = renderPass(gi, giParams, a.referenceSpp - a.referenceSpp / 2, refSeed + 1, s2);
-      if (!h2) return interrupted(0);
-      reference = averagePasses(*h1, *h2);
-      referenceNoiseRmse = referenceNoise(*h1, *h2);
-      RenderSettings rs = base;
-      rs.spp = a.referenceSpp;
-      rs.seed = refSeed;
-      RenderStats both = s1;
-      both.seconds += s2.seconds;
-      both.rays.camera += s2.rays.camera;
-      both.rays.occlusion += s2.rays.occlusion;
-      both.rays.closest += s2.rays.closest;
-      ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = gi, .params = giParams,
-                                           .settings = rs, .stats = both, .filterName = "box", .robust = a.robust, .sceneArgs = &a,
-                                           .bvhSeconds = scene->buildSeconds()});
-      char noise[32];  // round-trips: a cached reference reports the same noise
-      std::snprintf(noise, sizeof noise, "%.17g", referenceNoiseRmse);
-      exr.attributes.push_back({"obscura:referenceNoise", std::string(noise)});
-      exr.attributes.push_back({"obscura:referenceKey", referenceKey});
-      writeExr(cached.string(), filmFromPass(reference), exr);
+    const std::string noise = readExrAttribute(a_.reference, "obscura:referenceNoise");
+    if (!noise.empty()) ref.noiseRmse = std::strtod(noise.c_str(), nullptr);
+    return ref;
+  }
+  Hash64 rk = viewHash_;
+  rk.add("gi-reference").add(std::to_string(a_.referenceSpp)).add(std::to_string(a_.seed)).add(OBSCURA_VERSION);
+  ref.key = rk.hex();
+  const fs::path cached = plan_.dir / "cache" / ("reference-" + ref.key + ".exr");
+  ref.path = cached.string();
+  bool have = false;
+  if (fs::exists(cached)) {
+    try {
+      ref.image = readPass(cached.string());
+      const std::string noise = readExrAttribute(cached.string(), "obscura:referenceNoise");
+      ref.noiseRmse = noise.empty() ? -1 : std::stod(noise);
+      have = ref.image.width == plan_.base.width && ref.image.height == plan_.base.height;
+    } catch (const std::exception&) {
+      have = false;  // damaged cache: render again
     }
   }
-  if (!a.quiet && referenceNoiseRmse >= 0)
-    std::fprintf(stderr, "obscura: reference noise (RMSE of the reference itself): %.3g\n", referenceNoiseRmse);
+  if (have) {
+    if (!a_.quiet) std::fprintf(stderr, "obscura: reference: cached %s\n", cached.string().c_str());
+    return ref;
+  }
+  // Two independent halves: their mean is the reference, their difference
+  // measures its noise.
+  if (!a_.quiet)
+    std::fprintf(stderr, "obscura: reference: gi at %d spp (two halves of %d) -> %s\n", a_.referenceSpp,
+                 a_.referenceSpp / 2, cached.string().c_str());
+  const IntegratorDescriptor& gi = IntegratorRegistry::instance().find("gi");
+  const ParamSet giParams(gi.params, gi.name);
+  RenderStats s1, s2;
+  const uint32_t refSeed = uint32_t(a_.seed) ^ 0x9e3779b9U;  // never a cell's seed
+  const auto h1 = renderPass(gi, giParams, a_.referenceSpp / 2, refSeed, s1);
+  if (!h1) return std::nullopt;
+  const auto h2 = renderPass(gi, giParams, a_.referenceSpp - a_.referenceSpp / 2, refSeed + 1, s2);
+  if (!h2) return std::nullopt;
+  ref.image = averagePasses(*h1, *h2);
+  ref.noiseRmse = referenceNoise(*h1, *h2);
+  RenderStats both = s1;
+  both.seconds += s2.seconds;
+  both.rays.camera += s2.rays.camera;
+  both.rays.occlusion += s2.rays.occlusion;
+  both.rays.closest += s2.rays.closest;
+  ExrOptions exr = header(gi, giParams, a_.referenceSpp, refSeed, both);
+  char noise[32];  // round-trips: a cached reference reports the same noise
+  std::snprintf(noise, sizeof noise, "%.17g", ref.noiseRmse);
+  exr.attributes.push_back({"obscura:referenceNoise", std::string(noise)});
+  exr.attributes.push_back({"obscura:referenceKey", ref.key});
+  writeExr(cached.string(), filmFromPass(ref.image), exr);
+  return ref;
+}
 
-  // --- the cells -----------------------------------------------------------
-  const std::string csvPath = (dir / "results.csv").string();
-  std::map<std::string, Cell> previous = readPreviousCells(csvPath);
-  std::vector<Cell> cells;
-  std::vector<std::string> cellOrder;
+std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d,
+                                            const ParamSet& params, int spp, const Reference& ref, Cell c) const {
+  std::vector<PassImage> renders;
+  std::vector<double> seconds;
+  double mse = 0, rel = 0, mae = 0, p99 = 0;
+  for (int k = 0; k < a_.seeds; ++k) {
+    RenderStats stats;
+    auto img = renderPass(d, params, spp, uint32_t(a_.seed) + uint32_t(k), stats);
+    if (!img) return std::nullopt;
+    const ErrorMetrics e = errorMetrics(*img, ref.image);
+    mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
+    c.error.values = e.values;
+    seconds.push_back(stats.seconds);
+    if (k == 0) {
+      c.rays = stats.rays.camera + stats.rays.occlusion + stats.rays.closest;
+      c.pass = "passes/" + safeFileName(cfg.text) + "@" + std::to_string(spp) + ".exr";
+      writeExr((plan_.dir / c.pass).string(), filmFromPass(*img), header(d, params, spp, uint32_t(a_.seed), stats));
+    }
+    renders.push_back(std::move(*img));
+  }
+  const double K = double(a_.seeds);
+  c.error.rmse = std::sqrt(mse / K), c.error.relMse = rel / K, c.error.mae = mae / K, c.error.p99 = p99 / K;
+  std::sort(seconds.begin(), seconds.end());
+  c.seconds = seconds[seconds.size() / 2];
+  if (a_.seeds >= 2) c.bv = biasVariance(renders, ref.image, std::max(ref.noiseRmse, 0.0));
+  return c;
+}
+
+bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) const {
+  const std::string csvPath = (plan_.dir / "results.csv").string();
+  const std::map<std::string, Cell> previous = readPreviousCells(csvPath);
   const auto save = [&] {
     std::string csv = std::string(kCsvHeader) + "\n";
     for (const Cell& c : cells) csv += csvRow(c) + "\n";
     writeTextAtomically(csvPath, csv);
   };
-  const size_t total = configs.size() * spps.size();
+  const size_t total = plan_.configs.size() * plan_.spps.size();
   size_t done = 0;
-  for (const CompareConfig& cfg : configs) {
+  for (const CompareConfig& cfg : plan_.configs) {
     const IntegratorDescriptor& d = IntegratorRegistry::instance().find(cfg.integrator);
     ParamSet params(d.params, d.name);
     for (const auto& s : cfg.assignments) params.setAssignment(s);
     std::string paramText;
     for (const auto& [k, v] : params.values()) paramText += (paramText.empty() ? "" : ",") + k + "=" + v;
-    for (const int spp : spps) {
+    for (const int spp : plan_.spps) {
       ++done;
       Hash64 ck;
-      ck.add(referenceKey).add(viewHash.hex()).add(cfg.canonical).add(std::to_string(spp)).add(std::to_string(a.seed));
-      ck.add(std::to_string(a.seeds)).add(OBSCURA_VERSION);
+      ck.add(ref.key).add(viewHash_.hex()).add(cfg.canonical).add(std::to_string(spp)).add(std::to_string(a_.seed));
+      ck.add(std::to_string(a_.seeds)).add(OBSCURA_VERSION);
       const std::string key = ck.hex();
-      if (auto it = previous.find(key); it != previous.end() && fs::exists(dir / it->second.pass)) {
+      if (auto it = previous.find(key); it != previous.end() && fs::exists(plan_.dir / it->second.pass)) {
         Cell c = it->second;
         c.config = cfg.text;
         cells.push_back(c);
-        if (!a.quiet) std::fprintf(stderr, "[%zu/%zu] %s @ %d spp: done earlier (kept)\n", done, total, cfg.text.c_str(), spp);
+        if (!a_.quiet)
+          std::fprintf(stderr, "[%zu/%zu] %s @ %d spp: done earlier (kept)\n", done, total, cfg.text.c_str(), spp);
         continue;
       }
-      if (!a.quiet) std::fprintf(stderr, "[%zu/%zu] %s @ %d spp\n", done, total, cfg.text.c_str(), spp);
+      if (!a_.quiet) std::fprintf(stderr, "[%zu/%zu] %s @ %d spp\n", done, total, cfg.text.c_str(), spp);
       Cell c;
-      c.key = key, c.config = cfg.text, c.canonical = cfg.canonical, c.integrator = d.name, c.params = paramText;
-      c.spp = spp, c.seeds = a.seeds;
-      std::vector<PassImage> renders;
-      std::vector<double> seconds;
-      double mse = 0, rel = 0, mae = 0, p99 = 0;
-      for (int k = 0; k < a.seeds; ++k) {
-        RenderStats stats;
-        auto img = renderPass(d, params, spp, uint32_t(a.seed) + uint32_t(k), stats);
-        if (!img) return interrupted(cells.size());
-        const ErrorMetrics e = errorMetrics(*img, reference);
-        mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
-        c.error.values = e.values;
-        seconds.push_back(stats.seconds);
-        if (k == 0) {
-          c.rays = stats.rays.camera + stats.rays.occlusion + stats.rays.closest;
-          c.pass = "passes/" + safeFileName(cfg.text) + "@" + std::to_string(spp) + ".exr";
-          RenderSettings s = base;
-          s.spp = spp;
-          s.seed = uint32_t(a.seed);
-          writeExr((dir / c.pass).string(), filmFromPass(*img),
-                   passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = d, .params = params,
-                                       .settings = s, .stats = stats, .filterName = "box", .robust = a.robust, .sceneArgs = &a,
-                                       .bvhSeconds = scene->buildSeconds()}));
-        }
-        renders.push_back(std::move(*img));
-      }
-      const double K = double(a.seeds);
-      c.error.rmse = std::sqrt(mse / K), c.error.relMse = rel / K, c.error.mae = mae / K, c.error.p99 = p99 / K;
-      std::sort(seconds.begin(), seconds.end());
-      c.seconds = seconds[seconds.size() / 2];
-      if (a.seeds >= 2) c.bv = biasVariance(renders, reference, std::max(referenceNoiseRmse, 0.0));
-      if (!a.quiet)
-        std::fprintf(stderr, "        %.3f s  %.3g Mrays  RMSE %.4g  MAE %.4g  p99 %.4g%s\n", c.seconds, double(c.rays) * 1e-6,
-                     c.error.rmse, c.error.mae, c.error.p99,
-                     c.bv ? (" bias2 " + fmt(c.bv->bias2) + " var " + fmt(c.bv->variance)).c_str() : "");
-      cells.push_back(c);
+      c.key = key, c.config = cfg.text, c.integrator = d.name, c.params = paramText;
+      c.spp = spp, c.seeds = a_.seeds;
+      std::optional<Cell> measured = measureCell(cfg, d, params, spp, ref, std::move(c));
+      if (!measured) return false;
+      if (!a_.quiet)
+        std::fprintf(stderr, "        %.3f s  %.3g Mrays  RMSE %.4g  MAE %.4g  p99 %.4g%s\n", measured->seconds,
+                     double(measured->rays) * 1e-6, measured->error.rmse, measured->error.mae, measured->error.p99,
+                     measured->bv ? (" bias2 " + fmt(measured->bv->bias2) + " var " + fmt(measured->bv->variance)).c_str()
+                                  : "");
+      cells.push_back(std::move(*measured));
       save();
     }
   }
   save();
+  return true;
+}
 
-  // --- the report ----------------------------------------------------------
+void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells) const {
   CompareReport report;
-  report.dir = a.output;
-  report.scene = a.scene;
-  report.camera = camera.name;
-  report.resolution = a.res;
-  report.referencePath = referencePath;
-  report.referenceNoise = referenceNoiseRmse;
-  report.reference = &reference;
-  report.targets = targets;
-  for (const Cell& c : cells)
-    report.cells.push_back({c.config, c.integrator, c.params, c.spp, c.seeds, c.seconds, c.rays, c.error, c.bv, c.pass});
+  report.dir = a_.output;
+  report.scene = a_.scene;
+  report.camera = camera_.name;
+  report.resolution = a_.res;
+  report.referencePath = ref.path;
+  report.referenceNoise = ref.noiseRmse;
+  report.reference = &ref.image;
+  report.targets = plan_.targets;
+  report.cells = cells;
   writeCompareReport(report);
   printCompareSummary(report, stdout);
+}
+
+}  // namespace
+
+int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
+  const ComparePlan plan = planCompare(a);
+  std::optional<tbb::global_control> limit;
+  if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
+
+  Camera camera;
+  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, plan.base.width, plan.base.height, camera);
+  interrupt::startPolling();  // from here on the renders poll `cancel` (app/interrupt.h)
+  std::error_code ec;
+  fs::create_directories(plan.dir / "passes", ec);
+  if (ec) throw Error(a.output + ": cannot create: " + ec.message());
+  fs::create_directories(plan.dir / "cache", ec);
+
+  const CompareRun run(a, plan, *scene, camera, cancel);
+  std::vector<Cell> cells;
+  const auto interrupted = [&] {
+    std::fprintf(stderr, "obscura: interrupted; %zu finished cell%s kept in %s/results.csv (run again to resume)\n",
+                 cells.size(), cells.size() == 1 ? "" : "s", a.output.c_str());
+    return 130;
+  };
+  const std::optional<Reference> ref = run.reference();
+  if (!ref) return interrupted();
+  if (!a.quiet && ref->noiseRmse >= 0)
+    std::fprintf(stderr, "obscura: reference noise (RMSE of the reference itself): %.3g\n", ref->noiseRmse);
+  if (!run.measureCells(*ref, cells)) return interrupted();
+  run.report(*ref, cells);
   return 0;
 }
 

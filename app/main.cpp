@@ -3,8 +3,6 @@
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -21,12 +19,11 @@
 #include "core/render.h"
 #include "app/cli_common.h"
 #include "app/compare.h"
+#include "app/interrupt.h"
 
 using namespace obscura;
 
 namespace {
-
-std::atomic<bool> gCancel{false};
 
 // Scene-loading options shared by render and compare.
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
@@ -41,7 +38,6 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--displace-scale", a.displaceScale, "Displacement: scene units per unit of height");
   cmd->add_option("--displace-midlevel", a.displaceMidlevel, "Displacement: the height that does not move the surface");
 }
-extern "C" void onSignal(int) { gCancel.store(true); }
 
 struct RenderArgs : SceneArgs {
   std::string scene = OBSCURA_DEFAULT_SCENE;
@@ -98,6 +94,8 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
 }
 
 int runRender(const RenderArgs& a) {
+  const std::string notWritten = "obscura: interrupted; " + a.output + " was not written";
+  interrupt::setMessage(notWritten);
   loadPlugins(a.plugins);
   const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(a.integrator);
   ParamSet params(desc.params, desc.name);
@@ -130,12 +128,11 @@ int runRender(const RenderArgs& a) {
   Camera camera;
   std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, s.width, s.height, camera);
 
-  std::signal(SIGINT, onSignal);
-  std::signal(SIGTERM, onSignal);
+  interrupt::startPolling();
   RenderStats stats;
-  Film film = render(*scene, camera, *integrator, needs, s, stats, &gCancel);
-  if (gCancel.load()) {
-    std::fprintf(stderr, "obscura: interrupted; %s was not written\n", a.output.c_str());
+  Film film = render(*scene, camera, *integrator, needs, s, stats, interrupt::flag());
+  if (interrupt::flag()->load()) {
+    std::fprintf(stderr, "%s\n", notWritten.c_str());
     return 130;
   }
 
@@ -223,6 +220,8 @@ int runInfo(const InfoArgs& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  interrupt::install();  // first: a signal at any point ends with exit code 130 and one line
+  nameSettingsAsFlags();
   CLI::App app{"Obscura: film-style ambient passes (AO, obscurance, ambient transfer, GI) as linear EXR."};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("obscura ") + OBSCURA_VERSION);
@@ -301,11 +300,7 @@ int main(int argc, char** argv) {
 
   try {
     if (render->parsed()) return runRender(r);
-    if (compare->parsed()) {
-      std::signal(SIGINT, onSignal);
-      std::signal(SIGTERM, onSignal);
-      return runCompare(cmp, &gCancel);
-    }
+    if (compare->parsed()) return runCompare(cmp, interrupt::flag());
     if (info->parsed()) return runInfo(infoArgs);
     return runIntegrators(listPlugins);
   } catch (const Error& e) {

@@ -15,7 +15,10 @@
 
 namespace obscura {
 
+// One cell of a comparison (CONFIG x spp, over the seeds): what
+// results.csv stores per row and what the report draws.
 struct ReportCell {
+  std::string key;  // hash of everything that determines the cell's images (results.csv; resumption)
   std::string config, integrator, params;
   int spp = 0, seeds = 0;
   double seconds = 0;

@@ -12,6 +12,7 @@
 #include <limits>
 #include <new>
 
+#include "bench/common.h"
 #include "core/error.h"
 #include "core/sampler.h"
 #include "core/surface.h"
@@ -43,62 +44,17 @@ struct LaneMasks {
 };
 const LaneMasks kLanes;
 
-template <class T>
-T* alignedArray(size_t n) {
-  void* p = std::aligned_alloc(64, ((n * sizeof(T) + 63) / 64) * 64);
-  if (!p) throw std::bad_alloc();
-  return static_cast<T*>(p);
-}
-
 // Per-thread scratch, allocated once per thread for the tracer's lifetime.
 struct ThreadBuffers {
-  explicit ThreadBuffers(size_t chunk) {
-    const size_t packets = (chunk + 15) / 16;
-    hit16 = alignedArray<RTCRayHit16>(packets);
-    occ16 = alignedArray<RTCRay16>(packets);
-    hit1M = alignedArray<RTCRayHit>(chunk);
-    occ1M = alignedArray<RTCRay>(chunk);
-    key = alignedArray<uint32_t>(chunk);
-    sample = alignedArray<uint32_t>(chunk);
-  }
-  ~ThreadBuffers() {
-    std::free(hit16);
-    std::free(occ16);
-    std::free(hit1M);
-    std::free(occ1M);
-    std::free(key);
-    std::free(sample);
-  }
-  ThreadBuffers(const ThreadBuffers&) = delete;
-  ThreadBuffers& operator=(const ThreadBuffers&) = delete;
-
-  RTCRayHit16* hit16;
-  RTCRay16* occ16;
-  RTCRayHit* hit1M;
-  RTCRay* occ1M;
-  uint32_t* key;     // pixel key of each camera lane of the chunk
-  uint32_t* sample;  // sample index of each camera lane
+  explicit ThreadBuffers(size_t chunk)
+      : hit16((chunk + 15) / 16), occ16((chunk + 15) / 16), hit1M(chunk), occ1M(chunk), key(chunk), sample(chunk) {}
+  AlignedArray<RTCRayHit16> hit16;
+  AlignedArray<RTCRay16> occ16;
+  AlignedArray<RTCRayHit> hit1M;
+  AlignedArray<RTCRay> occ1M;
+  AlignedArray<uint32_t> key;     // pixel key of each camera lane of the chunk
+  AlignedArray<uint32_t> sample;  // sample index of each camera lane
   RayTally tally;
-};
-
-// Walks a tile's camera samples in the renderer's order: pixels row-major
-// within the tile, each pixel's samples 0..spp-1 consecutively.
-struct SampleWalk {
-  SampleWalk(const Sampler& s, int x0_, int y0, int tw, int spp_)
-      : sampler(s), x0(x0_), x1(x0_ + tw), spp(uint32_t(spp_)), px(x0_), py(y0),
-        key(s.pixelKey(uint32_t(x0_), uint32_t(y0))) {}
-  void next() {
-    if (++si != spp) return;
-    si = 0;
-    if (++px == x1) px = x0, ++py;
-    key = sampler.pixelKey(uint32_t(px), uint32_t(py));
-  }
-  const Sampler& sampler;
-  int x0, x1;
-  uint32_t spp;
-  int px, py;
-  uint32_t si = 0;
-  uint32_t key;
 };
 
 // The AO ray of ao.cpp, from what Embree returned (see ao_raw.h).
@@ -106,16 +62,9 @@ struct AoRay {
   Vec3 org, dir;
 };
 inline AoRay makeAoRay(Vec3 o, Vec3 d, float t, Vec3 ngRaw, uint32_t key, uint32_t sampleIndex) {
-  const Vec3 p = o + d * t;
-  const float len = length(ngRaw);
-  Vec3 ng = (len > 0.0f && std::isfinite(len)) ? ngRaw * (1.0f / len) : -d;
-  if (dot(ng, d) > 0.0f) ng = -ng;
-  const float mag = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
-  const float eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
-  const Frame frame = Frame::fromNormal(ng);
+  const RawHitFrame f = rawHitFrame(o, d, t, ngRaw);
   const Sample2 s = Sampler::get2D(key, sampleIndex, kFirstIntegratorDim);  // rays = 1: index = sample
-  const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
-  return {p + ng * eps, w};  // w is in ng's hemisphere: offset to the front
+  return {f.org, f.frame.toWorld(squareToCosineHemisphere(s.u, s.v))};
 }
 
 inline void setContext(RTCIntersectContext& ctx, RTCIntersectContextFlags flags) {
@@ -156,22 +105,14 @@ struct RawAoTracer::Impl {
     SampleWalk w(sampler, x0, y0, tw, set.spp);
     uint64_t ao = 0, unoccluded = 0;
     for (uint64_t i = 0; i < total; ++i, w.next()) {
-      const Sample2 f = Sampler::get2D(w.key, w.si, kDimPixelFilter);
-      const Vec3 d = raster.direction(float(w.px) + f.u, float(w.py) + f.v);
+      const Vec3 d = w.direction(raster);
       alignas(16) RTCRayHit rh;
-      rh.ray.org_x = raster.org.x; rh.ray.org_y = raster.org.y; rh.ray.org_z = raster.org.z;
-      rh.ray.tnear = tnear;
-      rh.ray.dir_x = d.x; rh.ray.dir_y = d.y; rh.ray.dir_z = d.z;
-      rh.ray.time = 0.0f; rh.ray.tfar = tfar; rh.ray.mask = 0xffffffffU; rh.ray.id = 0; rh.ray.flags = 0;
-      rh.hit.geomID = kInvalid;
-      rh.hit.instID[0] = kInvalid;
+      setRayHit(rh, raster.org, d, tnear, tfar, 0);
       rtcIntersect1(scene, &cc, &rh);
       if (rh.hit.geomID == kInvalid) continue;
       const AoRay a = makeAoRay(raster.org, d, rh.ray.tfar, Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), w.key, w.si);
       alignas(16) RTCRay r;
-      r.org_x = a.org.x; r.org_y = a.org.y; r.org_z = a.org.z; r.tnear = 0.0f;
-      r.dir_x = a.dir.x; r.dir_y = a.dir.y; r.dir_z = a.dir.z;
-      r.time = 0.0f; r.tfar = set.aoDistance; r.mask = 0xffffffffU; r.id = 0; r.flags = 0;
+      setRay(r, a.org, a.dir, 0.0f, set.aoDistance, 0);
       rtcOccluded1(scene, &oc, &r);
       ++ao;
       unoccluded += r.tfar >= 0.0f ? 1 : 0;
@@ -189,14 +130,13 @@ struct RawAoTracer::Impl {
     setContext(oc, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
     const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(set.spp);
     SampleWalk w(sampler, x0, y0, tw, set.spp);
-    RTCRayHit16* const cam = b.hit16;
-    RTCRay16* const occ = b.occ16;
+    RTCRayHit16* const cam = b.hit16.p;
+    RTCRay16* const occ = b.occ16.p;
     uint64_t ao = 0, unoccluded = 0;
     for (uint64_t begin = 0; begin < total; begin += uint64_t(set.chunk)) {
       const size_t n = size_t(std::min<uint64_t>(uint64_t(set.chunk), total - begin));
       for (size_t i = 0; i < n; ++i, w.next()) {
-        const Sample2 f = Sampler::get2D(w.key, w.si, kDimPixelFilter);
-        const Vec3 d = raster.direction(float(w.px) + f.u, float(w.py) + f.v);
+        const Vec3 d = w.direction(raster);
         RTCRayHit16& p = cam[i >> 4];
         const size_t l = i & 15;
         p.ray.org_x[l] = raster.org.x; p.ray.org_y[l] = raster.org.y; p.ray.org_z[l] = raster.org.z;
@@ -206,8 +146,8 @@ struct RawAoTracer::Impl {
         p.ray.id[l] = unsigned(i); p.ray.flags[l] = 0;
         p.hit.geomID[l] = kInvalid;
         p.hit.instID[0][l] = kInvalid;
-        b.key[i] = w.key;
-        b.sample[i] = w.si;
+        b.key.p[i] = w.key;
+        b.sample.p[i] = w.si;
       }
       const size_t packets = (n + 15) / 16;
       for (size_t k = 0; k < packets; ++k)
@@ -219,7 +159,7 @@ struct RawAoTracer::Impl {
         const size_t l = i & 15;
         if (p.hit.geomID[l] == kInvalid) continue;
         const AoRay a = makeAoRay(raster.org, Vec3(p.ray.dir_x[l], p.ray.dir_y[l], p.ray.dir_z[l]), p.ray.tfar[l],
-                                  Vec3(p.hit.Ng_x[l], p.hit.Ng_y[l], p.hit.Ng_z[l]), b.key[i], b.sample[i]);
+                                  Vec3(p.hit.Ng_x[l], p.hit.Ng_y[l], p.hit.Ng_z[l]), b.key.p[i], b.sample.p[i]);
         RTCRay16& q = occ[m >> 4];
         const size_t j = m & 15;
         q.org_x[j] = a.org.x; q.org_y[j] = a.org.y; q.org_z[j] = a.org.z; q.tnear[j] = 0.0f;
@@ -248,22 +188,15 @@ struct RawAoTracer::Impl {
     setContext(oc, RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
     const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(set.spp);
     SampleWalk w(sampler, x0, y0, tw, set.spp);
-    RTCRayHit* const cam = b.hit1M;
-    RTCRay* const occ = b.occ1M;
+    RTCRayHit* const cam = b.hit1M.p;
+    RTCRay* const occ = b.occ1M.p;
     uint64_t ao = 0, unoccluded = 0;
     for (uint64_t begin = 0; begin < total; begin += uint64_t(set.chunk)) {
       const size_t n = size_t(std::min<uint64_t>(uint64_t(set.chunk), total - begin));
       for (size_t i = 0; i < n; ++i, w.next()) {
-        const Sample2 f = Sampler::get2D(w.key, w.si, kDimPixelFilter);
-        const Vec3 d = raster.direction(float(w.px) + f.u, float(w.py) + f.v);
-        RTCRayHit& r = cam[i];
-        r.ray.org_x = raster.org.x; r.ray.org_y = raster.org.y; r.ray.org_z = raster.org.z; r.ray.tnear = tnear;
-        r.ray.dir_x = d.x; r.ray.dir_y = d.y; r.ray.dir_z = d.z;
-        r.ray.time = 0.0f; r.ray.tfar = tfar; r.ray.mask = 0xffffffffU; r.ray.id = unsigned(i); r.ray.flags = 0;
-        r.hit.geomID = kInvalid;
-        r.hit.instID[0] = kInvalid;
-        b.key[i] = w.key;
-        b.sample[i] = w.si;
+        setRayHit(cam[i], raster.org, w.direction(raster), tnear, tfar, unsigned(i));
+        b.key.p[i] = w.key;
+        b.sample.p[i] = w.si;
       }
       rtcIntersect1M(scene, &cc, cam, unsigned(n), sizeof(RTCRayHit));
 
@@ -277,17 +210,14 @@ struct RawAoTracer::Impl {
           computeSurfaceHit(obscuraScene, r.hit.geomID, r.hit.primID, r.hit.instID[0], r.hit.u, r.hit.v, r.ray.tfar,
                             Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), false, h);
           const Frame frame = Frame::fromNormal(h.ns);
-          const Sample2 s = Sampler::get2D(b.key[i], b.sample[i], kFirstIntegratorDim);
+          const Sample2 s = Sampler::get2D(b.key.p[i], b.sample.p[i], kFirstIntegratorDim);
           a.dir = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
           a.org = spawnOrigin(h, a.dir);
         } else {
           a = makeAoRay(raster.org, Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.tfar,
-                        Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z), b.key[i], b.sample[i]);
+                        Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z), b.key.p[i], b.sample.p[i]);
         }
-        RTCRay& q = occ[m];
-        q.org_x = a.org.x; q.org_y = a.org.y; q.org_z = a.org.z; q.tnear = 0.0f;
-        q.dir_x = a.dir.x; q.dir_y = a.dir.y; q.dir_z = a.dir.z;
-        q.time = 0.0f; q.tfar = set.aoDistance; q.mask = 0xffffffffU; q.id = unsigned(m); q.flags = 0;
+        setRay(occ[m], a.org, a.dir, 0.0f, set.aoDistance, unsigned(m));
         ++m;
       }
       rtcOccluded1M(scene, &oc, occ, unsigned(m), sizeof(RTCRay));

@@ -76,23 +76,16 @@ struct Options : CommonOptions {
 // The renderer side: obscura::render with the registered ao integrator.
 struct RendererRun {
   const BenchScene& bs;
-  std::unique_ptr<Integrator> integrator;
-  IntegratorNeeds needs;
+  BenchIntegrator integ;
   RenderSettings settings;
   Film lastFilm;
 
-  RendererRun(const BenchScene& b, const std::string& distance, const RenderSettings& s) : bs(b), settings(s) {
-    const IntegratorDescriptor& d = IntegratorRegistry::instance().find("ao");
-    ParamSet p(d.params, d.name);
-    p.set("distance", distance);
-    p.set("rays", "1");
-    integrator = d.create(p);
-    needs = d.needs(p);
-  }
+  RendererRun(const BenchScene& b, const std::string& distance, const RenderSettings& s)
+      : bs(b), integ("ao", {{"distance", distance}, {"rays", "1"}}), settings(s) {}
 
   double run(RayTally& tally) {
     RenderStats st;
-    lastFilm = render(*bs.scene, bs.camera, *integrator, needs, settings, st);
+    lastFilm = integ.render(*bs.scene, bs.camera, settings, st);
     if (st.rays.closest != 0) throw Error("internal: ao traced secondary closest-hit rays");
     tally.camera = st.rays.camera;
     tally.ao = st.rays.occlusion;

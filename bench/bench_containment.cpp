@@ -98,12 +98,8 @@ std::string scaleText(double x) {
 Film renderConfig(const Scene& scene, const Camera& camera, const std::string& integrator,
                   const std::vector<std::pair<std::string, std::string>>& params, const RenderSettings& settings,
                   RenderStats* statsOut = nullptr) {
-  const IntegratorDescriptor& d = IntegratorRegistry::instance().find(integrator);
-  ParamSet p(d.params, d.name);
-  for (const auto& [k, v] : params) p.set(k, v);
-  const auto integ = d.create(p);
   RenderStats stats;
-  Film f = render(scene, camera, *integ, d.needs(p), settings, stats);
+  Film f = BenchIntegrator(integrator, params).render(scene, camera, settings, stats);
   if (statsOut) *statsOut = stats;
   return f;
 }
@@ -195,15 +191,6 @@ struct Row {
   double buildS = 0, renderS = 0, rmse = 0, mae = 0, refNoise = 0, meanW = 0;
 };
 
-PassImage average(const PassImage& a, const PassImage& b) {
-  PassImage m = a;
-  for (size_t i = 0; i < m.pixels(); ++i) {
-    m.r[i] = 0.5f * (a.r[i] + b.r[i]), m.g[i] = 0.5f * (a.g[i] + b.g[i]);
-    m.b[i] = 0.5f * (a.b[i] + b.b[i]), m.a[i] = 0.5f * (a.a[i] + b.a[i]);
-  }
-  return m;
-}
-
 double meanW(const PassImage& img, const PassImage& ref) {
   const std::vector<size_t> px = comparedPixels(img, ref);
   double s = 0;
@@ -238,7 +225,7 @@ void benchScene(Setup& s, const Options& o, int width, int height, int threads, 
                                                     benchRenderSettings(width, height, o.refSpp / 2, threads, 1)));
       const PassImage b = passFromFilm(renderConfig(*fine, s.camera, "obscurance", traceParams,
                                                     benchRenderSettings(width, height, o.refSpp / 2, threads, 2)));
-      ref = average(a, b);
+      ref = averagePasses(a, b);
       refNoise = referenceNoise(a, b);
     }
     // The methods: traced at L, containment at L' for each m.

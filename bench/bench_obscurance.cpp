@@ -1,5 +1,5 @@
 // obscura_bench_obscurance: the obscurance integrator's two estimators
-// (MATH.md section 3), measured two ways.
+// (docs/math.md §3), measured two ways.
 //
 // 1. Speed. For each falloff in {linear, sqrt, exponential} and each
 //    estimator in {distance, occlusion}, obscura::render() runs in process
@@ -82,17 +82,15 @@
 #include "core/scene.h"
 #include "core/surface.h"
 #include "core/warp.h"
+#include "integrators/membership.h"
 
 using namespace obscura;
 using namespace obscura::bench;
 
 namespace {
 
-enum class Falloff { Linear, Sqrt, Exponential };
-enum class Estimator { Distance, Occlusion };
-const char* falloffName(Falloff f) {
-  return f == Falloff::Linear ? "linear" : f == Falloff::Sqrt ? "sqrt" : "exponential";
-}
+// Falloff, Estimator and the sampling of mu' are the integrator's own
+// (integrators/membership.h); this bench runs linear, sqrt and exponential.
 const char* estimatorName(Estimator e) { return e == Estimator::Distance ? "distance" : "occlusion"; }
 
 // One benchmarked configuration of the integrator.
@@ -103,21 +101,6 @@ struct Config {
   double sigma;  // exponential only
   int rays;
 };
-
-// Distance for an Embree ray: +inf beyond float range (as the integrator).
-inline float toRayDistance(double t) {
-  return t > double(std::numeric_limits<float>::max()) ? INFINITY : float(t);
-}
-
-// r ~ mu'(r) for xi in [0,1), MATH.md section 2 (R = inf: no cut-off).
-inline double sampleDistance(const Config& c, double xi) {
-  switch (c.falloff) {
-    case Falloff::Linear: return c.R * xi;
-    case Falloff::Sqrt: return c.R * xi * xi;
-    case Falloff::Exponential: return std::min(-std::log1p(-xi) / c.sigma, c.R);
-  }
-  return c.R;
-}
 
 struct Options : CommonOptions {
   Options() { res = "960x540"; }
@@ -192,30 +175,16 @@ class RawObscurance {
     rtcInitIntersectContext(&sc);
     sc.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
     const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(spp_);
-    const float distanceTfar = toRayDistance(c.R);
-    // Pixel-major, sample-minor walk of the tile, as the renderer.
-    int px = x0, py = y0;
-    uint32_t si = 0, key = sampler_.pixelKey(uint32_t(x0), uint32_t(y0));
+    const Membership mu(c.falloff, c.R, c.sigma);
+    SampleWalk w(sampler_, x0, y0, tw, spp_);
     uint64_t secondary = 0, open = 0;
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
       RTCRayHit* cam = b.cam.p;
-      for (size_t i = 0; i < n; ++i) {
-        const Sample2 f = Sampler::get2D(key, si, kDimPixelFilter);
-        const Vec3 d = raster_.direction(float(px) + f.u, float(py) + f.v);
-        RTCRayHit& r = cam[i];
-        r.ray.org_x = raster_.org.x; r.ray.org_y = raster_.org.y; r.ray.org_z = raster_.org.z; r.ray.tnear = tnear_;
-        r.ray.dir_x = d.x; r.ray.dir_y = d.y; r.ray.dir_z = d.z;
-        r.ray.time = 0.0f; r.ray.tfar = tfar_; r.ray.mask = 0xffffffffU; r.ray.id = unsigned(i); r.ray.flags = 0;
-        r.hit.geomID = kInvalid;
-        r.hit.instID[0] = kInvalid;
-        b.key.p[i] = key;
-        b.sample.p[i] = si;
-        if (++si == uint32_t(spp_)) {
-          si = 0;
-          if (++px == x0 + tw) px = x0, ++py;
-          key = sampler_.pixelKey(uint32_t(px), uint32_t(py));
-        }
+      for (size_t i = 0; i < n; ++i, w.next()) {
+        setRayHit(cam[i], raster_.org, w.direction(raster_), tnear_, tfar_, unsigned(i));
+        b.key.p[i] = w.key;
+        b.sample.p[i] = w.si;
       }
       rtcIntersect1M(scene_, &cc, cam, unsigned(n), sizeof(RTCRayHit));
 
@@ -224,35 +193,20 @@ class RawObscurance {
       for (size_t i = 0; i < n; ++i) {
         const RTCRayHit& r = cam[i];
         if (r.hit.geomID == kInvalid) continue;
-        const Vec3 o(r.ray.org_x, r.ray.org_y, r.ray.org_z), d(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z);
-        const Vec3 p = o + d * r.ray.tfar;
-        const Vec3 ngRaw(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z);
-        const float len = length(ngRaw);
-        Vec3 ng = (len > 0.0f && std::isfinite(len)) ? ngRaw * (1.0f / len) : -d;
-        if (dot(ng, d) > 0.0f) ng = -ng;
-        const float mag = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
-        const float eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
-        const Vec3 org = p + ng * eps;  // cosine directions about ng leave to its side
-        const Frame frame = Frame::fromNormal(ng);
+        const RawHitFrame hf = rawHitFrame(Vec3(r.ray.org_x, r.ray.org_y, r.ray.org_z),
+                                           Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.tfar,
+                                           Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z));
         const uint32_t k0 = b.sample.p[i] * rays_;
         for (uint32_t k = 0; k < rays_; ++k, ++m) {
           const Sample2 s = Sampler::get2D(b.key.p[i], k0 + k, kFirstIntegratorDim);
-          const Vec3 w = frame.toWorld(squareToCosineHemisphere(s.u, s.v));
-          float tnear = 0.0f, tfar;
+          const Vec3 dir = hf.frame.toWorld(squareToCosineHemisphere(s.u, s.v));
           if (c.estimator == Estimator::Distance) {
-            tfar = distanceTfar;
+            setRayHit(b.hitRays.p[m], hf.org, dir, 0.0f, mu.tfar(), unsigned(m));
           } else {
             const double xi = Sampler::get1D(b.key.p[i], k0 + k, kFirstIntegratorDim + 1);
-            tfar = toRayDistance(sampleDistance(c, xi));
+            float tnear = 0.0f, tfar = mu.segment(xi);
             if (!(tfar > 0.0f)) tnear = INFINITY, tfar = 0.0f;  // empty segment: inactive, reads unoccluded
-          }
-          RTCRay& q = c.estimator == Estimator::Distance ? b.hitRays.p[m].ray : b.occRays.p[m];
-          q.org_x = org.x; q.org_y = org.y; q.org_z = org.z; q.tnear = tnear;
-          q.dir_x = w.x; q.dir_y = w.y; q.dir_z = w.z;
-          q.time = 0.0f; q.tfar = tfar; q.mask = 0xffffffffU; q.id = unsigned(m); q.flags = 0;
-          if (c.estimator == Estimator::Distance) {
-            b.hitRays.p[m].hit.geomID = kInvalid;
-            b.hitRays.p[m].hit.instID[0] = kInvalid;
+            setRay(b.occRays.p[m], hf.org, dir, tnear, tfar, unsigned(m));
           }
         }
       }
@@ -283,31 +237,23 @@ class RawObscurance {
 // ---------------------------------------------------------------------------
 // The renderer side.
 
+std::string exact(double x) {
+  if (std::isinf(x)) return "inf";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
 struct RendererRun {
-  std::unique_ptr<Integrator> integrator;
-  IntegratorNeeds needs;
-
-  explicit RendererRun(const Config& c) {
-    const IntegratorDescriptor& d = IntegratorRegistry::instance().find("obscurance");
-    ParamSet p(d.params, d.name);
-    char buf[64];
-    p.set("falloff", falloffName(c.falloff));
-    p.set("estimator", estimatorName(c.estimator));
-    if (std::isinf(c.R)) {
-      p.set("distance", "inf");
-    } else {
-      std::snprintf(buf, sizeof buf, "%.17g", c.R);
-      p.set("distance", buf);
-    }
-    std::snprintf(buf, sizeof buf, "%.17g", c.sigma);
-    p.set("sigma", buf);
-    p.set("rays", std::to_string(c.rays));
-    integrator = d.create(p);
-    needs = d.needs(p);
-  }
-
+  BenchIntegrator integ;
+  explicit RendererRun(const Config& c)
+      : integ("obscurance", {{"falloff", falloffName(c.falloff)},
+                             {"estimator", estimatorName(c.estimator)},
+                             {"distance", exact(c.R)},
+                             {"sigma", exact(c.sigma)},
+                             {"rays", std::to_string(c.rays)}}) {}
   Film run(const BenchScene& bs, const RenderSettings& s, RenderStats& st) const {
-    return render(*bs.scene, bs.camera, *integrator, needs, s, st);
+    return integ.render(*bs.scene, bs.camera, s, st);
   }
 };
 

@@ -411,18 +411,10 @@ class Replayer {
 // The renderer side.
 
 struct RendererRun {
-  std::unique_ptr<Integrator> integrator;
-  IntegratorNeeds needs;
-
-  explicit RendererRun(const Config& c) {
-    const IntegratorDescriptor& d = IntegratorRegistry::instance().find(c.integrator);
-    ParamSet p(d.params, d.name);
-    for (const auto& [k, v] : c.params) p.set(k, v);
-    integrator = d.create(p);
-    needs = d.needs(p);
-  }
+  BenchIntegrator integ;
+  explicit RendererRun(const Config& c) : integ(c.integrator, c.params) {}
   Film run(const BenchScene& bs, const RenderSettings& s, RenderStats& st) const {
-    return render(*bs.scene, bs.camera, *integrator, needs, s, st);
+    return integ.render(*bs.scene, bs.camera, s, st);
   }
 };
 

@@ -142,4 +142,18 @@ RenderSettings benchRenderSettings(int width, int height, int spp, int threads, 
           .filter = PixelFilter::Box, .aovs = false, .progress = false};
 }
 
+BenchIntegrator::BenchIntegrator(const std::string& name,
+                                 const std::vector<std::pair<std::string, std::string>>& params) {
+  const IntegratorDescriptor& d = IntegratorRegistry::instance().find(name);
+  ParamSet p(d.params, d.name);
+  for (const auto& [k, v] : params) p.set(k, v);
+  integrator = d.create(p);
+  needs = d.needs(p);
+}
+
+Film BenchIntegrator::render(const Scene& scene, const Camera& camera, const RenderSettings& s,
+                             RenderStats& stats) const {
+  return obscura::render(scene, camera, *integrator, needs, s, stats);
+}
+
 }  // namespace obscura::bench

@@ -1,13 +1,20 @@
 // What the benchmarks share: scene loading (the viking room of
 // ../shared/scenes, the generated 1.1M-triangle scene or any glTF file),
 // the common command-line options, timing helpers (median, process CPU
-// time, RSS) and the renderer settings every bench times with.
+// time, RSS), the renderer settings every bench times with, an integrator
+// configured by name, and the pieces of the raw-Embree replays (aligned ray
+// arrays, the renderer's walk over a tile's camera samples, the camera ray,
+// the geometric-normal frame secondary rays leave from).
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <embree3/rtcore.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <cstdlib>
 #include <memory>
 #include <new>
@@ -16,8 +23,12 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "core/integrator.h"
 #include "core/render.h"
+#include "core/sampler.h"
 #include "core/scene.h"
+#include "core/surface.h"
+#include "core/warp.h"
 
 namespace obscura::bench {
 
@@ -45,7 +56,8 @@ double peakRssMiB();     // getrusage: the process's peak so far
 double currentRssMiB();  // /proc/self/statm
 std::string cpuName();
 
-// 64-byte aligned array of n T (uninitialized), for Embree ray streams.
+// 64-byte aligned array of n T (uninitialized), for Embree ray streams and
+// packets.
 template <class T>
 struct AlignedArray {
   explicit AlignedArray(size_t n) {
@@ -57,6 +69,78 @@ struct AlignedArray {
   AlignedArray& operator=(const AlignedArray&) = delete;
   T* p;
 };
+
+// An integrator made from its name and key=value parameters, rendered with
+// the renderer (obscura::render).
+struct BenchIntegrator {
+  BenchIntegrator(const std::string& name, const std::vector<std::pair<std::string, std::string>>& params);
+  Film render(const Scene& scene, const Camera& camera, const RenderSettings& s, RenderStats& stats) const;
+  std::unique_ptr<Integrator> integrator;
+  IntegratorNeeds needs;
+};
+
+// --- raw Embree replays of the renderer's rays ----------------------------
+
+// Walks a tile's camera samples in the renderer's order (core/render.cpp):
+// pixels row-major within the tile, each pixel's samples 0..spp-1
+// consecutively.
+struct SampleWalk {
+  SampleWalk(const Sampler& s, int x0_, int y0, int tw, int spp_)
+      : sampler(s), x0(x0_), x1(x0_ + tw), spp(uint32_t(spp_)), px(x0_), py(y0),
+        key(s.pixelKey(uint32_t(x0_), uint32_t(y0))) {}
+  void next() {
+    if (++si != spp) return;
+    si = 0;
+    if (++px == x1) px = x0, ++py;
+    key = sampler.pixelKey(uint32_t(px), uint32_t(py));
+  }
+  // The current sample's camera ray direction (box filter, as the benches
+  // render with).
+  Vec3 direction(const RasterCamera& raster) const {
+    const Sample2 f = Sampler::get2D(key, si, kDimPixelFilter);
+    return raster.direction(float(px) + f.u, float(py) + f.v);
+  }
+  const Sampler& sampler;
+  int x0, x1;
+  uint32_t spp;
+  int px, py;
+  uint32_t si = 0;
+  uint32_t key;
+};
+
+// A closest-hit ray for rtcIntersect1/1M (mask ~0, time 0, no hit yet).
+inline void setRayHit(RTCRayHit& r, Vec3 org, Vec3 dir, float tnear, float tfar, unsigned id) {
+  r.ray.org_x = org.x; r.ray.org_y = org.y; r.ray.org_z = org.z; r.ray.tnear = tnear;
+  r.ray.dir_x = dir.x; r.ray.dir_y = dir.y; r.ray.dir_z = dir.z;
+  r.ray.time = 0.0f; r.ray.tfar = tfar; r.ray.mask = 0xffffffffU; r.ray.id = id; r.ray.flags = 0;
+  r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+}
+// An occlusion ray for rtcOccluded1/1M.
+inline void setRay(RTCRay& q, Vec3 org, Vec3 dir, float tnear, float tfar, unsigned id) {
+  q.org_x = org.x; q.org_y = org.y; q.org_z = org.z; q.tnear = tnear;
+  q.dir_x = dir.x; q.dir_y = dir.y; q.dir_z = dir.z;
+  q.time = 0.0f; q.tfar = tfar; q.mask = 0xffffffffU; q.id = id; q.flags = 0;
+}
+
+// Where the raw replays start secondary rays, from what Embree returned and
+// nothing read back from the scene (ao_raw.h): the geometric normal,
+// normalized and flipped to face the ray, as the frame; the origin o + t*d
+// pushed along it by 2^-16 of the point's magnitude. Cosine directions about
+// the frame leave to the origin's side.
+struct RawHitFrame {
+  Vec3 org;
+  Frame frame;
+};
+inline RawHitFrame rawHitFrame(Vec3 o, Vec3 d, float t, Vec3 ngRaw) {
+  const Vec3 p = o + d * t;
+  const float len = length(ngRaw);
+  Vec3 ng = (len > 0.0f && std::isfinite(len)) ? ngRaw * (1.0f / len) : -d;
+  if (dot(ng, d) > 0.0f) ng = -ng;
+  const float mag = std::max(std::abs(p.x), std::max(std::abs(p.y), std::abs(p.z)));
+  const float eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
+  return {p + ng * eps, Frame::fromNormal(ng)};
+}
 
 // Options every bench takes: --scene (repeatable), --res, --spp, --runs,
 // --threads, --quick (`quickDoc` says what it does).

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/error.h"
+#include "core/settings.h"
 
 namespace obscura {
 
@@ -62,11 +64,40 @@ void addCage(Scene& scene, const SubdivisionCage& cage, const LoadOptions& o, co
   if (adaptive && (!o.camera || o.imageWidth < 1 || o.imageHeight < 1))
     throw Error("internal: adaptive subdivision without a camera");
   if (disp.map && cage.uvIndices.empty()) throw Error(what + ": displacement needs texture coordinates on every face corner");
-  const std::string budget = ", over the --max-memory budget of " + std::to_string(o.maxMemoryBytes >> 20) + " MiB";
+  if (disp.map) {
+    // Embree's ray-primitive arithmetic is float and forms products of three
+    // coordinate differences (the Pluecker/Moeller tests: a determinant of
+    // edge and origin vectors), which overflow past cbrt(FLT_MAX) = 7e12
+    // scene units: on subdivision grids the intersection then returns NaN
+    // distances, the next ray starts at NaN and Embree aborts on its
+    // ray.valid() assertion (measured, Spot cage on the embree backend:
+    // largest displaced coordinate 6.3e12 renders, 8.4e12 aborts - the
+    // cube root of FLT_MAX, 6.98e12, lies between); on triangles hits are
+    // silently lost instead.
+    // Embree documents a range only for rays (|org|, |dir| <= FLT_LARGE =
+    // 1.8e18), which is looser. So displacement may take no point beyond
+    // kMaxDisplacedCoordinate = 1e12 (a factor 7 under the overflow, for the
+    // sum of three products and origins anywhere in the scene): the cage's
+    // largest coordinate plus |scale| times the height map's largest
+    // |h - midlevel| (the limit surface lies in the cage's hull and moves
+    // along unit normals).
+    double cageMax = 0;
+    for (const Vec3& p : cage.positions) cageMax = std::max({cageMax, double(std::abs(p.x)), double(std::abs(p.y)), double(std::abs(p.z))});
+    const double dev = std::max(std::abs(double(disp.map->maxTexel()) - disp.midlevel),
+                                std::abs(double(disp.map->minTexel()) - disp.midlevel));
+    const double reach = cageMax + std::abs(disp.scale) * dev;
+    if (!(reach <= kMaxDisplacedCoordinate)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, ": %g moves %s up to %.3g scene units from the origin; at most %g is traced reliably",
+                    disp.scale, "the surface", reach, kMaxDisplacedCoordinate);
+      throw Error((disp.scaleField.empty() ? settingName(Setting::DisplacementScale) : disp.scaleField) + buf + " (" + what + ")");
+    }
+  }
+  const std::string budget = ", over the " + settingName(Setting::MaxMemory) + " budget of " + std::to_string(o.maxMemoryBytes >> 20) + " MiB";
 
   if (o.backend == SubdivisionBackend::Embree) {
     if (o.scheme != SubdivisionScheme::CatmullClark)
-      throw Error(what + ": Embree's subdivision surfaces are Catmull-Clark only (use --subdiv-backend osd for loop)");
+      throw Error(what + ": Embree's subdivision surfaces are Catmull-Clark only (use " + settingName(Setting::SubdivisionBackendOsd) + " for loop)");
     validateCage(cage, SubdivisionScheme::CatmullClark, what);
     for (const int n : cage.faceSizes)
       if (n > 15) throw Error(what + ": a face has " + std::to_string(n) + " vertices; Embree's subdivision takes 3 to 15");
@@ -80,7 +111,9 @@ void addCage(Scene& scene, const SubdivisionCage& cage, const LoadOptions& o, co
     const size_t bytes = embreeSubdivisionBytes(cage, rates);
     if (bytes > o.maxMemoryBytes)
       throw Error(what + ": Embree's tessellation needs about " + std::to_string(bytes >> 20) + " MiB" + budget);
-    scene.addSubdivisionSurface(cage, rates, disp.map, float(disp.scale), float(disp.midlevel), disp.flipV, material);
+    scene.setPrimitiveName(
+        scene.addSubdivisionSurface(cage, rates, disp.map, float(disp.scale), float(disp.midlevel), disp.flipV, material),
+        what);
     return;
   }
   const int level = adaptive ? levelForEdgeLength(edgePixelLengths(cage, *o.camera, o.imageWidth, o.imageHeight),
@@ -88,7 +121,8 @@ void addCage(Scene& scene, const SubdivisionCage& cage, const LoadOptions& o, co
                              : o.subdivisionLevel;
   SubdividedMesh m = subdivide(cage, o.scheme, level, o.maxMemoryBytes, what);
   if (disp.map) displace(m, *disp.map, disp.scale, disp.midlevel, disp.flipV);
-  scene.addWorldPrimitive(m.positions, m.triangles, std::move(m.normals), std::move(m.uvs), material);
+  scene.setPrimitiveName(scene.addWorldPrimitive(m.positions, m.triangles, std::move(m.normals), std::move(m.uvs), material),
+                         what);
 }
 
 }  // namespace obscura

@@ -18,7 +18,14 @@ struct CageDisplacement {
   std::shared_ptr<const HeightMap> map;  // null: none
   double scale = 0, midlevel = 0;
   bool flipV = false;  // look up (u, 1 - v): glTF's v runs down the image
+  // Where the scale came from, for messages: "" = the displacementScale
+  // setting (core/settings.h), or "FILE: meshes[i].extras.obscura.displacement.scale".
+  std::string scaleField;
 };
+
+// Displaced coordinates must stay within this magnitude (scene units); see
+// addCage.
+constexpr double kMaxDisplacedCoordinate = 1e12;
 
 // Length in pixels of each cage edge (the edge from face corner k to the
 // next corner, parallel to cage.faceIndices) seen from `camera` on a

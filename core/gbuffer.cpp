@@ -223,8 +223,7 @@ void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float 
 Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpaceIntegrator& integrator,
                        const IntegratorNeeds& needs, const RenderSettings& s, RenderStats& stats,
                        const std::atomic<bool>* cancel) {
-  if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
-  if (s.spp <= 0) throw Error("--spp must be at least 1");
+  // render() has checked the settings (it is the one entry point).
   const bool wantAlbedo = needs.albedo || s.aovs;
   if (wantAlbedo)  // decode once, up front: the loops never throw or block
     for (const auto& t : scene.textures) t->decode();

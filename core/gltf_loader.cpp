@@ -15,6 +15,7 @@
 
 #include "core/cage.h"
 #include "core/error.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -444,10 +445,10 @@ class Loader {
         if (scene_->materials[size_t(gp.material)].texture >= 0 && !gp.attributes.count("TEXCOORD_0"))
           warn(field + ": textured material without TEXCOORD_0 (texture ignored)");
       }
-      // Texture coordinates serve a texture and, on a subdivided mesh, the
-      // displacement and integrators that work in texture space.
-      const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
-      if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end() && (textured || sub)) {
+      // Texture coordinates serve a texture, the displacement of a subdivided
+      // mesh and integrators that work in texture space (containment), so
+      // they are kept whenever the file has them (8 bytes a vertex).
+      if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end()) {
         d.uvs = readVec2(t->second, field + ".attributes.TEXCOORD_0");
         if (d.uvs.size() != 2 * d.positions.size()) fail(field + ".attributes.TEXCOORD_0", "count differs from POSITION");
       }
@@ -519,6 +520,7 @@ class Loader {
     std::string path;  // the file to read
     double scale, midlevel;
     std::string field;
+    std::string scaleField;  // where scale came from, for messages; "" = the displacementScale setting
   };
 
   // {"map": path, "scale": s, "midlevel": m} at owner.extras.obscura.displacement.
@@ -540,6 +542,7 @@ class Loader {
       if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble())) fail(r.field + "." + key, "expected a finite number");
       *value = v.GetNumberAsDouble();
     }
+    if (d.Has("scale")) r.scaleField = path_ + ": " + r.field + ".scale";
     return r;
   }
 
@@ -553,7 +556,7 @@ class Loader {
     if (r && !subdivided) fail(r->field, "needs a subdivided mesh (" + mesh + ".extras.obscura.subdivision)");
     if (!r && subdivided && !options_.displacementMap.empty()) {
       r = DisplacementRequest{options_.displacementMap, options_.displacementMap, options_.displacementScale,
-                              options_.displacementMidlevel, "--displace"};
+                              options_.displacementMidlevel, settingName(Setting::Displacement)};
       cliDisplacementUsed_ = true;
     }
     return r;
@@ -567,7 +570,7 @@ class Loader {
     try {
       it = heightMaps_.emplace(key, std::make_shared<const HeightMap>(r.path)).first;
     } catch (const Error& e) {
-      if (r.field == "--displace") throw;  // already names the file, as given
+      if (r.field == settingName(Setting::Displacement)) throw;  // already names the file, as given
       std::string why = e.what();
       if (why.rfind(r.path + ": ", 0) == 0) why.erase(0, r.path.size() + 2);
       fail(r.field + ".map", r.map + ": " + why);
@@ -621,8 +624,8 @@ class Loader {
       cage.uvIndices.assign(d.indices.begin(), d.indices.end());
       const bool textured = d.material >= 0 && scene_->materials[size_t(d.material)].texture >= 0;
       if (textured && options_.backend == SubdivisionBackend::Embree)
-        warn(field + ": textures on Embree subdivision surfaces are not supported (the material's factor is used; "
-                     "--subdiv-backend osd keeps them)");
+        warn(field + ": textures on Embree subdivision surfaces are not supported (the material's factor is used; " +
+                     settingName(Setting::SubdivisionBackendOsd) + " keeps them)");
     }
     validateCage(cage, r.scheme, path_ + ": " + field);
     d.sub = r;
@@ -635,6 +638,7 @@ class Loader {
       d.displacement.map = heightMap(*disp);
       d.displacement.scale = disp->scale, d.displacement.midlevel = disp->midlevel;
       d.displacement.flipV = true;
+      d.displacement.scaleField = disp->scaleField;
     }
     d.cage = std::move(cage);
     d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear();
@@ -699,7 +703,9 @@ class Loader {
           }
           for (Vec3& v : p.positions) v = xf.point(v);
           for (Vec3& n : p.normals) n = xf.normal(n);
-          scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
+          scene_->setPrimitiveName(
+              scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material),
+              model_.meshes[size_t(u.mesh)].name);
         }
         if (!prims.empty()) ++scene_->flattenedMeshes;
         continue;
@@ -715,7 +721,7 @@ class Loader {
       if (it->second >= 0) scene_->addInstance(it->second, xf, u.node);
     }
     if (!options_.displacementMap.empty() && !cliDisplacementUsed_)
-      warn("--displace applies to subdivided meshes (extras.obscura.subdivision) without a displacement of their own; "
+      warn(settingName(Setting::Displacement) + " applies to subdivided meshes (extras.obscura.subdivision) without a displacement of their own; "
            "none here (height map unused)");
   }
 

@@ -3,7 +3,7 @@
 // integrator by name.
 //
 // An integrator estimates, for a batch of camera hits, the normalized ambient
-// irradiance W of MATH.md section 1 (an RGB factor). It is called once per
+// irradiance W of docs/math.md §1 (an RGB factor). It is called once per
 // batch (a few hundred hits), never per ray: it fills ray batches through
 // its IntegratorContext and the core traces each batch with one Embree
 // stream call.
@@ -11,7 +11,7 @@
 // Each camera sample's estimate is a ratio (num, den); a pixel's W is the
 // ratio of sums over its samples, Sum num / Sum den (per RGB channel). Plain
 // Monte Carlo estimators leave den = 1, so W is the sample mean; the ratio
-// estimators of MATH.md section 4 set both, because a ratio taken per sample
+// estimators of docs/math.md §4 set both, because a ratio taken per sample
 // (one ray) degenerates to plain AO. A pixel whose denominators sum to 0
 // resolves to W = 1: a ratio estimator has num <= den, so this is 0/0, which
 // for the closed-form transfer means "no open direction, every occluder
@@ -34,7 +34,7 @@
 namespace obscura {
 
 // What an integrator needs from the scene; the core builds and fetches only
-// that (MATH.md: "compute only what a scene and integrator need").
+// that (docs/architecture.md).
 struct IntegratorNeeds {
   bool albedo = false;  // SurfaceHit::albedo is read, here or at secondary hits (decodes textures)
 };
@@ -97,6 +97,8 @@ class IntegratorContext {
   }
   // The texture parametrization at a hit (see surfaceUvFrame).
   bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
+  // What h's surface is called in messages (Scene::surfaceName).
+  std::string surfaceName(const SurfaceHit& h) const { return scene_.surfaceName(h.geomID, h.instID); }
   // The albedo of h's surface at texture coordinates (u, v) (needs
   // IntegratorNeeds::albedo).
   Vec3 albedoAtUv(const SurfaceHit& h, float u, float v) const { return surfaceAlbedoAtUv(scene_, h, u, v); }
@@ -110,7 +112,7 @@ class IntegratorContext {
 };
 
 // Direction k of `rays` drawn for hit h with density cos(theta)/pi about its
-// shading normal (MATH.md section 1); `frame` = Frame::fromNormal(h.ns). The
+// shading normal (docs/math.md §1); `frame` = Frame::fromNormal(h.ns). The
 // pixel's (sample, ray) pairs index one sequence, so all of a pixel's rays
 // are jointly stratified.
 inline Vec3 cosineDirection(const SurfaceHit& h, const Frame& frame, uint32_t rays, uint32_t k) {
@@ -149,7 +151,7 @@ class ScreenSpaceIntegrator;  // core/gbuffer.h
 class Integrator {
  public:
   virtual ~Integrator() = default;
-  // Writes out[i], the estimate of MATH.md section 1 at hits[i] (out[i].num
+  // Writes out[i], the estimate of docs/math.md §1 at hits[i] (out[i].num
   // alone for a plain mean). Samples must come from Sampler::get2D/get1D
   // keyed by hits[i].pixelKey and an index derived from hits[i].sampleIndex,
   // with dimensions from kFirstIntegratorDim upward, so results do not

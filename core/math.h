@@ -1,7 +1,7 @@
 // Small vector and frame types used throughout Obscura.
 //
 // Single precision, like Embree: every quantity that reaches the tracer is a
-// float. Double precision is used locally where a formula cancels (MATH.md).
+// float. Double precision is used locally where a formula cancels (docs/math.md).
 #pragma once
 
 #include <algorithm>

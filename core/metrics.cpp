@@ -115,6 +115,17 @@ BiasVariance biasVariance(const std::vector<PassImage>& renders, const PassImage
   return bv;
 }
 
+PassImage averagePasses(const PassImage& a, const PassImage& b) {
+  PassImage m = a;
+  for (size_t i = 0; i < m.pixels(); ++i) {
+    m.r[i] = 0.5f * (a.r[i] + b.r[i]);
+    m.g[i] = 0.5f * (a.g[i] + b.g[i]);
+    m.b[i] = 0.5f * (a.b[i] + b.b[i]);
+    m.a[i] = 0.5f * (a.a[i] + b.a[i]);
+  }
+  return m;
+}
+
 double referenceNoise(const PassImage& a, const PassImage& b) {
   const std::vector<size_t> idx = comparedPixels(a, b);
   double s = 0;

@@ -60,4 +60,8 @@ BiasVariance biasVariance(const std::vector<PassImage>& renders, const PassImage
 // averaged; returns its square root (an RMSE).
 double referenceNoise(const PassImage& a, const PassImage& b);
 
+// The per-value mean of two passes of the same size (a reference from two
+// halves).
+PassImage averagePasses(const PassImage& a, const PassImage& b);
+
 }  // namespace obscura

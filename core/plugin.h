@@ -7,10 +7,13 @@
 // OBSCURA_PLUGIN_ENTRY("name"). That defines two C symbols:
 //   obscura_plugin_abi_version  (data: OBSCURA_PLUGIN_ABI_VERSION at build time)
 //   obscura_plugin_register     (function: adds the module's integrators)
-// The loader reads the version *before* calling anything in the module and
-// refuses a mismatch with a message; a library without the symbols, one that
-// fails to load, or one whose registration throws gives an obscura::Error,
-// never a crash. See docs/plugins.md.
+// The loader reads the version from the library FILE (its ELF dynamic symbol
+// table) before dlopen - dlopen runs a library's static constructors, so a
+// check after it would come too late - and refuses a mismatch with a
+// message; once loaded, dlsym checks the version again. A file that is not
+// an ELF shared object, a library without the symbols, one that fails to
+// load, or one whose registration throws gives an obscura::Error, never a
+// crash. See docs/plugins.md.
 #pragma once
 
 #include <cstdint>
@@ -21,9 +24,9 @@
 
 // Bumped whenever a header a plugin compiles against changes in a way that
 // breaks binary compatibility (class layouts, virtual functions, inline code
-// that touches core data). 3: screen-space integrators (Integrator::screenSpace,
-// IntegratorDescriptor::kind, core/gbuffer.h).
-#define OBSCURA_PLUGIN_ABI_VERSION 3u
+// that touches core data). 3: Primitive gained a name. 4: screen-space
+// integrators (Integrator::screenSpace, IntegratorDescriptor::kind, core/gbuffer.h).
+#define OBSCURA_PLUGIN_ABI_VERSION 4u
 
 namespace obscura {
 
@@ -31,7 +34,8 @@ namespace detail {
 using DescriptorFn = IntegratorDescriptor (*)();
 // One list per module (hidden visibility: each shared library and the
 // program get their own), filled by static initializers that only append
-// function pointers - nothing runs in a plugin before its ABI is checked.
+// function pointers. They run when the library is loaded, which happens only
+// after its ABI version has been read from the file and matched.
 __attribute__((visibility("hidden"))) inline std::vector<DescriptorFn>& moduleIntegrators() {
   static std::vector<DescriptorFn> list;
   return list;
@@ -41,6 +45,11 @@ __attribute__((visibility("hidden"))) inline std::vector<DescriptorFn>& moduleIn
 // Loads the plugin library at `path` and registers its integrators.
 // Throws obscura::Error naming the path on any failure.
 void loadPlugin(const std::string& path);
+// The value of obscura_plugin_abi_version as stored in the shared object
+// file at `path`, read without loading it (bounds-checked: a truncated or
+// malformed file gives an obscura::Error naming the path, "not an ELF shared
+// object (...)" or "no obscura_plugin_abi_version symbol").
+uint32_t readPluginAbiVersion(const std::string& path);
 // Loads every plugin named by OBSCURA_PLUGIN_PATH: a ':'-separated list of
 // plugin files or directories (every *.so in a directory, in name order).
 void loadPluginsFromEnvironment();

@@ -11,6 +11,7 @@
 #include "core/pixel_sums.h"
 #include "core/progress.h"
 #include "core/sampler.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -19,6 +20,8 @@ namespace {
 // vanishes, small enough that the batch and its hits stay in L1/L2.
 constexpr size_t kChunk = 256;
 
+// One chunk's lanes (camera samples) and what each stage leaves for the
+// next, per thread, allocated once: the loop allocates nothing.
 struct ThreadScratch {
   ThreadScratch(const Scene& scene, const Tracer& tracer) : ctx(scene, tracer) {
     camera.reserve(kChunk);
@@ -31,9 +34,168 @@ struct ThreadScratch {
   int32_t laneHit[kChunk];      // index into hits, or -1
   uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
   uint32_t laneSample[kChunk];  // sample index within the pixel
-  SampleEstimate W[kChunk];
-  std::vector<PixelSums> sums;
+  SampleEstimate W[kChunk];     // the integrator's estimate of each hit
+  std::vector<PixelSums> sums;  // the tile's pixels
   RayCounters cameraCounters;
+};
+
+struct TileRect {
+  int x0, y0, w, h;
+  size_t pixels() const { return size_t(w) * size_t(h); }
+};
+
+// Where a tile's walk through its samples stands. Pixel-major, sample-minor:
+// each pixel's samples are summed in sample order whatever the chunking. The
+// pixel's sampler key and filter seeds are hashed once per pixel.
+struct SampleCursor {
+  uint32_t pix = 0, si = 0;  // pixel within the tile, sample within the pixel
+  int px, py;                // that pixel in the image
+  uint32_t key;
+  Sampler::Seeds2 filterSeeds;
+};
+
+// The render loop's stages for one tile, chunk by chunk:
+//   camera samples -> surface hits:  cameraRays, traceCamera, surfaceHits
+//   estimate + accumulate:           estimate, accumulate
+// and, once the tile's samples are done, resolve into the film. Each stage
+// reads and writes the ThreadScratch lane tables (lanePixel/laneKey/
+// laneSample -> camera batch -> hits/laneHit -> W -> sums), so another
+// source of surface hits only has to fill hits, laneHit and lanePixel.
+class TileRenderer {
+ public:
+  TileRenderer(const Scene& scene, const Camera& camera, const Integrator& integrator, const RenderSettings& s,
+               const Tracer& tracer, Film& film, bool wantAlbedo)
+      : scene_(scene), integrator_(integrator), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
+        sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
+        tilesX_((s.width + s.tileSize - 1) / s.tileSize), wantAlbedo_(wantAlbedo) {}
+
+  int tileCount() const { return tilesX_ * ((s_.height + s_.tileSize - 1) / s_.tileSize); }
+
+  // Renders one tile into the film; returns its pixel count, or 0 when
+  // cancelled (checked once per chunk: a relaxed load per kChunk samples).
+  size_t renderTile(int tile, ThreadScratch& ts, const std::atomic<bool>* cancel) const {
+    const TileRect r = tileRect(tile);
+    ts.sums.assign(r.pixels(), PixelSums{});
+    const uint64_t total = uint64_t(r.pixels()) * uint64_t(s_.spp);
+    SampleCursor c = startCursor(r);
+    for (uint64_t begin = 0; begin < total; begin += kChunk) {
+      if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
+      const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
+      cameraRays(r, c, n, ts);
+      traceCamera(n, ts);
+      surfaceHits(n, ts);
+      estimate(ts);
+      accumulate(n, ts);
+    }
+    resolve(r, ts);
+    return r.pixels();
+  }
+
+ private:
+  TileRect tileRect(int tile) const {
+    const int x0 = (tile % tilesX_) * s_.tileSize, y0 = (tile / tilesX_) * s_.tileSize;
+    return {x0, y0, std::min(s_.tileSize, s_.width - x0), std::min(s_.tileSize, s_.height - y0)};
+  }
+
+  SampleCursor startCursor(const TileRect& r) const {
+    SampleCursor c;
+    c.px = r.x0, c.py = r.y0;
+    c.key = sampler_.pixelKey(uint32_t(r.x0), uint32_t(r.y0));
+    c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
+    return c;
+  }
+
+  // Camera samples -> rays: the next n samples of the tile into ts.camera,
+  // with each lane's pixel, sampler key and sample index.
+  void cameraRays(const TileRect& r, SampleCursor& c, size_t n, ThreadScratch& ts) const {
+    IntersectBatch& cam = ts.camera;
+    cam.clear();
+    for (size_t l = 0; l < n; ++l) {
+      float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
+      cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx, fy);
+      cam.push(raster_.org, raster_.direction(fx, fy), tnear_, tfar_);
+      ts.lanePixel[l] = c.pix;
+      ts.laneKey[l] = c.key;
+      ts.laneSample[l] = c.si;
+      if (++c.si == uint32_t(s_.spp)) {  // next pixel
+        c.si = 0;
+        ++c.pix;
+        if (++c.px == r.x0 + r.w) c.px = r.x0, ++c.py;
+        c.key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
+        c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
+      }
+    }
+  }
+
+  // One coherent stream for the chunk's camera rays.
+  void traceCamera(size_t n, ThreadScratch& ts) const {
+    tracer_.intersect(ts.camera, RayCoherence::Coherent);
+    ts.cameraCounters.camera += n;
+  }
+
+  // Rays -> surface hits: one SurfaceHit per lane that hit (ts.hits, in
+  // lane order), ts.laneHit its index or -1.
+  void surfaceHits(size_t n, ThreadScratch& ts) const {
+    const IntersectBatch& cam = ts.camera;
+    ts.hits.clear();
+    for (size_t l = 0; l < n; ++l) {
+      if (!cam.hit(l)) {
+        ts.laneHit[l] = -1;
+        continue;
+      }
+      ts.laneHit[l] = int32_t(ts.hits.size());
+      SurfaceHit& h = ts.hits.emplace_back();
+      computeSurfaceHit(scene_, cam.data()[l], wantAlbedo_, h);
+      h.pixelKey = ts.laneKey[l];
+      h.sampleIndex = ts.laneSample[l];
+    }
+  }
+
+  // The integrator's estimate of every hit (ts.W), as one batch.
+  void estimate(ThreadScratch& ts) const {
+    if (ts.hits.empty()) return;
+    for (size_t i = 0; i < ts.hits.size(); ++i) ts.W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
+    integrator_.estimate(ts.hits, ts.ctx, ts.W);
+  }
+
+  // Each lane's estimate (and AOV values) into its pixel's sums, in lane
+  // order, that is in sample order within a pixel.
+  void accumulate(size_t n, ThreadScratch& ts) const {
+    for (size_t l = 0; l < n; ++l) {
+      const int32_t hi = ts.laneHit[l];
+      if (hi < 0) continue;
+      const SurfaceHit& h = ts.hits[size_t(hi)];
+      PixelSums& p = ts.sums[ts.lanePixel[l]];
+      p.num.add(ts.W[hi].num);
+      p.den.add(ts.W[hi].den);
+      p.hits += 1;
+      if (wantAlbedo_) p.albedo.add(h.albedo);
+      if (s_.aovs) {
+        p.N.add(h.ns);
+        p.Z += double(h.t);
+      }
+    }
+  }
+
+  // The tile's sums into the film. Each pixel belongs to exactly one tile,
+  // so no locking.
+  void resolve(const TileRect& r, const ThreadScratch& ts) const {
+    for (int y = 0; y < r.h; ++y)
+      for (int x = 0; x < r.w; ++x)
+        resolvePixelSums(ts.sums[size_t(y) * r.w + x], s_.spp, integrator_, wantAlbedo_, s_.sky, film_, r.x0 + x,
+                         r.y0 + y);
+  }
+
+  const Scene& scene_;
+  const Integrator& integrator_;
+  const RenderSettings& s_;
+  const Tracer& tracer_;
+  Film& film_;
+  const RasterCamera raster_;
+  const Sampler sampler_;
+  const float tnear_, tfar_;
+  const int tilesX_;
+  const bool wantAlbedo_;
 };
 
 }  // namespace
@@ -62,7 +224,7 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
   film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
   film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
   film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
-  // shaded = albedo * W * La (MATH.md section 1), from the pixel's
+  // shaded = albedo * W * La (docs/math.md §1), from the pixel's
   // albedo and pass: exactly the product a compositor would form.
   film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * sky.x * coverage);
   film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * sky.y * coverage);
@@ -79,7 +241,7 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
             const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
-  if (s.spp <= 0) throw Error("--spp must be at least 1");
+  if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
   if (const ScreenSpaceIntegrator* ss = integrator.screenSpace())
     return renderScreenSpace(scene, camera, *ss, needs, s, stats, cancel);
@@ -89,100 +251,23 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
 
   Film film(s.width, s.height, s.aovs);
   const Tracer tracer(scene.rtcScene(), s.recorder);
-  const RasterCamera raster(camera, s.width, s.height);
-  const Sampler sampler(s.seed);
-  const int tilesX = (s.width + s.tileSize - 1) / s.tileSize, tilesY = (s.height + s.tileSize - 1) / s.tileSize;
-  const float tnear = camera.znear;
-  const float tfar = camera.zfar;
+  const TileRenderer tiles(scene, camera, integrator, s, tracer, film, wantAlbedo);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
   Progress progress("render", uint64_t(s.width) * s.height, s.progress);
   const auto t0 = std::chrono::steady_clock::now();
 
-  auto renderTile = [&](int tile) {
+  const auto renderTile = [&](int tile) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
     if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer);
-    ThreadScratch& ts = *slot;
-    const int x0 = (tile % tilesX) * s.tileSize, y0 = (tile / tilesX) * s.tileSize;
-    const int tw = std::min(s.tileSize, s.width - x0), th = std::min(s.tileSize, s.height - y0);
-    const size_t pixels = size_t(tw) * th;
-    ts.sums.assign(pixels, PixelSums{});
-    const uint64_t total = uint64_t(pixels) * uint64_t(s.spp);
-
-    // Pixel-major, sample-minor order: each pixel's samples are summed in
-    // sample order whatever the chunking. (pix, si) walk that order; the
-    // pixel's sampler key is hashed once per pixel.
-    uint32_t pix = 0, si = 0;
-    uint32_t key = sampler.pixelKey(uint32_t(x0), uint32_t(y0));
-    Sampler::Seeds2 filterSeeds = Sampler::seeds2D(key, kDimPixelFilter);
-    int px = x0, py = y0;
-    for (uint64_t begin = 0; begin < total; begin += kChunk) {
-      const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
-      IntersectBatch& cam = ts.camera;
-      cam.clear();
-      for (size_t l = 0; l < n; ++l) {
-        float fx, fy;
-        cameraSampleFilm(s.filter, filterSeeds, si, px, py, fx, fy);
-        cam.push(raster.org, raster.direction(fx, fy), tnear, tfar);
-        ts.lanePixel[l] = pix;
-        ts.laneKey[l] = key;
-        ts.laneSample[l] = si;
-        if (++si == uint32_t(s.spp)) {  // next pixel
-          si = 0;
-          ++pix;
-          if (++px == x0 + tw) px = x0, ++py;
-          key = sampler.pixelKey(uint32_t(px), uint32_t(py));
-          filterSeeds = Sampler::seeds2D(key, kDimPixelFilter);
-        }
-      }
-      tracer.intersect(cam, RayCoherence::Coherent);
-      ts.cameraCounters.camera += n;
-
-      ts.hits.clear();
-      for (size_t l = 0; l < n; ++l) {
-        if (!cam.hit(l)) {
-          ts.laneHit[l] = -1;
-          continue;
-        }
-        ts.laneHit[l] = int32_t(ts.hits.size());
-        SurfaceHit& h = ts.hits.emplace_back();
-        computeSurfaceHit(scene, cam.data()[l], wantAlbedo, h);
-        h.pixelKey = ts.laneKey[l];
-        h.sampleIndex = ts.laneSample[l];
-      }
-      if (!ts.hits.empty()) {
-        for (size_t i = 0; i < ts.hits.size(); ++i) ts.W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
-        integrator.estimate(ts.hits, ts.ctx, ts.W);
-      }
-
-      for (size_t l = 0; l < n; ++l) {
-        const int32_t hi = ts.laneHit[l];
-        if (hi < 0) continue;
-        const SurfaceHit& h = ts.hits[size_t(hi)];
-        PixelSums& p = ts.sums[ts.lanePixel[l]];
-        p.num.add(ts.W[hi].num);
-        p.den.add(ts.W[hi].den);
-        p.hits += 1;
-        if (wantAlbedo) p.albedo.add(h.albedo);
-        if (s.aovs) {
-          p.N.add(h.ns);
-          p.Z += double(h.t);
-        }
-      }
-    }
-
-    // Resolve: each pixel belongs to exactly one tile, so no locking.
-    for (int y = 0; y < th; ++y)
-      for (int x = 0; x < tw; ++x)
-        resolvePixelSums(ts.sums[size_t(y) * tw + x], s.spp, integrator, wantAlbedo, s.sky, film, x0 + x, y0 + y);
-    progress.advance(pixels);
+    if (const size_t pixels = tiles.renderTile(tile, *slot, cancel)) progress.advance(pixels);
   };
 
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles.tileCount(), 1), [&](const tbb::blocked_range<int>& r) {
       for (int t = r.begin(); t != r.end(); ++t) renderTile(t);
     });
   });

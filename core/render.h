@@ -21,7 +21,7 @@ struct RenderSettings {
   int threads = 0;         // 0 = all hardware threads
   int tileSize = 16;       // pixels per tile side; does not change the image
   PixelFilter filter = PixelFilter::Box;
-  Vec3 sky{1, 1, 1};       // La of MATH.md section 1 (only scales shaded.*)
+  Vec3 sky{1, 1, 1};       // La of docs/math.md §1 (only scales shaded.*)
   bool aovs = true;        // write albedo/N/Z/shaded channels
   bool progress = false;   // progress bar on stderr
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)

@@ -2,7 +2,7 @@
 //
 // Every random number is a pure function of (pixel, sample index, dimension,
 // seed): no generator state exists, so the image is bit-identical for any
-// thread count and tile size (ARCHITECTURE.md, "Determinism").
+// thread count and tile size (docs/architecture.md, "Deterministic sampling").
 //
 // Each 2D dimension pair uses the first two Sobol' dimensions, Owen-scrambled
 // with a hash-based nested uniform scramble and with the sample index itself

@@ -82,6 +82,15 @@ int Scene::addWorldPrimitive(const std::vector<Vec3>& positions, const std::vect
   return int(worldPrimitives_.size()) - 1;
 }
 
+std::string Scene::surfaceName(unsigned geomID, unsigned instID) const {
+  const auto quoted = [](const std::string& n) { return n.empty() ? std::string("an unnamed mesh") : "mesh '" + n + "'"; };
+  if (instID != RTC_INVALID_GEOMETRY_ID) {
+    const Instance& inst = instances_[size_t(topLevel_[instID].instance)];
+    return quoted(meshes_[size_t(inst.mesh)].name) + (inst.node.empty() ? "" : " (node '" + inst.node + "')");
+  }
+  return quoted(worldPrimitives_[size_t(topLevel_[geomID].primitive)].name);
+}
+
 namespace {
 // Embree's displacement callback: moves the tessellation's points along the
 // limit normal Embree passes (unit length), by the height map at the

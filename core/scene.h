@@ -64,6 +64,7 @@ struct Primitive {
   // uvs with v = 0 at the top of an image (glTF); false: at the bottom (OBJ,
   // and the height maps' convention).
   bool uvsRunDown = false;
+  std::string name;  // for messages: the mesh or file it came from ("" if unknown)
 };
 
 // A mesh placed more than once: its own Embree scene, shared by instances.
@@ -134,6 +135,11 @@ class Scene {
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
                           std::vector<float> uvs, int material);
   void addInstance(int mesh, const Affine& toWorld, std::string node);
+  // Names world primitive `primitive` (addWorldPrimitive's result) for messages.
+  void setPrimitiveName(int primitive, std::string name) { worldPrimitives_.at(size_t(primitive)).name = std::move(name); }
+  // What a hit's surface is called in messages: its mesh's name (and node,
+  // for an instance), or "an unnamed mesh".
+  std::string surfaceName(unsigned geomID, unsigned instID) const;
   // Marks every primitive's uvs as running down the image (glTF).
   void setUvsRunDown();
 

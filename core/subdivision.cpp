@@ -1,16 +1,26 @@
 #include "core/subdivision.h"
 
-#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imageio.h>
+#include <opensubdiv/far/error.h>
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/sdc/catmarkScheme.h>
+#include <opensubdiv/sdc/loopScheme.h>
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <map>
 #include <tuple>
 #include <memory>
+#include <mutex>
+#include <string>
 
 #include "core/error.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -30,6 +40,140 @@ struct OsdPoint {
   void AddWithWeight(const OsdPoint& s, float w) {
     p[0] += double(w) * s.p[0], p[1] += double(w) * s.p[1], p[2] += double(w) * s.p[2];
   }
+};
+
+// The vertex neighbourhood Sdc's limit masks read (its VERTEX interface).
+struct LimitHood {
+  const Far::TopologyLevel& level;
+  int v;
+  int GetNumEdges() const { return level.GetVertexEdges(v).size(); }
+  int GetNumFaces() const { return level.GetVertexFaces(v).size(); }
+  float GetSharpness() const { return level.GetVertexSharpness(v); }
+  float* GetSharpnessPerEdge(float* s) const {
+    const Far::ConstIndexArray e = level.GetVertexEdges(v);
+    for (int i = 0; i < e.size(); ++i) s[i] = level.GetEdgeSharpness(e[i]);
+    return s;
+  }
+};
+
+// Sdc's MASK interface over caller-owned weights.
+struct LimitMask {
+  using Weight = double;
+  double *vw, *ew, *fw;
+  int nv = 0, ne = 0, nf = 0;
+  bool centres = false;
+  int GetNumVertexWeights() const { return nv; }
+  int GetNumEdgeWeights() const { return ne; }
+  int GetNumFaceWeights() const { return nf; }
+  void SetNumVertexWeights(int n) { nv = n; }
+  void SetNumEdgeWeights(int n) { ne = n; }
+  void SetNumFaceWeights(int n) { nf = n; }
+  double& VertexWeight(int i) { return vw[i]; }
+  double& EdgeWeight(int i) { return ew[i]; }
+  double& FaceWeight(int i) { return fw[i]; }
+  double VertexWeight(int i) const { return vw[i]; }
+  double EdgeWeight(int i) const { return ew[i]; }
+  double FaceWeight(int i) const { return fw[i]; }
+  bool AreFaceWeightsForFaceCenters() const { return centres; }
+  void SetFaceWeightsForFaceCenters(bool on) { centres = on; }
+};
+
+// Limit positions and tangents of every vertex of the last level - what
+// Far::PrimvarRefiner::Limit computes, with the same Sdc masks, but with each
+// mask's edge and face weights sized by the vertex's own edge and face counts.
+// OpenSubdiv 3.5's Limit sizes each mask's face-weight slot (and its index
+// buffer) by the level's largest valence (edge count), assuming no vertex
+// has more faces than edges - true of manifold vertices, false at a
+// non-manifold one. Catmull-Clark refinement of an edge shared by N faces
+// puts on it a vertex with N + 2 edges and 2N faces: from N = 3 the face
+// weights of one mask spill into the next (wrong tangents, silently), and
+// from N = 11 the 3N + 2 neighbour indices overrun the 33-entry stack buffer
+// (heap or stack corruption; measured under ASan: N = 10 clean, N = 11
+// corrupts). Loop's refined edge vertex has 2N + 2 edges and 2N faces, so
+// Loop never overflowed; the same code serves both schemes.
+template <class Scheme>
+void limitLevel(const Scheme& scheme, const Far::TopologyLevel& level, const OsdPoint* src, std::vector<OsdPoint>& pos,
+                std::vector<OsdPoint>& tan1, std::vector<OsdPoint>& tan2) {
+  std::vector<double> w;
+  std::vector<int> opposite;
+  for (int v = 0; v < level.GetNumVertices(); ++v) {
+    const Far::ConstIndexArray edges = level.GetVertexEdges(v), faces = level.GetVertexFaces(v);
+    OsdPoint &p = pos[size_t(v)], &t1 = tan1[size_t(v)], &t2 = tan2[size_t(v)];
+    p.Clear(), t1.Clear(), t2.Clear();
+    if (edges.size() == 0) {  // an isolated vertex stays where it is
+      p.AddWithWeight(src[v], 1.0f);
+      continue;
+    }
+    const size_t ne = size_t(edges.size()), nf = size_t(faces.size()), per = 1 + ne + nf;
+    w.assign(3 * per, 0.0);
+    LimitMask m[3];
+    for (size_t k = 0; k < 3; ++k) m[k].vw = &w[k * per], m[k].ew = &w[k * per + 1], m[k].fw = &w[k * per + 1 + ne];
+    scheme.ComputeVertexLimitMask(LimitHood{level, v}, m[0], m[1], m[2], level.GetVertexRule(v));
+    // Neighbours: the far end of each edge, the vertex two along each face.
+    opposite.resize(ne + nf);
+    for (size_t i = 0; i < ne; ++i) {
+      const Far::ConstIndexArray ev = level.GetEdgeVertices(edges[int(i)]);
+      opposite[i] = ev[0] == v ? ev[1] : ev[0];
+    }
+    const Far::ConstLocalIndexArray inFace = level.GetVertexFaceLocalIndices(v);
+    for (size_t i = 0; i < nf; ++i) {
+      const Far::ConstIndexArray fv = level.GetFaceVertices(faces[int(i)]);
+      opposite[ne + i] = fv[(inFace[int(i)] + 2) % fv.size()];
+    }
+    OsdPoint* dst[3] = {&p, &t1, &t2};
+    for (size_t k = 0; k < 3; ++k) {
+      // Smallest weights first (faces, edges, the vertex), as OpenSubdiv does.
+      for (int i = 0; i < m[k].nf; ++i) dst[k]->AddWithWeight(src[opposite[ne + size_t(i)]], float(m[k].fw[i]));
+      for (int i = 0; i < m[k].ne; ++i) dst[k]->AddWithWeight(src[opposite[size_t(i)]], float(m[k].ew[i]));
+      if (m[k].nv > 0) dst[k]->AddWithWeight(src[v], float(m[k].vw[0]));
+    }
+  }
+}
+
+// OpenSubdiv prints its errors and warnings to stdout unless given callbacks
+// (which are process-wide). They are collected per thread while a cage is
+// refined, then thrown (errors) or warned about (warnings) on one line each
+// naming the cage, so stdout stays the command's own.
+thread_local std::vector<std::string>* tOsdMessages = nullptr;
+
+void collectOsdMessage(const std::string& message) {
+  std::string m = message;
+  for (char& c : m)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!m.empty() && m.back() == ' ') m.pop_back();
+  if (tOsdMessages)
+    tOsdMessages->push_back(m);
+  else
+    Log::warn("OpenSubdiv: " + m);
+}
+
+class OsdMessages {
+ public:
+  explicit OsdMessages(const std::string& what) : what_(what) {
+    static std::once_flag once;
+    std::call_once(once, [] {
+      Far::SetErrorCallback([](Far::ErrorType, const char* m) { collectOsdMessage(m ? m : "error"); });
+      Far::SetWarningCallback([](const char* m) { collectOsdMessage(m ? m : "warning"); });
+    });
+    tOsdMessages = &messages_;
+  }
+  ~OsdMessages() { tOsdMessages = nullptr; }
+  OsdMessages(const OsdMessages&) = delete;
+  OsdMessages& operator=(const OsdMessages&) = delete;
+  // The messages so far joined into one clause ("" when none).
+  std::string joined() const {
+    std::string r;
+    for (const std::string& m : messages_) r += (r.empty() ? "" : "; ") + m;
+    return r;
+  }
+  void warnAll() {
+    for (const std::string& m : messages_) Log::warn(what_ + ": OpenSubdiv: " + m);
+    messages_.clear();
+  }
+
+ private:
+  std::string what_;
+  std::vector<std::string> messages_;
 };
 
 }  // namespace
@@ -95,7 +239,7 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
   const size_t bytes = subdividedBytes(cage, level);
   if (bytes > maxBytes)
     throw Error(what + ": subdivision level " + std::to_string(level) + " needs about " +
-                std::to_string(bytes >> 20) + " MiB, over the --max-memory budget of " + std::to_string(maxBytes >> 20) +
+                std::to_string(bytes >> 20) + " MiB, over the " + settingName(Setting::MaxMemory) + " budget of " + std::to_string(maxBytes >> 20) +
                 " MiB");
 
   using Descriptor = Far::TopologyDescriptor;
@@ -124,12 +268,17 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
   // default), so a flat cage's limit is the cage itself.
   sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_AND_CORNER);
   const Sdc::SchemeType type = scheme == SubdivisionScheme::Loop ? Sdc::SCHEME_LOOP : Sdc::SCHEME_CATMARK;
+  OsdMessages messages(what);
   std::unique_ptr<Far::TopologyRefiner> refiner(
       Far::TopologyRefinerFactory<Descriptor>::Create(desc, Far::TopologyRefinerFactory<Descriptor>::Options(type, sdc)));
-  if (!refiner) throw Error(what + ": OpenSubdiv rejected the cage topology");
+  if (!refiner) {
+    const std::string why = messages.joined();
+    throw Error(what + ": OpenSubdiv rejected the cage topology" + (why.empty() ? "" : ": " + why));
+  }
   Far::TopologyRefiner::UniformOptions uniform(level);
-  uniform.fullTopologyInLastLevel = true;  // the limit stencils need it
+  uniform.fullTopologyInLastLevel = true;  // the limit masks need it
   refiner->RefineUniform(uniform);
+  messages.warnAll();
 
   // Interpolate positions level by level, then push the last level to the limit.
   const int total = refiner->GetNumVerticesTotal();
@@ -146,7 +295,10 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
   const Far::TopologyLevel& last = refiner->GetLevel(level);
   const int nv = last.GetNumVertices();
   std::vector<OsdPoint> limit(static_cast<size_t>(nv)), du(static_cast<size_t>(nv)), dv(static_cast<size_t>(nv));
-  primvar.Limit(src, limit, du, dv);
+  if (type == Sdc::SCHEME_LOOP)
+    limitLevel(Sdc::Scheme<Sdc::SCHEME_LOOP>(sdc), last, src, limit, du, dv);
+  else
+    limitLevel(Sdc::Scheme<Sdc::SCHEME_CATMARK>(sdc), last, src, limit, du, dv);
 
   SubdividedMesh out;
   out.positions.resize(size_t(nv));
@@ -159,7 +311,9 @@ SubdividedMesh subdivide(const SubdivisionCage& cage, SubdivisionScheme scheme, 
     const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
     // A vanishing tangent cross product (extraordinary corners of sharp
     // creases) leaves the normal 0: the renderer then uses the geometric one.
-    out.normals[size_t(i)] = len > 0 && std::isfinite(len) ? Vec3(float(n[0] / len), float(n[1] / len), float(n[2] / len))
+    // A non-manifold vertex (three or more sheets meet there) has no single
+    // tangent plane: normal 0, so each sheet shades with its own facets.
+    out.normals[size_t(i)] = len > 0 && std::isfinite(len) && !last.IsVertexNonManifold(i) ? Vec3(float(n[0] / len), float(n[1] / len), float(n[2] / len))
                                                            : Vec3(0, 0, 0);
   }
   if (hasUv) {
@@ -317,17 +471,77 @@ void CageUvs::at(uint32_t face, float u, float v, float& s, float& t) const {
   }
 }
 
+namespace {
+
+// libpng reports a damaged file through its default handler too, which
+// prints "libpng error: ..." straight to stderr (OpenImageIO installs its own
+// handler only on some of its read structs), beside the error OpenImageIO
+// returns. While a map is read (at load time, on the loading thread) fd 2
+// goes to a temporary file; afterwards libpng's lines are dropped - the
+// error OpenImageIO returns says the same - and anything else is passed on.
+class QuietLibpng {
+ public:
+  QuietLibpng() {
+    std::fflush(stderr);
+    tmp_ = std::tmpfile();
+    saved_ = tmp_ ? ::dup(2) : -1;
+    if (saved_ >= 0 && ::dup2(::fileno(tmp_), 2) < 0) ::close(saved_), saved_ = -1;
+  }
+  ~QuietLibpng() {
+    if (saved_ < 0) {
+      if (tmp_) std::fclose(tmp_);
+      return;
+    }
+    std::fflush(stderr);
+    ::dup2(saved_, 2);
+    ::close(saved_);
+    std::rewind(tmp_);
+    char line[4096];
+    while (std::fgets(line, sizeof line, tmp_))
+      if (std::strncmp(line, "libpng ", 7) != 0) std::fputs(line, stderr);
+    std::fclose(tmp_);
+  }
+  QuietLibpng(const QuietLibpng&) = delete;
+  QuietLibpng& operator=(const QuietLibpng&) = delete;
+
+ private:
+  std::FILE* tmp_ = nullptr;
+  int saved_ = -1;
+};
+
+// OpenImageIO's error text, which may span lines, as one clause.
+std::string oneLine(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ';';
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == ';' && (out.empty() || out.back() == ';' || i + 1 == s.size())) continue;
+    out += s[i];
+    if (s[i] == ';') out += ' ';
+  }
+  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
+  return out;
+}
+
+}  // namespace
+
 HeightMap::HeightMap(const std::string& path) {
-  OIIO::ImageBuf buf(path);
-  if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT)) throw Error(path + ": cannot read the height map: " + buf.geterror());
-  const OIIO::ImageSpec& spec = buf.spec();
+  QuietLibpng quiet;  // around opening and reading: both may meet the damage
+  // ImageInput rather than ImageBuf: ImageBuf leaks the error text of a
+  // file that fails to read (OpenImageIO 2.4, seen by LeakSanitizer).
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw Error(path + ": cannot read the height map: " + oneLine(OIIO::geterror()));
+  const OIIO::ImageSpec& spec = in->spec();
   w_ = spec.width, h_ = spec.height;
-  if (w_ < 1 || h_ < 1) throw Error(path + ": the height map is empty");
+  if (w_ < 1 || h_ < 1 || spec.nchannels < 1) throw Error(path + ": the height map is empty");
   texels_.resize(size_t(w_) * size_t(h_));
-  if (!buf.get_pixels(OIIO::ROI(0, w_, 0, h_, 0, 1, 0, 1), OIIO::TypeDesc::FLOAT, texels_.data()))
-    throw Error(path + ": cannot read the height map: " + buf.geterror());
+  // The first channel of the first subimage, rows top first.
+  if (!in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, texels_.data()))
+    throw Error(path + ": cannot read the height map: " + oneLine(in->geterror()));
   for (const float t : texels_)
     if (!std::isfinite(t)) throw Error(path + ": the height map has a non-finite texel");
+  const auto [lo, hi] = std::minmax_element(texels_.begin(), texels_.end());
+  min_ = *lo, max_ = *hi;
 }
 
 double HeightMap::sample(double u, double v) const {

@@ -60,9 +60,13 @@ class HeightMap {
   double sample(double u, double v) const;  // any u, v (a non-finite one reads as 0)
   int width() const { return w_; }
   int height() const { return h_; }
+  // The range of the texels, which bounds every sample (bilinear, repeat).
+  float minTexel() const { return min_; }
+  float maxTexel() const { return max_; }
 
  private:
   int w_ = 0, h_ = 0;
+  float min_ = 0, max_ = 0;
   std::vector<float> texels_;
 };
 

@@ -80,7 +80,14 @@ inline Vec3 spawnOrigin(const SurfaceHit& h, Vec3 d) {
 
 // Surfaces are opaque: a direction below the geometric plane (which a cosine
 // lobe about a tilted shading normal reaches) is blocked by the surface
-// itself, at distance 0, whatever a ray would find.
+// itself, at distance 0, whatever a ray would find. A direction exactly in
+// the plane (w . ng == 0, measure zero) counts as blocked too, deliberately:
+// only directions strictly above the surface are open, the same test for
+// every integrator (all of them, and openDirection, come through here). A
+// tangent ray could not be traced meaningfully anyway - it would run
+// parallel to the surface at the offset height eps, so whether it met the
+// neighbouring facets would depend on eps, not on the scene. A NaN direction
+// fails the comparison and is blocked as well.
 inline bool intoSurface(const SurfaceHit& h, Vec3 w) { return !(dot(w, h.ng) > 0.0f); }
 
 // An any-hit ray i of `batch` that was spawned from h: is its direction open?

@@ -29,7 +29,7 @@ inline void squareToConcentricDisk(float u, float v, float& dx, float& dy) {
 }
 
 // Direction with density cos(theta)/pi about +z (Malley's method: project the
-// uniform disk up to the hemisphere). MATH.md section 1: with this density
+// uniform disk up to the hemisphere). docs/math.md §1: with this density
 // the estimator of W = (1/pi) int V cos dw is the plain mean of V.
 inline Vec3 squareToCosineHemisphere(float u, float v) {
   float x, y;

@@ -1,4 +1,4 @@
-// The path estimator of the ambient transfer equation (MATH.md section 5),
+// The path estimator of the ambient transfer equation (docs/math.md §5),
 // shared by `transfer` (closed form and recursive) and `gi` (full global
 // illumination), because their math is the same:
 //

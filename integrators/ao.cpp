@@ -1,4 +1,4 @@
-// Classical ambient occlusion (MATH.md sections 1 and 3, step membership).
+// Classical ambient occlusion (docs/math.md §1 and §3, step membership).
 //
 //   AO(x) = (1/pi) Int_Omega V_R(x, w) cos+(theta) dw
 //

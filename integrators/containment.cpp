@@ -1,5 +1,5 @@
 // Height-field containment obscurance (Umenhoffer, Toth, Szirmay-Kalos,
-// "Efficient Methods for Ambient Lighting", sections 4 and 6; MATH.md
+// "Efficient Methods for Ambient Lighting", sections 4 and 6; docs/math.md
 // sections 2 and 3; docs/containment.md).
 //
 // The camera sees the UNDISPLACED macro surface; the displacement detail a
@@ -66,6 +66,7 @@
 // kFirstIntegratorDim and r the 1D dimension kFirstIntegratorDim + 1, both
 // indexed by sampleIndex * rays + k - the very numbers `obscurance` draws,
 // so the two integrators share their noise (and the fallback is exact).
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -115,10 +116,12 @@ class Containment final : public Integrator {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
     for (const SurfaceHit& h : hits) {
       Local L;
-      if (localFrame(h, ctx, L))
+      if (localFrame(h, ctx, L)) {
         pushContained(h, L, batch);
-      else
+      } else {
+        noFrame(h, ctx);
         pushPlain(h, batch);
+      }
     }
     ctx.trace(batch);
     // A sample closed by containment was pushed inactive with tfar = -inf,
@@ -134,6 +137,16 @@ class Containment final : public Integrator {
   }
 
  private:
+  // A hit without a uv frame gets plain obscurance - silently wrong if the
+  // user expected displacement detail there, so the first one of a render
+  // is reported, naming its mesh (one relaxed load per such hit after that).
+  void noFrame(const SurfaceHit& h, const IntegratorContext& ctx) const {
+    if (warnedNoFrame_.load(std::memory_order_relaxed) || warnedNoFrame_.exchange(true)) return;
+    Log::warn("containment: " + ctx.surfaceName(h) +
+              " has no usable texture coordinates; it gets plain obscurance, without the height map's detail "
+              "(so may other meshes without them)");
+  }
+
   // What a hit's samples share: the height-field frame.
   struct Local {
     double u, v, d0;     // uv of the hit, d(uv)
@@ -198,6 +211,7 @@ class Containment final : public Integrator {
     for (const SurfaceHit& h : hits) {
       Local L;
       const bool frame = localFrame(h, ctx, L);
+      if (!frame) noFrame(h, ctx);
       // Without a frame, obscurance's lobe about the shading normal.
       const Frame lobe = frame ? L.lobe : Frame::fromNormal(h.ns);
       for (uint32_t k = 0; k < rays_; ++k, ++j) {
@@ -273,6 +287,7 @@ class Containment final : public Integrator {
   }
 
   Displacement field_;
+  mutable std::atomic<bool> warnedNoFrame_{false};
   Membership mu_;
   uint32_t rays_, steps_;
   bool transfer_;

@@ -1,5 +1,5 @@
 // Full global illumination under the uniform sky: the reference every other
-// integrator approximates (MATH.md sections 1, 2 and 5).
+// integrator approximates (docs/math.md §1, §2 and §5).
 //
 //   W(x) = (1/pi) Int L_in(x, w) / La cos+(theta) dw,
 //   L_in = e^(-sigma d) a(y) La W(y) + La (1 - e^(-sigma d))  (hit at d)

@@ -1,4 +1,4 @@
-// Fuzzy membership (falloff) functions mu(d) of MATH.md section 2, shared by
+// Fuzzy membership (falloff) functions mu(d) of docs/math.md §2, shared by
 // every integrator that weighs an occluder by its distance: obscurance,
 // transfer and gi. One place defines mu, the sampling of mu', the edge cases
 // and the parameters, so the integrators agree bit for bit where their math
@@ -42,8 +42,18 @@
 namespace obscura {
 
 enum class Falloff { Step, Linear, Sqrt, Exponential };
+// The value of the `falloff` parameter.
+inline const char* falloffName(Falloff f) {
+  switch (f) {
+    case Falloff::Step: return "step";
+    case Falloff::Linear: return "linear";
+    case Falloff::Sqrt: return "sqrt";
+    case Falloff::Exponential: return "exponential";
+  }
+  return "?";
+}
 // distance: trace the closest hit and weigh it by mu(d).
-// occlusion: draw r ~ mu'(r) and test the segment [0, r] (MATH.md section 3).
+// occlusion: draw r ~ mu'(r) and test the segment [0, r] (docs/math.md §3).
 enum class Estimator { Distance, Occlusion };
 
 // A distance for an Embree ray: +inf when beyond float range.

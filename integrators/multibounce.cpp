@@ -1,6 +1,6 @@
 // Multi-bounce AO: ambient occlusion followed by a mapping that predicts the
 // light of further bounces from the AO value and the pixel's albedo
-// (MATH.md section 6; integrators/multibounce_mapping.h), per RGB channel.
+// (docs/math.md §6; integrators/multibounce_mapping.h), per RGB channel.
 //
 // Each mapping gets the AO flavour it was fitted to:
 // - gtao: the cosine-weighted visibility v = (1/pi) Int V cos+ dw, estimated

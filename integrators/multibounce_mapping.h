@@ -1,4 +1,4 @@
-// Multi-bounce AO mappings (MATH.md section 6): W = G(v, rho), the
+// Multi-bounce AO mappings (docs/math.md §6): W = G(v, rho), the
 // normalized ambient irradiance predicted from an AO value v and the albedo
 // rho, one RGB channel at a time. Header-only so the tests can sweep them.
 //

@@ -1,4 +1,4 @@
-// Obscurance with a fuzzy membership (falloff) function (MATH.md sections 2
+// Obscurance with a fuzzy membership (falloff) function (docs/math.md sections 2
 // and 3).
 //
 //   O(x) = (1/pi) Int_Omega mu(d(x, w)) cos+(theta) dw
@@ -11,7 +11,7 @@
 //              with tfar = R (occluders beyond R have mu = 1 for every
 //              falloff, so they need not be found).
 // - occlusion: O ~ (1/n) Sum_i [segment x -> x + w_i r_i is unoccluded],
-//              r_i ~ mu'(r) (table of MATH.md section 2), one any-hit ray
+//              r_i ~ mu'(r) (table of docs/math.md §2), one any-hit ray
 //              with tfar = r_i. Unbiased because
 //              mu(d) = Int_0^inf mu'(r) [d > r] dr = P(r < d).
 //

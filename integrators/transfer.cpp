@@ -1,4 +1,4 @@
-// The ambient transfer function (MATH.md sections 4 and 5): obscurance that
+// The ambient transfer function (docs/math.md §4 and §5): obscurance that
 // gives back the light bounced by nearby occluders, read with their albedo.
 //
 // depth = 0, the closed form [AT 6, 9]:
@@ -17,7 +17,7 @@
 // Properties (tested): W <= 1 for albedo <= 1; W == 1 exactly when every
 // albedo is 1 (white furnace); W == obscurance bit for bit when every
 // albedo is 0, same parameters and seed. The ratio is biased by O(1/n) for
-// n = spp x rays samples per pixel (MATH.md section 4 gives figures), so
+// n = spp x rays samples per pixel (docs/math.md §4 gives figures), so
 // spp x rays of a few hundred or more is advisable.
 //
 // 0/0 (no open sample and every occluder white, so num = den = 0): the pixel

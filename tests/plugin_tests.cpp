@@ -3,12 +3,17 @@
 // analytic values; broken plugins give clear errors, never a crash.
 #include <gtest/gtest.h>
 
+#include <elf.h>
+
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "core/error.h"
 #include "core/plugin.h"
+#include "tests/readme_integrators.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -27,6 +32,7 @@ void expectLoadError(const std::string& path, const std::string& needle) {
 }
 
 TEST(Plugin, BentNormalLoadsAndIsListed) {
+  EXPECT_EQ(readPluginAbiVersion(OBSCURA_BENT_PLUGIN), OBSCURA_PLUGIN_ABI_VERSION);
   loadPlugin(OBSCURA_BENT_PLUGIN);
   loadPlugin(OBSCURA_BENT_PLUGIN);  // the same library twice is one plugin
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find("bent-normal");
@@ -44,18 +50,138 @@ TEST(Plugin, EnvironmentPathLoadsPlugins) {
 }
 
 TEST(Plugin, BrokenPluginsGiveClearErrors) {
-  expectLoadError(OBSCURA_BAD_ABI_PLUGIN, "ABI version 999");
+  expectLoadError(OBSCURA_BAD_ABI_PLUGIN, "ABI version 999, this obscura needs");
   expectLoadError(OBSCURA_NO_REGISTER_PLUGIN, "obscura_plugin_register");
   expectLoadError(OBSCURA_DUPLICATE_PLUGIN, "'ao' is already registered by built-in");
   expectLoadError("/nonexistent/plugin.so", "no such file");
   const std::string dir = tempDir("bad_plugins");
   writeText(dir + "/garbage.so", "this is not an ELF file");
-  expectLoadError(dir + "/garbage.so", "cannot load plugin");
+  expectLoadError(dir + "/garbage.so", "not an ELF shared object");
   // A real shared library that is not a plugin.
   const char* zlib = "/lib/x86_64-linux-gnu/libz.so.1";
   if (std::ifstream(zlib).good()) expectLoadError(zlib, "not an Obscura plugin");
   // The impostor did not replace the built-in.
   EXPECT_EQ(IntegratorRegistry::instance().find("ao").doc.find("impostor"), std::string::npos);
+}
+
+std::string readBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+void writeBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc).write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+// readPluginAbiVersion on a malformed file: a value or one obscura::Error line
+// naming the file, never a crash or another exception.
+void expectValueOrError(const std::string& path, const std::string& what) {
+  try {
+    (void)readPluginAbiVersion(path);
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_EQ(m.rfind(path + ": ", 0), 0u) << what << ": " << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << what << ": " << m;
+  } catch (...) {
+    ADD_FAILURE() << what << ": not an obscura::Error";
+  }
+}
+
+// The ABI version is read from the file before dlopen, so a library built for
+// another ABI never runs a line of its code - not even a static constructor.
+TEST(Plugin, AbiIsCheckedBeforeAnyPluginCodeRuns) {
+  const std::string marker = tempDir("plugin_ctor") + "/constructor_ran";
+  std::filesystem::remove(marker);
+  ASSERT_EQ(setenv("OBSCURA_TEST_CTOR_MARKER", marker.c_str(), 1), 0);
+  expectLoadError(OBSCURA_CTOR_BAD_ABI_PLUGIN, "plugin ABI version 999, this obscura needs");
+  EXPECT_FALSE(std::filesystem::exists(marker)) << "the static constructor of a foreign-ABI plugin ran";
+  // Control: the same constructor in a plugin of the right ABI does run on
+  // load (the library then fails for lack of a register function).
+  expectLoadError(OBSCURA_CTOR_GOOD_ABI_PLUGIN, "obscura_plugin_register");
+  EXPECT_TRUE(std::filesystem::exists(marker)) << "the marker mechanism does not work";
+  unsetenv("OBSCURA_TEST_CTOR_MARKER");
+}
+
+// The value read from the file is the one compiled in (999 for the bad plugin,
+// the header's constant for the others), also after strip.
+TEST(Plugin, AbiVersionIsReadFromTheFile) {
+  EXPECT_EQ(readPluginAbiVersion(OBSCURA_BAD_ABI_PLUGIN), 999u);
+  EXPECT_EQ(readPluginAbiVersion(OBSCURA_CTOR_BAD_ABI_PLUGIN), 999u);
+  EXPECT_EQ(readPluginAbiVersion(OBSCURA_NO_REGISTER_PLUGIN), OBSCURA_PLUGIN_ABI_VERSION);
+  EXPECT_EQ(readPluginAbiVersion(OBSCURA_DUPLICATE_PLUGIN), OBSCURA_PLUGIN_ABI_VERSION);
+  const std::string dir = tempDir("plugin_abi_file");
+  const std::string stripped = dir + "/stripped.so";
+  std::filesystem::copy_file(OBSCURA_BAD_ABI_PLUGIN, stripped, std::filesystem::copy_options::overwrite_existing);
+  if (std::system(("strip --strip-all '" + stripped + "' 2>/dev/null").c_str()) == 0)
+    EXPECT_EQ(readPluginAbiVersion(stripped), 999u);  // .dynsym survives strip
+  const char* zlib = "/lib/x86_64-linux-gnu/libz.so.1";
+  if (std::ifstream(zlib).good()) {
+    try {
+      (void)readPluginAbiVersion(zlib);
+      ADD_FAILURE() << "libz has an ABI version";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("no obscura_plugin_abi_version symbol"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// Truncated and corrupted copies of a plugin: every one gives a value or one
+// error line, and loading a truncated one fails before dlopen.
+TEST(Plugin, MalformedPluginFilesGiveOneErrorLine) {
+  const std::string good = readBytes(OBSCURA_BAD_ABI_PLUGIN);
+  ASSERT_GT(good.size(), sizeof(Elf64_Ehdr));
+  Elf64_Ehdr eh;
+  std::memcpy(&eh, good.data(), sizeof eh);
+  const std::string dir = tempDir("plugin_malformed");
+  const std::string path = dir + "/bad.so";
+
+  // The section header table is at the end: every truncation loses it.
+  for (size_t n = 0; n < good.size(); n += (n < 128 ? 1 : 509)) {
+    writeBytes(path, good.substr(0, n));
+    expectLoadError(path, "not an ELF shared object");
+  }
+  const auto variant = [&](const std::string& what, auto&& edit) {
+    std::string bytes = good;
+    edit(bytes);
+    writeBytes(path, bytes);
+    expectValueOrError(path, what);
+  };
+  const auto expectMessage = [&](const std::string& what, auto&& edit, const std::string& needle) {
+    variant(what, edit);
+    try {
+      (void)readPluginAbiVersion(path);
+      ADD_FAILURE() << what << ": accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << what << ": " << e.what();
+    }
+  };
+  expectMessage("ELF32", [](std::string& b) { b[EI_CLASS] = ELFCLASS32; }, "not 64-bit ELF");
+  expectMessage("big-endian", [](std::string& b) { b[EI_DATA] = ELFDATA2MSB; }, "not 64-bit ELF");
+  expectMessage("executable", [](std::string& b) { b[16] = char(ET_EXEC); b[17] = 0; }, "not ET_DYN");
+  expectMessage("no section headers", [](std::string& b) { std::memset(&b[40], 0, 8); }, "no section header table");
+  expectMessage("huge section count", [](std::string& b) { b[60] = char(0xff); b[61] = char(0xff); },
+                "section header table outside the file");
+  // Every byte of the ELF header and of the section header table, and a
+  // sample of the rest, flipped one at a time.
+  const uint64_t tableEnd = eh.e_shoff + uint64_t(eh.e_shnum) * sizeof(Elf64_Shdr);
+  ASSERT_LE(tableEnd, good.size());
+  for (size_t i = 0; i < good.size(); i += (i < sizeof(Elf64_Ehdr) || i >= eh.e_shoff ? 1 : 61))
+    variant("byte " + std::to_string(i) + " flipped", [i](std::string& b) { b[i] = char(~b[i]); });
+}
+
+// README.md's rows marked "(plugin)" against the loaded plugin's descriptor
+// (the built-in rows are checked in test_docs_consistency.cpp).
+TEST(Plugin, ReadmeRowMatchesThePlugin) {
+  loadPlugin(OBSCURA_BENT_PLUGIN);
+  const auto rows = readmeIntegratorRows(readBytes(std::string(OBSCURA_SOURCE_DIR) + "/README.md"));
+  int pluginRows = 0;
+  for (const ReadmeIntegratorRow& row : rows) {
+    if (!row.plugin) continue;
+    ++pluginRows;
+    const IntegratorDescriptor& d = IntegratorRegistry::instance().find(row.name);
+    for (const std::string& p : readmeRowProblems(row, d, IntegratorRegistry::instance().all())) ADD_FAILURE() << p;
+  }
+  EXPECT_EQ(pluginRows, 1) << "README.md documents the bent-normal plugin in one row";
 }
 
 // Unoccluded plane: B = E[w] under cos/pi about n = (0,0,2/3) in the normal's
@@ -78,8 +204,8 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
   EXPECT_NEAR(bz, 2.0 / 3.0, 4.0 * std::sqrt(1.0 / 18.0 / N));
 }
 
-// From the wall point opposite the hole of the spherical cavity (MATH.md
-// section 7), the open directions are the cone theta < alpha/2 about the
+// From the wall point opposite the hole of the spherical cavity
+// (docs/math.md §7), the open directions are the cone theta < alpha/2 about the
 // normal n = +z:  B = n (2/3)(1 - c0^3), c0 = cos(alpha/2); per ray
 // E[V z^2] = (1 - c0^4)/2.
 TEST(Plugin, BentNormalInTheSphericalCavity) {

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "core/error.h"
+#include "core/texture.h"
 
 extern char** environ;
 
@@ -56,27 +57,34 @@ int addGreyMaterial(Scene& scene, float a) {
 void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
                       std::vector<uint32_t>& idx) {
   pos.clear(), nrm.clear(), idx.clear();
+  // alpha = 0 closes the sphere: ring 0 is then the +Z pole, one vertex.
+  const bool closed = alpha <= 0.0;
+  const auto ringSize = [&](int r) { return r == rings || (closed && r == 0) ? 1 : segments; };
   // Ring r at polar angle theta_r from +Z: theta_0 = alpha (hole edge) to
   // theta_rings = pi (the -Z pole, one vertex).
+  std::vector<uint32_t> first(size_t(rings) + 1);
   for (int r = 0; r <= rings; ++r) {
+    first[size_t(r)] = uint32_t(pos.size());
     const double theta = alpha + (M_PI - alpha) * double(r) / rings;
-    const int n = r == rings ? 1 : segments;
-    for (int s = 0; s < n; ++s) {
+    for (int s = 0; s < ringSize(r); ++s) {
       const double phi = 2.0 * M_PI * double(s) / segments;
       const Vec3 p(float(rs * std::sin(theta) * std::cos(phi)), float(rs * std::sin(theta) * std::sin(phi)),
                    float(rs * std::cos(theta)));
-      pos.push_back(r == rings ? Vec3(0, 0, -rs) : p);
-      nrm.push_back(r == rings ? Vec3(0, 0, 1) : normalize(-p));
+      const bool pole = ringSize(r) == 1;
+      const Vec3 polePos(0, 0, r == rings ? -rs : rs);
+      pos.push_back(pole ? polePos : p);
+      nrm.push_back(pole ? normalize(-polePos) : normalize(-p));
     }
   }
-  const auto at = [&](int r, int s) { return uint32_t(r * segments + (s % segments)); };
+  const auto at = [&](int r, int s) {
+    return ringSize(r) == 1 ? first[size_t(r)] : first[size_t(r)] + uint32_t(s % segments);
+  };
   for (int r = 0; r + 1 < rings; ++r)
     for (int s = 0; s < segments; ++s) {
       idx.insert(idx.end(), {at(r, s), at(r + 1, s), at(r + 1, s + 1)});
-      idx.insert(idx.end(), {at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+      if (ringSize(r) > 1) idx.insert(idx.end(), {at(r, s), at(r + 1, s + 1), at(r, s + 1)});
     }
-  const uint32_t pole = uint32_t(rings * segments);
-  for (int s = 0; s < segments; ++s) idx.insert(idx.end(), {at(rings - 1, s), pole, at(rings - 1, s + 1)});
+  for (int s = 0; s < segments; ++s) idx.insert(idx.end(), {at(rings - 1, s), at(rings, 0), at(rings - 1, s + 1)});
 }
 
 void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segments, int material) {
@@ -153,6 +161,28 @@ double meanCovered(const Film& film, int channel, size_t* count) {
   return n ? sum / double(n) : NAN;
 }
 
+PixelStats pixelStats(const Film& film, int c) {
+  std::vector<double> v;
+  for (int y = 0; y < film.height(); ++y)
+    for (int x = 0; x < film.width(); ++x)
+      if (film.at(kA, x, y) == 1.0f) v.push_back(film.at(c, x, y));
+  PixelStats s;
+  s.n = v.size();
+  if (s.n < 2) return s;
+  for (double x : v) s.mean += x;
+  s.mean /= double(s.n);
+  double m2 = 0, m4 = 0;
+  for (double x : v) {
+    const double d = (x - s.mean) * (x - s.mean);
+    m2 += d, m4 += d * d;
+  }
+  s.sd = std::sqrt(m2 / double(s.n - 1));
+  s.se = s.sd / std::sqrt(double(s.n));
+  m2 /= double(s.n), m4 /= double(s.n);
+  s.kurtosis = m2 > 0 ? m4 / (m2 * m2) : 0;
+  return s;
+}
+
 SubdivisionCage cubeCage() {
   SubdivisionCage c;
   for (int i = 0; i < 8; ++i) c.positions.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);
@@ -191,17 +221,46 @@ void writeBytes(const std::string& path, const void* data, size_t n) {
 
 void writeText(const std::string& path, const std::string& text) { writeBytes(path, text.data(), text.size()); }
 
+namespace {
+// Writes w x h texels of `channels` channels of `type` from `px`.
+void writeImage(const std::string& path, int w, int h, int channels, OIIO::TypeDesc type, const void* px) {
+  auto out = OIIO::ImageOutput::create(path);
+  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, channels, type))) << path;
+  if (out) {
+    EXPECT_TRUE(out->write_image(type, px)) << path;
+    out->close();
+  }
+}
+}  // namespace
+
 std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double, double)>& f) {
   std::vector<float> px(size_t(w) * size_t(h));
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) px[size_t(y) * size_t(w) + size_t(x)] = float(f((x + 0.5) / w, 1.0 - (y + 0.5) / h));
-  auto out = OIIO::ImageOutput::create(path);
-  EXPECT_TRUE(out && out->open(path, OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT))) << path;
-  if (out) {
-    EXPECT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data())) << path;
-    out->close();
-  }
+  writeImage(path, w, h, 1, OIIO::TypeDesc::FLOAT, px.data());
   return path;
+}
+
+std::string writeRgbTexture(const std::string& path, int w, int h, const std::function<Vec3(double, double)>& f) {
+  std::vector<uint16_t> px(size_t(w) * size_t(h) * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Vec3 c = f((x + 0.5) / w, 1.0 - (y + 0.5) / h);
+      for (int k = 0; k < 3; ++k)
+        px[(size_t(y) * size_t(w) + size_t(x)) * 3 + size_t(k)] =
+            uint16_t(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 65535));
+    }
+  writeImage(path, w, h, 3, OIIO::TypeDesc::UINT16, px.data());
+  return path;
+}
+
+int addTexturedMaterial(Scene& scene, const std::string& path) {
+  scene.textures.push_back(std::make_unique<Texture>(readBytes(path), path, false));
+  Material m;
+  m.name = "textured";
+  m.texture = int(scene.textures.size()) - 1;
+  scene.materials.push_back(m);
+  return int(scene.materials.size()) - 1;
 }
 
 std::string writeRipples(const std::string& dir) {

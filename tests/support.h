@@ -53,8 +53,9 @@ std::string missingSharedScene(const std::string& path);
 
 // Triangle list of a sphere of radius rs about the origin, normals facing the
 // centre (seen from inside), with the polar cap of half-angle alpha about +Z
-// removed (MATH.md section 7). `rings` latitude bands from the hole edge to
-// the -Z pole, `segments` around; vertex normals are exact (-p/rs).
+// removed (docs/math.md §7); alpha = 0 gives the closed sphere. `rings`
+// latitude bands from the hole edge to the -Z pole, `segments` around;
+// vertex normals are exact (-p/rs).
 // The same triangles as position, normal and index lists.
 void sphereCavityMesh(float rs, double alpha, int rings, int segments, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
                       std::vector<uint32_t>& idx);
@@ -86,6 +87,15 @@ Film renderWith(const Scene& scene, const Camera& camera, const std::string& int
 
 // Mean of channel c over pixels whose coverage A is 1 (fully covered).
 double meanCovered(const Film& film, int channel, size_t* count = nullptr);
+
+// Statistics of channel c over fully covered pixels. Pixels are independent
+// estimates (each has its own scramble seed), so the standard error of
+// their mean is their sample standard deviation / sqrt(n).
+struct PixelStats {
+  double mean = 0, sd = 0, se = 0, kurtosis = 0;  // kurtosis = m4 / m2^2
+  size_t n = 0;
+};
+PixelStats pixelStats(const Film& film, int c);
 
 // Standard error of the mean of n Bernoulli(p) draws.
 inline double bernoulliStdErr(double p, double n) { return std::sqrt(std::max(p * (1 - p), 1e-12) / n); }
@@ -123,6 +133,12 @@ ReadBack readExr(const std::string& path);
 // texel centres in HeightMap's convention (u = (x + 0.5) / w, v = 0 at the
 // bottom row); returns `path`.
 std::string writeHeightMap(const std::string& path, int w, int h, const std::function<double(double u, double v)>& f);
+// Writes a 16-bit RGB PNG of w x h texels holding f(u, v) (clamped to
+// [0, 1]) at the texel centres, in writeHeightMap's convention; returns `path`.
+std::string writeRgbTexture(const std::string& path, int w, int h, const std::function<Vec3(double u, double v)>& f);
+// Appends a material whose albedo is the texture in the file at `path`
+// (linear values, not sRGB); returns its index.
+int addTexturedMaterial(Scene& scene, const std::string& path);
 // dir/ripples.exr: h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 texels.
 std::string writeRipples(const std::string& dir);
 

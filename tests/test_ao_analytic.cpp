@@ -1,4 +1,4 @@
-// The `ao` integrator against the closed forms of MATH.md section 7.
+// The `ao` integrator against the closed forms of docs/math.md §7.
 //
 // Tolerances: each covered pixel averages spp camera samples, each one AO ray
 // that is a Bernoulli(p) draw, so the mean over N = pixels x spp x rays draws
@@ -84,7 +84,7 @@ TEST(AoAnalytic, SphericalCavityInfiniteRadiusIsFEverywhere) {
 }
 
 // Step membership with finite R at the wall point opposite the hole:
-// O = f + max(0, c0^2 - (R / 2Rs)^2), c0 = cos(alpha/2) (MATH.md section 7).
+// O = f + max(0, c0^2 - (R / 2Rs)^2), c0 = cos(alpha/2) (docs/math.md §7).
 TEST(AoAnalytic, SphericalCavityFiniteRadiusAtAntipode) {
   const double alpha = 1.0471975511965976;  // 60 degrees: f = 1/4, c0^2 = 3/4
   for (const float rs : {1.0f, 250.0f}) {
@@ -132,21 +132,5 @@ TEST(AoAnalytic, SamplerIsUniformInTwoDimensions) {
   EXPECT_NEAR(sxy / n, 0.25, 2.0 / n + 1e-6);
 }
 
-}  // namespace
-}  // namespace obscura::test
-
-namespace obscura::test {
-namespace {
-// The table-driven Sobol' dimension 1 equals the bit-serial definition.
-TEST(Sampler, Sobol1TablesMatchTheGeneratorMatrix) {
-  for (uint64_t k = 0; k < (1ULL << 32); k += 65537ULL * 3 + 1) {
-    const uint32_t i = uint32_t(k);
-    uint32_t r = 0, x = i;
-    for (uint32_t v = 1U << 31; x; x >>= 1, v ^= v >> 1)
-      if (x & 1U) r ^= v;
-    ASSERT_EQ(sobol1(i), r) << i;
-  }
-  EXPECT_EQ(sobol1(0xffffffffU), sobol1(0xffffffffU));
-}
 }  // namespace
 }  // namespace obscura::test

@@ -1,6 +1,6 @@
 // `obscura compare`: the error metrics on tiny images with known answers,
 // the Pareto front, CONFIG parsing, and an end-to-end comparison in the
-// spherical cavity, where the closed forms of MATH.md section 7 predict
+// spherical cavity, where the closed forms of docs/math.md §7 predict
 // every config's bias and so the ranking.
 #include <gtest/gtest.h>
 

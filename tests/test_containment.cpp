@@ -60,7 +60,7 @@ struct Mean {
 };
 Mean imageMean(const Film& f) {
   size_t n = 0;
-  const double m = meanCovered(f, kR, &n);
+  const double m = meanCovered(f, obscura::kR, &n);  // the channel, not the radius kR
   EXPECT_EQ(n, size_t(kRes) * kRes);
   return {m, bernoulliStdErr(m, double(n) * kSpp * kRays)};
 }
@@ -191,8 +191,8 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
       double occluded = 0;
       for (int y = 0; y < 24; ++y)
         for (int x = 0; x < 24; ++x) {
-          ASSERT_EQ(fc.at(kR, x, y), fo.at(kR, x, y)) << falloff << " uvs " << uvs << " pixel " << x << "," << y;
-          occluded += 1.0 - fo.at(kR, x, y);
+          ASSERT_EQ(fc.at(obscura::kR, x, y), fo.at(obscura::kR, x, y)) << falloff << " uvs " << uvs << " pixel " << x << "," << y;
+          occluded += 1.0 - fo.at(obscura::kR, x, y);
         }
       EXPECT_GT(occluded, 1.0) << "the wall occludes";
     }
@@ -203,7 +203,7 @@ TEST(Containment, WithoutUvsOrDisplacementItIsObscurance) {
 //    grey plane of albedo a and nothing else above it, only the height field
 //    closes samples, each with a~ = a, so a pixel's ratio of sums is
 //    S / (N - a (N - S)) = O / (1 - a (1 - O)) for the obscurance O = S / N of
-//    the very same samples (albedo=false): the closed form of MATH.md's
+//    the very same samples (albedo=false): the closed form of docs/math.md's
 //    transfer with one grey occluder, to float rounding of the per-sample
 //    means (1e-6). With every albedo 1 - plane and a wall standing on it -
 //    every closed sample adds 1 - 1 = 0 to the denominator: W = 1 exactly
@@ -224,8 +224,8 @@ TEST(Containment, TransferMatchesTheClosedFormAndTheWhiteFurnace) {
     double open = 0;
     for (int y = 0; y < 16; ++y)
       for (int x = 0; x < 16; ++x) {
-        const double O = fo.at(kR, x, y);
-        EXPECT_NEAR(ft.at(kR, x, y), O / (1 - a * (1 - O)), 1e-6) << x << "," << y;
+        const double O = fo.at(obscura::kR, x, y);
+        EXPECT_NEAR(ft.at(obscura::kR, x, y), O / (1 - a * (1 - O)), 1e-6) << x << "," << y;
         open += O;
       }
     EXPECT_LT(open, 16 * 16 * 0.999) << "the field closes some samples";
@@ -242,7 +242,9 @@ TEST(Containment, TransferMatchesTheClosedFormAndTheWhiteFurnace) {
   const Film f = renderWith(white, cam, "containment", t, passSettings(16, 16, 8));
   for (int y = 0; y < 16; ++y)
     for (int x = 0; x < 16; ++x)
-      if (f.at(kA, x, y) > 0) ASSERT_EQ(f.at(kR, x, y), 1.0f) << x << "," << y;
+      if (f.at(kA, x, y) > 0) {
+        ASSERT_EQ(f.at(obscura::kR, x, y), 1.0f) << x << "," << y;
+      }
 }
 
 // 4. Extreme parameters stay finite and in [0, 1]: huge and tiny scales,
@@ -270,7 +272,7 @@ TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
     const Film f = renderWith(scene, topCamera(), "containment", p, passSettings(8, 8, 2));
     for (int y = 0; y < 8; ++y)
       for (int x = 0; x < 8; ++x) {
-        const float w = f.at(kR, x, y);
+        const float w = f.at(obscura::kR, x, y);
         ASSERT_TRUE(w >= 0.0f && w <= 1.0f) << c[0] << " " << c[1] << ": " << w;
         if (c.back() == "distance=0") {
           ASSERT_EQ(w, 1.0f);
@@ -279,6 +281,99 @@ TEST(Containment, ExtremeParametersStayFiniteAndInRange) {
   }
   for (const char* R : {"distance=inf", "distance=1e300"})
     EXPECT_THROW(renderWith(scene, topCamera(), "containment", {"map=" + path, R}, passSettings(4, 4, 1)), Error) << R;
+}
+
+
+// 6. The transfer (albedo=true) against traced displacement with `transfer`
+//    (estimator=occlusion, depth 0: the same ratio Sum I / (n - Sum (1 - I) a)
+//    over the same kind of samples, with a the albedo of the closest
+//    occluder on the segment), on ripples of max slope 2 with R = lambda/2.
+//    The plane's albedo texture is (0.9, 0.5, 0.1) on the rising slopes
+//    (valley to crest, in +u) and (0.1, 0.5, 0.9) on the falling ones, so a
+//    receiver on one slope is mostly occluded by the facing slope across the
+//    valley, of the other albedo: where each sample reads ã matters, and it
+//    is read where containment is exact. With R <= lambda/2 a segment that
+//    enters the field through the facing slope cannot reach the next crest,
+//    so every test point after the crossing is inside and under that same
+//    slope: the first inside one has the crossing's albedo, except within a
+//    texel of a step or r/m of a crest.
+//    Means are taken over the receivers of each slope (by the albedo AOV;
+//    pixels astride a step are left out) - over the whole image the two
+//    slopes' errors would cancel. Tolerance: 4 standard errors of the mean of
+//    the paired per-pixel differences (pixels are independent estimates; the
+//    two renders share their samples, which makes the pairs close) plus the
+//    discretization bound of test 1, |traced L6 - L5| + |containment m16 - m8|.
+//    Both sides are ratios of sums over the same number of samples, so their
+//    O(1/n) biases (docs/math.md §4) agree to the order of the difference
+//    the test bounds. It must see where ã is read: with the texture shifted
+//    by half a period (each slope taking the other's albedo) containment must
+//    miss by more than 5 tolerances. (Measured: reading ã at the receiver's
+//    own uv instead of the inside point's misses by about 10 tolerances.)
+std::string writeAlbedoTexture(const std::string& path, double shift) {
+  return writeRgbTexture(path, 1024, 4, [&](double u, double) {
+    const bool rising = std::fmod(u * kPeriods + shift, 1.0) > 0.5;
+    return rising ? Vec3(0.9f, 0.5f, 0.1f) : Vec3(0.1f, 0.5f, 0.9f);
+  });
+}
+
+TEST(Containment, TransferConvergesToTracedTransfer) {
+  const std::string dir = tempDir("containment_traced_transfer");
+  const std::string path = writeFineRipples(dir);
+  const std::string albedo = writeAlbedoTexture(dir + "/albedo.png", 0.0);
+  const std::string shifted = writeAlbedoTexture(dir + "/shifted.png", 0.5);
+  const HeightMap map(path);
+  const double scale = 2 * 2.0 * kLambda / (2 * M_PI);  // max slope 2
+  const std::string R = "distance=" + formatFloat(kR), rays = "rays=" + std::to_string(kRays);
+  RenderSettings settings = passSettings(kRes, kRes, kSpp);
+  settings.aovs = true;
+  const auto tracedFilm = [&](int level) {
+    Scene scene;
+    addRefinedPlane(scene, level, &map, scale, true, addTexturedMaterial(scene, albedo));
+    scene.commit();
+    return renderWith(scene, topCamera(), "transfer", {R, rays, "estimator=occlusion"}, settings);
+  };
+  const auto containedFilm = [&](int steps, const std::string& texture) {
+    Scene scene;
+    addRefinedPlane(scene, 1, nullptr, 0, true, addTexturedMaterial(scene, texture));
+    scene.commit();
+    return renderWith(scene, topCamera(), "containment",
+                      {"map=" + path, "scale=" + formatFloat(scale), "midlevel=0.5", R, rays, "albedo=true",
+                       "steps=" + std::to_string(steps)},
+                      settings);
+  };
+  const Film t6 = tracedFilm(6), t5 = tracedFilm(5);
+  const Film c16 = containedFilm(16, albedo), c8 = containedFilm(8, albedo), wrong = containedFilm(16, shifted);
+  // The receivers on each side, by the albedo AOV (pixels astride a step,
+  // with a mixed albedo, are left out).
+  double worstWrong = 0;
+  for (const bool rising : {false, true}) {
+    const auto inRegion = [&](int x, int y) {
+      const float a = c16.at(kAlbedoR, x, y);
+      return rising ? a > 0.85f : a < 0.15f;
+    };
+    for (int c = 0; c < 3; ++c) {
+      const int ch = obscura::kR + c;
+      double n = 0, mt6 = 0, mt5 = 0, mc16 = 0, mc8 = 0, mw = 0, d = 0, dd = 0;
+      for (int y = 0; y < kRes; ++y)
+        for (int x = 0; x < kRes; ++x) {
+          if (!inRegion(x, y)) continue;
+          const double diff = c16.at(ch, x, y) - t6.at(ch, x, y);
+          n += 1, mt6 += t6.at(ch, x, y), mt5 += t5.at(ch, x, y), mc16 += c16.at(ch, x, y), mc8 += c8.at(ch, x, y);
+          mw += wrong.at(ch, x, y), d += diff, dd += diff * diff;
+        }
+      ASSERT_GT(n, kRes * kRes / 4) << "receivers on the " << (rising ? "rising" : "falling") << " slopes";
+      mt6 /= n, mt5 /= n, mc16 /= n, mc8 /= n, mw /= n, d /= n;
+      const double se = std::sqrt((dd / n - d * d) / (n - 1));  // paired differences of independent pixels
+      const double disc = std::abs(mt6 - mt5) + std::abs(mc16 - mc8);
+      const double tol = 4 * se + disc;
+      std::printf("transfer, %s slopes, channel %d: traced L6 %.5f L5 %.5f, containment m16 %.5f m8 %.5f (texture "
+                  "shifted %.5f), SE %.2g, disc %.2g, tol %.2g\n",
+                  rising ? "rising" : "falling", c, mt6, mt5, mc16, mc8, mw, se, disc, tol);
+      EXPECT_NEAR(mc16, mt6, tol) << (rising ? "rising" : "falling") << " channel " << c;
+      worstWrong = std::max(worstWrong, std::abs(mw - mt6) / tol);
+    }
+  }
+  EXPECT_GT(worstWrong, 5.0) << "the test does not see where the occluder's albedo is read";
 }
 
 }  // namespace

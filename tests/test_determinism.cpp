@@ -1,5 +1,5 @@
 // The image is a pure function of (scene, camera, settings, seed): bit-identical
-// for any thread count and tile size (ARCHITECTURE.md, "Determinism").
+// for any thread count and tile size (docs/architecture.md, "Deterministic sampling").
 #include <gtest/gtest.h>
 
 #include <cstring>

@@ -1,4 +1,4 @@
-// The multi-bounce AO mappings (MATH.md section 6) on the whole unit square,
+// The multi-bounce AO mappings (docs/math.md §6) on the whole unit square,
 // and the `multibounce` integrator as "AO, then the mapping per pixel".
 #include <gtest/gtest.h>
 

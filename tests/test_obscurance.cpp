@@ -1,4 +1,4 @@
-// The `obscurance` integrator against the closed forms of MATH.md section 7,
+// The `obscurance` integrator against the closed forms of docs/math.md §7,
 // against itself (its two estimators), and against `ao`.
 //
 // Closed forms at the wall point of the spherical cavity opposite the hole
@@ -17,7 +17,7 @@
 //   exponential  O = 1 - 2 m^2 h(k m)                 E[mu^2] = 1 - 2 m^2 (2 h(k m) - h(2 k m))
 // where h(x) = (1 - e^-x (1 + x)) / x^2 (Int_0^m e^(-kc) c dc = m^2 h(km));
 // for the exponential m = min(c0, rho) because of the cut-off (mu = 1 beyond
-// R). Step with m = min(c0, rho) is MATH.md's f + max(0, c0^2 - rho^2), since
+// R). Step with m = min(c0, rho) is docs/math.md's f + max(0, c0^2 - rho^2), since
 // 1 - c0^2 = f. Each closed form is checked against long-double Simpson
 // quadrature of the integrals, and h against quadrature for x in 1e-12..1e12.
 //
@@ -114,7 +114,7 @@ struct Antipode {
     }
     return NAN;
   }
-  // mu at chord 2 Rs c, written from MATH.md section 2 independently of the
+  // mu at chord 2 Rs c, written from docs/math.md §2 independently of the
   // closed forms (long double, for the quadrature).
   long double mu(long double c) const {
     switch (falloff) {
@@ -185,7 +185,7 @@ TEST(ObscuranceClosedForm, ExponentialKernelIsStableOver24Decades) {
 }
 
 // Every closed form (O and E[mu^2]) against direct quadrature of the
-// integrals with the membership functions of MATH.md section 2.
+// integrals with the membership functions of docs/math.md §2.
 TEST(ObscuranceClosedForm, ClosedFormsMatchQuadrature) {
   for (const Falloff f : {Falloff::Step, Falloff::Linear, Falloff::Sqrt}) {
     for (const double rho : {1e-3, 0.1, 0.5, 0.8, kC0, 1.0, 2.0, 100.0}) {
@@ -201,7 +201,7 @@ TEST(ObscuranceClosedForm, ClosedFormsMatchQuadrature) {
       EXPECT_NEAR(a.meanSquare(), double(quadrature(a, 2)), 1e-12) << "k " << k << " rho " << rho;
     }
   }
-  // MATH.md's forms: step = f + max(0, c0^2 - rho^2); R = inf gives f for
+  // docs/math.md's forms: step = f + max(0, c0^2 - rho^2); R = inf gives f for
   // step, linear and sqrt.
   for (const double rho : {0.25, 0.5, 1.0})
     EXPECT_NEAR(Antipode({Falloff::Step, kC0, rho, 0}).O(), kF + std::max(0.0, kC0 * kC0 - rho * rho), 1e-15);
@@ -285,7 +285,7 @@ TEST(ObscuranceCavity, EveryFalloffAndEstimatorMatchesTheClosedFormAtTheAntipode
 }
 
 // sigma -> 0: mu -> 0 for every hit, so occluders occlude fully and O -> f;
-// sigma -> inf: mu -> 1, O -> 1 (MATH.md section 7).
+// sigma -> inf: mu -> 1, O -> 1 (docs/math.md §7).
 TEST(ObscuranceCavity, ExtremeSigmaGivesEscapeFractionAndOne) {
   const auto scene = cavity(1.0f);
   const int w = 16, h = 16, spp = 128, rays = 4;

@@ -137,7 +137,7 @@ TEST(Subdivision, BadCagesAreRefusedWithTheFace) {
     subdivide(cube(), SubdivisionScheme::CatmullClark, 10, size_t(64) << 20, "cube");
     ADD_FAILURE() << "level 10 within 64 MiB";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("--max-memory"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("maxMemoryBytes"), std::string::npos) << e.what();
   }
 }
 

@@ -276,7 +276,7 @@ TEST(EmbreeSubdivision, RefusesWhatItCannotDo) {
   LoadOptions tight = o;
   tight.subdivisionLevel = 10;
   tight.maxMemoryBytes = size_t(64) << 20;
-  expectError(cube(false), tight, "--max-memory");
+  expectError(cube(false), tight, "maxMemoryBytes");
 }
 
 

@@ -1,4 +1,4 @@
-// `transfer` and `gi` against the closed forms of MATH.md sections 4, 5 and 7.
+// `transfer` and `gi` against the closed forms of docs/math.md §4, §5 and §7.
 //
 // The spherical cavity (radius Rs, cap of half-angle alpha removed, every
 // wall of albedo a, f = (1 - cos alpha)/2): form factors inside a sphere are
@@ -60,33 +60,6 @@ double ratioExpectation(int n, double f, double a) {
     e += std::exp(logP) * (den > 0 ? k / den : 1.0);
   }
   return e;
-}
-
-struct PixelStats {
-  double mean = 0, sd = 0, se = 0, kurtosis = 0;  // kurtosis = m4 / m2^2
-  size_t n = 0;
-};
-// Statistics of channel c over fully covered pixels.
-PixelStats pixelStats(const Film& film, int c) {
-  std::vector<double> v;
-  for (int y = 0; y < film.height(); ++y)
-    for (int x = 0; x < film.width(); ++x)
-      if (film.at(kA, x, y) == 1.0f) v.push_back(film.at(c, x, y));
-  PixelStats s;
-  s.n = v.size();
-  if (s.n < 2) return s;
-  for (double x : v) s.mean += x;
-  s.mean /= double(s.n);
-  double m2 = 0, m4 = 0;
-  for (double x : v) {
-    const double d = (x - s.mean) * (x - s.mean);
-    m2 += d, m4 += d * d;
-  }
-  s.sd = std::sqrt(m2 / double(s.n - 1));
-  s.se = s.sd / std::sqrt(double(s.n));
-  m2 /= double(s.n), m4 /= double(s.n);
-  s.kurtosis = m2 > 0 ? m4 / (m2 * m2) : 0;
-  return s;
 }
 
 std::unique_ptr<Scene> greyCavity(double alpha, float a) {

@@ -1,0 +1,18 @@
+#include "core/settings.h"
+
+#include <array>
+
+namespace obscura {
+namespace {
+
+std::array<std::string, size_t(Setting::Count)> gNames = {
+    "spp", "maxMemoryBytes", "subdivision", "backend OpenSubdiv", "displacementMap", "displacementScale",
+};
+
+}  // namespace
+
+const std::string& settingName(Setting s) { return gNames[size_t(s)]; }
+
+void setSettingName(Setting s, std::string name) { gNames[size_t(s)] = std::move(name); }
+
+}  // namespace obscura

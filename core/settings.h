@@ -1,0 +1,28 @@
+// The settings core/ names in its error messages and warnings, without
+// knowing how a front end spells them. By default a message names the
+// setting as the library does (the field of RenderSettings or LoadOptions,
+// e.g. "spp must be at least 1"); a front end registers its own spelling once
+// at start-up, before any work (the CLI: its flags, "--spp must be at least
+// 1"), so users read the name they typed.
+#pragma once
+
+#include <string>
+
+namespace obscura {
+
+enum class Setting {
+  Spp,                    // RenderSettings::spp
+  MaxMemory,              // LoadOptions::maxMemoryBytes
+  Subdivision,            // LoadOptions::subdivision
+  SubdivisionBackendOsd,  // LoadOptions::backend set to OpenSubdiv
+  Displacement,           // LoadOptions::displacementMap
+  DisplacementScale,      // LoadOptions::displacementScale
+  Count
+};
+
+// How messages name `s`.
+const std::string& settingName(Setting s);
+// Replaces it (not thread-safe: call before rendering or loading).
+void setSettingName(Setting s, std::string name);
+
+}  // namespace obscura
