@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/gbuffer.h"
 #include "core/gltf_loader.h"
 #include "core/image_io.h"
 #include "core/integrator.h"
@@ -69,7 +70,7 @@ bool samePath(const std::string& a, const std::string& b) {
 // Fail before a long render, not after it: outputs that cannot be written,
 // outputs that would overwrite the scene or each other, and a film larger
 // than the memory the system has available.
-void checkOutputs(const RenderArgs& a, const RenderSettings& s) {
+void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace) {
   checkWritable(a.output);
   if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
   if (!a.preview.empty()) {
@@ -79,7 +80,10 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s) {
   }
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
-  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3);
+  // A screen-space integrator also keeps whole-image state (a G-buffer
+  // layer, the pixel sums, the estimates: core/gbuffer.h).
+  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3) +
+                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0);
   const uint64_t avail = availableMemoryBytes();
   if (avail > 0 && need > avail) {
     char msg[160];
@@ -117,7 +121,7 @@ int runRender(const RenderArgs& a) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
-  checkOutputs(a, s);
+  checkOutputs(a, s, desc.kind == IntegratorKind::ScreenSpace);
 
   auto integrator = desc.create(params);
   const IntegratorNeeds needs = desc.needs(params);
@@ -147,6 +151,9 @@ int runRender(const RenderArgs& a) {
     std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
                  s.width, s.height, s.spp, desc.name.c_str(), stats.seconds, total / stats.seconds * 1e-6,
                  scene->buildSeconds());
+    if (desc.kind == IntegratorKind::ScreenSpace)
+      std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
+                   stats.gbufferSeconds, stats.screenSpaceSeconds, stats.filterSeconds);
   }
   return 0;
 }
@@ -154,7 +161,8 @@ int runRender(const RenderArgs& a) {
 int runIntegrators(const std::vector<std::string>& plugins) {
   loadPlugins(plugins);
   for (const auto& d : IntegratorRegistry::instance().all()) {
-    std::printf("%s\n    %s\n", d.name.c_str(), d.doc.c_str());
+    std::printf("%s%s\n    %s\n", d.name.c_str(), d.kind == IntegratorKind::ScreenSpace ? " (screen-space)" : "",
+                d.doc.c_str());
     for (const auto& p : d.params)
       std::printf("    -p %-10s %-6s %-16s default %-6s %s\n", (p.name + "=").c_str(), p.typeName().c_str(),
                   p.rangeText().c_str(), p.defaultValue.c_str(), p.doc.c_str());

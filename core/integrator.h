@@ -146,6 +146,8 @@ inline void writeMeanVisibility(std::span<const SurfaceHit> hits, const Occlusio
   }
 }
 
+class ScreenSpaceIntegrator;  // core/gbuffer.h
+
 class Integrator {
  public:
   virtual ~Integrator() = default;
@@ -163,7 +165,16 @@ class Integrator {
     (void)albedo;
     return W;
   }
+  // Non-null for an integrator that reads the camera's G-buffer instead of
+  // tracing from camera hits (core/gbuffer.h): render() then runs the layer
+  // loop and never calls estimate().
+  virtual const ScreenSpaceIntegrator* screenSpace() const { return nullptr; }
 };
+
+// How an integrator works, for listings and checks: from camera hits with
+// rays (Integrator::estimate), or from G-buffer layers
+// (ScreenSpaceIntegrator, core/gbuffer.h).
+enum class IntegratorKind { RayTraced, ScreenSpace };
 
 struct IntegratorDescriptor {
   std::string name;  // [a-z0-9_-]+
@@ -171,6 +182,9 @@ struct IntegratorDescriptor {
   std::vector<ParamSpec> params;
   IntegratorNeeds (*needs)(const ParamSet&) = nullptr;
   std::unique_ptr<Integrator> (*create)(const ParamSet&) = nullptr;
+  // ScreenSpace: create() returns a ScreenSpaceIntegrator. `obscura
+  // integrators` lists the kind.
+  IntegratorKind kind = IntegratorKind::RayTraced;
 };
 
 class IntegratorRegistry {

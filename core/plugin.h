@@ -24,8 +24,9 @@
 
 // Bumped whenever a header a plugin compiles against changes in a way that
 // breaks binary compatibility (class layouts, virtual functions, inline code
-// that touches core data).
-#define OBSCURA_PLUGIN_ABI_VERSION 3u
+// that touches core data). 3: Primitive gained a name. 4: screen-space
+// integrators (Integrator::screenSpace, IntegratorDescriptor::kind, core/gbuffer.h).
+#define OBSCURA_PLUGIN_ABI_VERSION 4u
 
 namespace obscura {
 

@@ -7,6 +7,8 @@
 #include <chrono>
 
 #include "core/error.h"
+#include "core/gbuffer.h"
+#include "core/pixel_sums.h"
 #include "core/progress.h"
 #include "core/sampler.h"
 #include "core/settings.h"
@@ -17,21 +19,6 @@ namespace {
 // Camera samples per chunk. Large enough that per-chunk overhead
 // vanishes, small enough that the batch and its hits stay in L1/L2.
 constexpr size_t kChunk = 256;
-
-// Per-pixel sums in double: at high spp a float sum of 2^24 values stops
-// growing.
-struct Sum3 {
-  double x = 0, y = 0, z = 0;
-  void add(Vec3 v) { x += double(v.x), y += double(v.y), z += double(v.z); }
-};
-struct PixelSums {
-  Sum3 num, den, albedo, N;
-  double Z;
-  uint32_t hits;
-};
-
-// Sum num / Sum den, one channel; 0/0 is 1 (core/integrator.h).
-inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
 
 // One chunk's lanes (camera samples) and what each stage leaves for the
 // next, per thread, allocated once: the loop allocates nothing.
@@ -79,7 +66,7 @@ class TileRenderer {
   TileRenderer(const Scene& scene, const Camera& camera, const Integrator& integrator, const RenderSettings& s,
                const Tracer& tracer, Film& film, bool wantAlbedo)
       : scene_(scene), integrator_(integrator), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
-        sampler_(s.seed), gauss_(GaussianFilterSampler::instance()), tnear_(camera.znear), tfar_(camera.zfar),
+        sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
         tilesX_((s.width + s.tileSize - 1) / s.tileSize), wantAlbedo_(wantAlbedo) {}
 
   int tileCount() const { return tilesX_ * ((s_.height + s_.tileSize - 1) / s_.tileSize); }
@@ -124,16 +111,9 @@ class TileRenderer {
     IntersectBatch& cam = ts.camera;
     cam.clear();
     for (size_t l = 0; l < n; ++l) {
-      const Sample2 f = Sampler::get2D(c.filterSeeds, c.si);
-      float ox, oy;
-      if (s_.filter == PixelFilter::Box) {
-        ox = f.u;
-        oy = f.v;
-      } else {
-        ox = 0.5f + gauss_.sample(f.u);
-        oy = 0.5f + gauss_.sample(f.v);
-      }
-      cam.push(raster_.org, raster_.direction(float(c.px) + ox, float(c.py) + oy), tnear_, tfar_);
+      float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
+      cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx, fy);
+      cam.push(raster_.org, raster_.direction(fx, fy), tnear_, tfar_);
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key;
       ts.laneSample[l] = c.si;
@@ -200,47 +180,10 @@ class TileRenderer {
   // The tile's sums into the film. Each pixel belongs to exactly one tile,
   // so no locking.
   void resolve(const TileRect& r, const ThreadScratch& ts) const {
-    Film& film = film_;
-    for (int y = 0; y < r.h; ++y) {
-      for (int x = 0; x < r.w; ++x) {
-        const PixelSums& p = ts.sums[size_t(y) * r.w + x];
-        const int fx = r.x0 + x, fy = r.y0 + y;
-        const double coverage = double(p.hits) / double(s_.spp);
-        film.at(kA, fx, fy) = float(coverage);
-        if (p.hits == 0) {  // background: zero (premultiplied), Z = inf
-          if (s_.aovs) film.at(kZ, fx, fy) = kInfinity;
-          continue;
-        }
-        // The pass and the albedo are means over the pixel's hits, then
-        // premultiplied by coverage.
-        const double invHits = 1.0 / double(p.hits);
-        const Vec3 albedo = wantAlbedo_ ? Vec3(float(p.albedo.x * invHits), float(p.albedo.y * invHits),
-                                               float(p.albedo.z * invHits))
-                                        : Vec3(1, 1, 1);
-        const Vec3 W = integrator_.resolvePixel(
-            Vec3(resolveRatio(p.num.x, p.den.x), resolveRatio(p.num.y, p.den.y), resolveRatio(p.num.z, p.den.z)),
-            albedo);
-        film.at(kR, fx, fy) = float(double(W.x) * coverage);
-        film.at(kG, fx, fy) = float(double(W.y) * coverage);
-        film.at(kB, fx, fy) = float(double(W.z) * coverage);
-        if (!s_.aovs) continue;
-        film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
-        film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
-        film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
-        // shaded = albedo * W * La (docs/math.md §1), from the pixel's
-        // albedo and pass: exactly the product a compositor would form.
-        film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * s_.sky.x * coverage);
-        film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * s_.sky.y * coverage);
-        film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * s_.sky.z * coverage);
-        const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
-        const float nl = length(nsum);
-        const Vec3 n = nl > 0.0f ? nsum * (1.0f / nl) : Vec3(0, 0, 0);
-        film.at(kNX, fx, fy) = n.x;
-        film.at(kNY, fx, fy) = n.y;
-        film.at(kNZ, fx, fy) = n.z;
-        film.at(kZ, fx, fy) = float(p.Z * invHits);
-      }
-    }
+    for (int y = 0; y < r.h; ++y)
+      for (int x = 0; x < r.w; ++x)
+        resolvePixelSums(ts.sums[size_t(y) * r.w + x], s_.spp, integrator_, wantAlbedo_, s_.sky, film_, r.x0 + x,
+                         r.y0 + y);
   }
 
   const Scene& scene_;
@@ -250,7 +193,6 @@ class TileRenderer {
   Film& film_;
   const RasterCamera raster_;
   const Sampler sampler_;
-  const GaussianFilterSampler& gauss_;
   const float tnear_, tfar_;
   const int tilesX_;
   const bool wantAlbedo_;
@@ -258,11 +200,51 @@ class TileRenderer {
 
 }  // namespace
 
+void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo, Vec3 sky,
+                      Film& film, int fx, int fy) {
+  const bool aovs = film.hasAovs();
+  const double coverage = double(p.hits) / double(spp);
+  film.at(kA, fx, fy) = float(coverage);
+  if (p.hits == 0) {  // background: zero (premultiplied), Z = inf
+    if (aovs) film.at(kZ, fx, fy) = kInfinity;
+    return;
+  }
+  // The pass and the albedo are means over the pixel's hits, then
+  // premultiplied by coverage.
+  const double invHits = 1.0 / double(p.hits);
+  const Vec3 albedo = wantAlbedo ? Vec3(float(p.albedo.x * invHits), float(p.albedo.y * invHits),
+                                        float(p.albedo.z * invHits))
+                                 : Vec3(1, 1, 1);
+  const Vec3 W = integrator.resolvePixel(
+      Vec3(resolveRatio(p.num.x, p.den.x), resolveRatio(p.num.y, p.den.y), resolveRatio(p.num.z, p.den.z)), albedo);
+  film.at(kR, fx, fy) = float(double(W.x) * coverage);
+  film.at(kG, fx, fy) = float(double(W.y) * coverage);
+  film.at(kB, fx, fy) = float(double(W.z) * coverage);
+  if (!aovs) return;
+  film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
+  film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
+  film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
+  // shaded = albedo * W * La (docs/math.md §1), from the pixel's
+  // albedo and pass: exactly the product a compositor would form.
+  film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * sky.x * coverage);
+  film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * sky.y * coverage);
+  film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * sky.z * coverage);
+  const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
+  const float nl = length(nsum);
+  const Vec3 n = nl > 0.0f ? nsum * (1.0f / nl) : Vec3(0, 0, 0);
+  film.at(kNX, fx, fy) = n.x;
+  film.at(kNY, fx, fy) = n.y;
+  film.at(kNZ, fx, fy) = n.z;
+  film.at(kZ, fx, fy) = float(p.Z * invHits);
+}
+
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
             const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
   if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
+  if (const ScreenSpaceIntegrator* ss = integrator.screenSpace())
+    return renderScreenSpace(scene, camera, *ss, needs, s, stats, cancel);
   const bool wantAlbedo = needs.albedo || s.aovs;
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();

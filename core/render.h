@@ -30,6 +30,10 @@ struct RenderSettings {
 struct RenderStats {
   double seconds = 0;  // wall time of the render loop
   RayCounters rays;
+  // Screen-space integrators only (core/gbuffer.h): the split of `seconds`
+  // into rendering the G-buffer layers, the integrator's pass over them, and
+  // the interleaving filter.
+  double gbufferSeconds = 0, screenSpaceSeconds = 0, filterSeconds = 0;
 };
 
 // Renders and returns the film. Throws obscura::Error on bad settings.
@@ -38,5 +42,11 @@ struct RenderStats {
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator,
             const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
             const std::atomic<bool>* cancel = nullptr);
+
+// The layer loop render() runs for a screen-space integrator (core/gbuffer.h).
+class ScreenSpaceIntegrator;
+Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpaceIntegrator& integrator,
+                       const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
+                       const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace obscura

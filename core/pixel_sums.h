@@ -1,0 +1,35 @@
+// Per-pixel sums over camera samples and their resolution into the film:
+// shared by the ray-traced render loop and the G-buffer layer loop, so a
+// pixel means the same whichever produced its samples (core/render.h,
+// core/gbuffer.h).
+#pragma once
+
+#include <cstdint>
+
+#include "core/film.h"
+#include "core/integrator.h"
+
+namespace obscura {
+
+// Per-pixel sums in double: at high spp a float sum of 2^24 values stops
+// growing.
+struct Sum3 {
+  double x = 0, y = 0, z = 0;
+  void add(Vec3 v) { x += double(v.x), y += double(v.y), z += double(v.z); }
+};
+struct PixelSums {
+  Sum3 num, den, albedo, N;
+  double Z;
+  uint32_t hits;
+};
+
+// Sum num / Sum den, one channel; 0/0 is 1 (core/integrator.h).
+inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
+
+// Writes pixel (fx, fy) of `film` from its sums over `spp` camera samples:
+// coverage, the pass W (through integrator.resolvePixel) and the AOVs, all
+// premultiplied by coverage.
+void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo, Vec3 sky,
+                      Film& film, int fx, int fy);
+
+}  // namespace obscura

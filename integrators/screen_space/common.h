@@ -1,0 +1,197 @@
+// What the screen-space integrators (`vo`, `ssat`) share: the per-pixel
+// rotation of their sample sets (random, or the 4x4 interleaved pattern of
+// AT §4.2), and the one lookup both estimators are built on - the depth z*
+// of the first surface on the camera ray through a view-space point q - read
+// from the layer's z-buffer (depth=gbuffer) or traced exactly (depth=traced,
+// the twin that removes the z-buffer's discretization and keeps the model).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/gbuffer.h"
+#include "core/params.h"
+#include "core/sampler.h"
+
+namespace obscura::screen_space {
+
+// None: the integrator reads depth otherwise (vo's area samples: moments).
+enum class DepthSource { GBuffer, Traced, None };
+
+// A point q is behind the surface seen through it when depth(q) exceeds z*
+// by more than this fraction of z*: a point on the plane a z-buffer read
+// reconstructs (zBufferDepth) and the read agree only to float rounding, a
+// few ulps (2^-24 each) of the depth; the paper's shader has a bias too.
+// Kept this small because every point within it of the surface reads as
+// empty: a fraction ~1.5 kDepthBias z / R of a ball's points at depth z.
+constexpr float kDepthBias = 2e-6f;
+
+// Parameters shared by both integrators: count, interleave, filter-depth, depth.
+std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefault, const std::string& interleaveDefault);
+DepthSource depthSourceFromParams(const ParamSet& p);
+
+// The random numbers that rotate pixel (x, y)'s sample set in layer g.
+// With interleaving (AT §4.2) they depend only on (x mod 4, y mod 4) and the
+// layer: any 4x4 window holds all 16 rotations, and u.x - the angle of a
+// rotation about an axis - is stratified over the 16 (one per sixteenth,
+// shifted per layer). Without, they are random per pixel and sample. Each is
+// uniform on [0,1)^3 over the layers, so a uniformly random rotation built
+// from them keeps the estimators' expectation.
+inline Vec3 rotationSample(const GBufferLayer& g, size_t i, int x, int y, bool interleave) {
+  if (interleave) {
+    // A 4x4 pattern with neighbours far apart in angle (bit-reversed order).
+    static constexpr uint8_t kPattern[16] = {0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5};
+    const uint32_t k = kPattern[(y & 3) * 4 + (x & 3)];
+    const float shift = Sampler::get1D(g.imageKey, g.sampleIndex, kFirstIntegratorDim);
+    const Sample2 s = Sampler::get2D(g.imageKey, g.sampleIndex * 16U + k, kFirstIntegratorDim + 1);
+    return {(float(k) + shift) / 16.0f, s.u, s.v};
+  }
+  const Sample2 s = Sampler::get2D(g.pixelKey[i], g.sampleIndex, kFirstIntegratorDim + 1);
+  return {Sampler::get1D(g.pixelKey[i], g.sampleIndex, kFirstIntegratorDim), s.u, s.v};
+}
+
+// A frame rotated about f.n by the angle 2 pi a.
+inline Frame rotateAboutNormal(Frame f, float a) {
+  const float phi = 6.2831853071795864f * a;
+  const float c = std::cos(phi), s = std::sin(phi);
+  const Vec3 t0 = f.s * c + f.t * s, t1 = f.t * c - f.s * s;
+  f.s = t0, f.t = t1;
+  return f;
+}
+
+// A uniformly distributed rotation (as the images of the x, y, z axes) from
+// u in [0,1)^3: Shoemake's uniform unit quaternion.
+inline Frame uniformRotation(Vec3 u) {
+  constexpr float kTwoPi = 6.2831853071795864f;
+  const float a = std::sqrt(std::max(0.0f, 1.0f - u.x)), b = std::sqrt(u.x);
+  const float qx = a * std::sin(kTwoPi * u.y), qy = a * std::cos(kTwoPi * u.y);
+  const float qz = b * std::sin(kTwoPi * u.z), qw = b * std::cos(kTwoPi * u.z);
+  Frame f;
+  f.s = Vec3(1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy + qz * qw), 2 * (qx * qz - qy * qw));
+  f.t = Vec3(2 * (qx * qy - qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz + qx * qw));
+  f.n = Vec3(2 * (qx * qz + qy * qw), 2 * (qy * qz - qx * qw), 1 - 2 * (qx * qx + qy * qy));
+  return f;
+}
+
+// The pixel (x, y) a view-space point projects to; false when the point is
+// behind the camera or off the image.
+inline bool pixelOf(const GBufferLayer& g, Vec3 q, int& x, int& y) {
+  if (!(q.z < 0.0f)) return false;
+  float fx, fy;
+  g.view.project(q, fx, fy);
+  if (!(fx >= 0.0f && fy >= 0.0f && fx < float(g.width) && fy < float(g.height))) return false;
+  x = int(fx), y = int(fy);
+  return true;
+}
+
+// z* from the z-buffer: the depth, along the camera ray through q, of the
+// surface stored at the pixel q projects to - that pixel's plane met by the
+// ray (GBufferLayer::plane), or its stored depth when the ray runs along the
+// plane; +inf when q is behind the camera, off the image, or over the
+// background (no occluder known there).
+// Without `exact` (enough to classify q as in front or behind, and for the
+// thresholds of the silhouette rule and the thickness model, which move by
+// at most the pixel's depth range) a q far from the pixel's surface gets the
+// stored depth; line samples, which place the surface on their chord, ask
+// for the plane always.
+inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
+  if (!(q.z < 0.0f)) return kInfinity;
+  // The ray through q is depth x (a, b, -1).
+  const float inv = 1.0f / -q.z;
+  const float a = q.x * inv, b = q.y * inv;
+  const float fx = 0.5f * g.view.width + a * g.view.filmScaleX;
+  const float fy = 0.5f * g.view.height - b * g.view.filmScaleY;
+  if (!(fx >= 0.0f && fy >= 0.0f && fx < float(g.width) && fy < float(g.height))) return kInfinity;
+  const size_t j = g.index(int(fx), int(fy));
+  // Far from the pixel's surface (beyond its depth range over the pixel,
+  // with the bias's margin) the answer does not depend on where exactly:
+  // the stored depth serves, and `plane` is not read.
+  const std::array<float, 2> ds = g.depthSlack[j];
+  if (!exact && std::abs(-q.z - ds[0]) > ds[1] + 4.0f * kDepthBias * ds[0]) return ds[0];
+  const std::array<float, 4>& p = g.plane[j];
+  const float den = p[0] * a + p[1] * b - p[2];
+  // A plane seen nearly edge-on (|cos| below 1e-3 of the ray's length) or a
+  // background pixel (all zero): the stored depth.
+  if (!(std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f))) return g.depth[j];
+  const float z = p[3] / den;
+  return z > 0.0f ? z : g.depth[j];
+}
+
+// Pixels per run of forEachPixelRun.
+constexpr int kPixelRun = 64;
+
+// Lookups of z* for a list of view-space points: from the z-buffer (at
+// push, no second pass), or by tracing the camera ray through each point
+// (closest hit; z* = the hit's depth, +inf on a miss) in one stream at
+// run(). Fixed capacity, allocated once per use: nothing allocates per point.
+class DepthLookup {
+ public:
+  // `exact`: see zBufferDepth.
+  DepthLookup(DepthSource src, size_t capacity, bool exact) : src_(src), exact_(exact), q_(capacity), z_(capacity) {}
+  void clear() { n_ = 0; }
+  void push(const GBufferLayer& g, Vec3 q) {
+    q_[n_] = q;
+    if (src_ == DepthSource::GBuffer) z_[n_] = zBufferDepth(g, q, exact_);
+    ++n_;
+  }
+  size_t size() const { return n_; }
+  // Traced: fills z(i) for every pushed point (the z-buffer's are filled).
+  void run(const GBufferLayer& g, IntegratorContext& ctx) {
+    if (src_ != DepthSource::Traced) return;
+    IntersectBatch& b = ctx.intersectBatch(n_);
+    const Vec3 org = g.view.origin;
+    for (size_t i = 0; i < n_; ++i) {
+      const Vec3 d = g.view.vectorToWorld(q_[i]);
+      const float len = length(d);
+      if (q_[i].z < 0.0f && len > 0.0f)
+        b.push(org, d * (1.0f / len), 0.0f, kInfinity);
+      else  // behind the camera: nothing known (inactive ray)
+        b.push(org, Vec3(0, 0, -1), kInfinity, 0.0f);
+    }
+    ctx.trace(b);
+    for (size_t i = 0; i < n_; ++i) {
+      const float len = length(q_[i]);
+      z_[i] = b.hit(i) && len > 0.0f ? b.t(i) * (-q_[i].z / len) : kInfinity;
+    }
+  }
+  float z(size_t i) const { return z_[i]; }
+  const Vec3& q(size_t i) const { return q_[i]; }
+
+ private:
+  DepthSource src_;
+  bool exact_;
+  std::vector<Vec3> q_;
+  std::vector<float> z_;
+  size_t n_ = 0;
+};
+
+// Rows [y0, y1) of layer g in runs of pixels, so that the lookups of a whole
+// run are made at once (one ray stream for the traced twin): for each
+// covered pixel i at (x, y), push(i, x, y) queues exactly `perPixel` points
+// on `look`; after the lookup, evaluate(i, x, y, at, out) reads them from
+// index `at` and writes out, the pixel's estimate.
+template <class Push, class Evaluate>
+void forEachPixelRun(const GBufferLayer& g, int y0, int y1, size_t perPixel, IntegratorContext& ctx,
+                     DepthLookup& look, SampleEstimate* out, Push&& push, Evaluate&& evaluate) {
+  constexpr int kRun = kPixelRun;
+  for (int y = y0; y < y1; ++y) {
+    for (int xr = 0; xr < g.width; xr += kRun) {
+      const int xe = std::min(g.width, xr + kRun);
+      look.clear();
+      for (int x = xr; x < xe; ++x)
+        if (g.covered(g.index(x, y))) push(g.index(x, y), x, y);
+      if (look.size() == 0) continue;
+      look.run(g, ctx);
+      size_t at = 0;
+      for (int x = xr; x < xe; ++x) {
+        const size_t i = g.index(x, y);
+        if (!g.covered(i)) continue;
+        evaluate(i, x, y, at, out[size_t(y - y0) * size_t(g.width) + size_t(x)]);
+        at += perPixel;
+      }
+    }
+  }
+}
+
+}  // namespace obscura::screen_space

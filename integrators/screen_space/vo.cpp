@@ -1,0 +1,308 @@
+// `vo`: volumetric obscurance from the depth buffer (Loos & Sloan; docs/math.md §8).
+//
+//   V(P) = (1/|X|) Int_X Occ(x) dx
+//
+// the fraction of the ball X of radius R about P (the half-ball above P's
+// tangent plane with the normal clamp, VO §4.4) that is empty, read from the
+// depth buffer: a point is occupied when it lies behind the surface the
+// camera sees through it (depth(x) > z*), or, with the thickness model (VO
+// §4.3), only within `thickness` behind it.
+//
+// - samples=point: x_k = P + R p_k, p_k the weighted ball set (VO §4.5,
+//   sample_sets.h) under a uniformly random rotation per pixel, its radii
+//   shifted per layer in the ball's volume measure (so the estimator is
+//   unbiased); with the normal clamp points below the tangent plane are
+//   reflected into it. V ~ Sum w_k [x_k empty].
+// - samples=line: the ball's chords through the disk set, one per disk point,
+//   each along the camera ray through the point P + R (x e1 + y e2) (e1, e2
+//   span the plane perpendicular to the view direction of P). The depth
+//   buffer gives, along that ray, where the surface lies, so the empty length
+//   of the chord is exact for one surface (VO §4.1; the paper's lines run
+//   parallel to the view axis, ours along the camera rays, which makes a
+//   plane exact under perspective too). With the normal clamp the chord is
+//   cut at the tangent plane. V ~ Sum a_k free_k / Sum a_k chord_k with a_k
+//   = w_k / (2 sqrt(1 - x_k^2 - y_k^2)): each disk cell's share of the ball
+//   per unit of chord length; the ratio makes the plane exactly 1 (clamp)
+//   and 1/2 (no clamp, to the set's symmetry).
+// - radius2 > 0: V computed at both radii with the same samples, combined by
+//   product or min (VO §6).
+//
+// VO equals obscurance with mu(d) = min(d/R, 1)^3 under *uniform* direction
+// weighting when every line crosses one surface: the empty length of a chord
+// through P in direction w is min(d(w), R) (VO §3).
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "core/error.h"
+#include "core/gbuffer.h"
+#include "core/plugin.h"
+#include "integrators/screen_space/common.h"
+#include "integrators/screen_space/sample_sets.h"
+
+namespace obscura {
+namespace {
+
+using namespace screen_space;
+
+enum class VoSamples { Point, Line, Area };
+enum class Combine { Product, Min };
+
+struct VoConfig {
+  VoSamples samples = VoSamples::Line;
+  float R = 1.0f, R2 = 0.0f;
+  Combine combine = Combine::Product;
+  int count = 16;
+  bool centre = true;
+  bool normalClamp = true;
+  float thickness = 0.0f;  // 0 = off (every point behind the surface is occupied)
+  bool interleave = false;
+  float filterDepth = 0.02f;
+  DepthSource depth = DepthSource::GBuffer;
+};
+
+class VolumetricObscurance final : public ScreenSpaceIntegrator {
+ public:
+  explicit VolumetricObscurance(const VoConfig& c) : c_(c) {
+    if (c_.samples == VoSamples::Point) {
+      const BallSet b = ballSet(c_.count);
+      for (int k = 0; k < c_.count; ++k) px_.push_back(b.p[k].x), py_.push_back(b.p[k].y), pz_.push_back(b.p[k].z);
+      w_ = b.w;
+      for (int k = 0; k < c_.count; ++k) {
+        rad_.push_back(length(b.p[k]));
+        cube_.push_back(rad_[k] * rad_[k] * rad_[k]);
+      }
+    } else {
+      const DiskSet d = diskSet(c_.count, c_.centre);
+      px_ = d.x, py_ = d.y;
+      for (int k = 0; k < c_.count; ++k) {
+        const float zs = std::sqrt(std::max(0.0f, 1.0f - d.x[k] * d.x[k] - d.y[k] * d.y[k]));
+        w_.push_back(zs > 0.0f ? d.w[k] / (2.0f * zs) : 0.0f);  // a disk point on the rim has no chord
+      }
+    }
+  }
+
+  float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
+  bool needsDepthMoments() const override { return c_.samples == VoSamples::Area; }
+
+  void estimateRows(const GBufferLayer& g, int y0, int y1, IntegratorContext& ctx, SampleEstimate* out) const override {
+    const int radii = c_.R2 > 0.0f ? 2 : 1;
+    const size_t perPixel = size_t(c_.count) * size_t(radii);
+    // Points: the radii shifted per layer in the ball's volume measure
+    // (u = |p|^3 -> frac(u + shift), Cranley-Patterson), so each point's
+    // radius, like its direction, is distributed as the ball's: the mean
+    // over layers is the ball integral for any set whose weights sum to 1.
+    // As a factor on p_k, once per call.
+    float radial[kMaxCount];
+    if (c_.samples == VoSamples::Point) {
+      const float shift = Sampler::get1D(g.imageKey, g.sampleIndex, kFirstIntegratorDim + 2);
+      for (int k = 0; k < c_.count; ++k) {
+        float u = cube_[k] + shift;
+        u -= u >= 1.0f ? 1.0f : 0.0f;
+        radial[k] = rad_[k] > 0.0f ? std::cbrt(u) / rad_[k] : 0.0f;
+      }
+    }
+    DepthLookup look(c_.samples == VoSamples::Area ? DepthSource::None : c_.depth, size_t(kPixelRun) * perPixel,
+                     c_.samples == VoSamples::Line);
+    forEachPixelRun(
+        g, y0, y1, perPixel, ctx, look, out,
+        [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, look); },
+        [&](size_t i, int, int, size_t at, SampleEstimate& o) {
+          float v = evaluate(g, i, look, at, c_.R);
+          if (radii == 2) {
+            const float v2 = evaluate(g, i, look, at + size_t(c_.count), c_.R2);
+            v = c_.combine == Combine::Product ? v * v2 : std::min(v, v2);
+          }
+          v = std::clamp(v, 0.0f, 1.0f);
+          o.num = Vec3(v, v, v);
+        });
+  }
+
+ private:
+  // Points: a uniformly random rotation of the ball set (every point's
+  // direction uniform; with the radial shift, the estimator is unbiased).
+  // Lines: the disk
+  // perpendicular to the view direction of P, rotated about it (VO §4.5).
+  Frame pixelFrame(const GBufferLayer& g, size_t i, int x, int y) const {
+    const Vec3 u = rotationSample(g, i, x, y, c_.interleave);
+    if (c_.samples == VoSamples::Point) return uniformRotation(u);
+    return rotateAboutNormal(Frame::fromNormal(normalize(-g.position[i])), u.x);
+  }
+
+  // Points: x_k. Lines: the point where the chord's camera ray crosses the
+  // disk plane, Q0 = P + R (x e1 + y e2).
+  void pushPoints(const GBufferLayer& g, size_t i, int x, int y, int radii, const float* radial,
+                  DepthLookup& look) const {
+    const Vec3 P = g.position[i], n = g.normal[i];
+    const Frame f = pixelFrame(g, i, x, y);
+    for (int r = 0; r < radii; ++r) {
+      const float R = r == 0 ? c_.R : c_.R2;
+      for (int k = 0; k < c_.count; ++k) {
+        if (c_.samples == VoSamples::Point) {
+          Vec3 p = (f.s * px_[k] + f.t * py_[k] + f.n * pz_[k]) * radial[k];
+          const float pn = dot(p, n);
+          if (c_.normalClamp && pn < 0.0f) p = p - n * (2.0f * pn);  // reflected into the half-ball (VO §4.4)
+          look.push(g, P + p * R);
+        } else {
+          look.push(g, P + (f.s * px_[k] + f.t * py_[k]) * R);
+        }
+      }
+    }
+  }
+
+  bool occupied(float depthQ, float zStar, float thick) const {
+    const float behind = depthQ - zStar;
+    return behind > kDepthBias * zStar && (thick <= 0.0f || behind < thick);
+  }
+
+  float evaluate(const GBufferLayer& g, size_t i, const DepthLookup& look, size_t at, float R) const {
+    if (c_.samples == VoSamples::Point) {
+      float v = 0.0f;
+      for (int k = 0; k < c_.count; ++k) {
+        const Vec3& q = look.q(at + size_t(k));
+        if (!occupied(-q.z, look.z(at + size_t(k)), c_.thickness)) v += w_[k];
+      }
+      return v;
+    }
+    const Vec3 P = g.position[i], n = g.normal[i];
+    // Area samples: the mip level whose texel matches a disk cell's
+    // footprint - a cell of the n-point set covers ~1/n of the disk, radius
+    // R / sqrt(n), which spans 2 R / sqrt(n) / (pixel size at P's depth)
+    // pixels (VO §4.2: one log per pixel, the cells' share precomputed).
+    int level = 0;
+    if (c_.samples == VoSamples::Area) {
+      const float pixelSize = 2.0f * g.view.tanHalfY * g.depth[i] / float(g.height);
+      const float span = 2.0f * R / std::sqrt(float(c_.count)) / pixelSize;
+      level = span > 1.0f ? int(std::lround(std::log2(span))) : 0;
+      level = std::min(level, int(g.moments.size()) - 1);
+    }
+    double freeSum = 0.0, chordSum = 0.0;
+    for (int k = 0; k < c_.count; ++k) {
+      const Vec3& Q0 = look.q(at + size_t(k));
+      const float dQ = length(Q0);
+      if (!(dQ > 0.0f) || w_[k] == 0.0f) continue;
+      const Vec3 u = Q0 * (1.0f / dQ);
+      // Chord of the sphere |Q0 + s u - P| = R along the ray: s^2 + 2 b s + c = 0.
+      const Vec3 o = Q0 - P;
+      const float b = dot(u, o), c = dot(o, o) - R * R;
+      const float disc = b * b - c;
+      if (!(disc > 0.0f)) continue;
+      const float root = std::sqrt(disc);
+      float s0 = -b - root, s1 = -b + root;
+      if (c_.normalClamp) {  // keep the side of the tangent plane n.(X - P) >= 0
+        const float nu = dot(n, u), no = dot(n, o);
+        if (nu < 0.0f)
+          s1 = std::min(s1, -no / nu);
+        else if (nu > 0.0f)
+          s0 = std::max(s0, -no / nu);
+        else if (no < 0.0f)
+          s1 = s0;  // parallel to the plane, below it
+      }
+      if (!(s1 > s0)) continue;
+      const float chord = s1 - s0;
+      // Depth along a camera ray is proportional to distance along it: a
+      // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
+      const float perDepth = dQ / -Q0.z;
+      float covered = 1.0f, zMean = look.z(at + size_t(k)), zSigma = 0.0f;
+      if (c_.samples == VoSamples::Area) depthModel(g, level, Q0, covered, zMean, zSigma);
+      float freeLen = chord;
+      if (covered > 0.0f && zMean < kInfinity) {
+        const float bias = kDepthBias * zMean * perDepth;
+        const float lo = zMean * perDepth - dQ + bias - zSigma * perDepth;
+        const float hi = zMean * perDepth - dQ + bias + zSigma * perDepth;
+        float f = freeAlong(s0, s1, lo, hi);
+        if (c_.thickness > 0.0f) {  // VO §4.3: the occupancy shifted back by T, complemented, added
+          const float t = c_.thickness * perDepth;
+          f += chord - freeAlong(s0, s1, lo + t, hi + t);
+        }
+        freeLen = (1.0f - covered) * chord + covered * std::clamp(f, 0.0f, chord);
+      }
+      freeSum += double(w_[k]) * double(freeLen);
+      chordSum += double(w_[k]) * double(chord);
+    }
+    return chordSum > 0.0 ? float(freeSum / chordSum) : 1.0f;
+  }
+
+  // The empty length of the chord [s0, s1] when the surface's depth along
+  // it is distributed uniformly on [lo, hi] (VO §4.2's box model: empty with
+  // probability 1 before lo, 0 after hi, linear between); lo = hi is one
+  // surface at lo (line samples). The integral of that visibility, F(s1) -
+  // F(s0) with F its antiderivative.
+  static float freeAlong(float s0, float s1, float lo, float hi) {
+    auto F = [lo, hi](float s) {
+      if (s <= lo) return s;
+      if (s >= hi) return lo + 0.5f * (hi - lo);
+      return s - 0.5f * (s - lo) * (s - lo) / (hi - lo);
+    };
+    return F(s1) - F(s0);
+  }
+
+  // Area samples: the depth moments at the texel of `level` that Q0
+  // projects to: coverage, mean depth, standard deviation. Off the image:
+  // nothing known (no occluder).
+  static void depthModel(const GBufferLayer& g, int level, Vec3 Q0, float& covered, float& mean, float& sigma) {
+    covered = 0.0f, mean = kInfinity, sigma = 0.0f;
+    int x, y;
+    if (!pixelOf(g, Q0, x, y)) return;
+    const DepthMoments& m = g.moments[size_t(level)];
+    const size_t j = size_t(y >> level) * size_t(m.width) + size_t(x >> level);
+    covered = m.coverage[j];
+    if (covered > 0.0f) mean = m.mean[j], sigma = std::sqrt(m.variance[j]);
+  }
+
+  static constexpr int kMaxCount = 256;  // the `count` parameter's maximum
+  VoConfig c_;
+  std::vector<float> px_, py_, pz_, w_;
+  std::vector<float> rad_, cube_;  // points: |p_k| and |p_k|^3
+};
+
+IntegratorDescriptor voDescriptor() {
+  IntegratorDescriptor d;
+  d.name = "vo";
+  d.kind = IntegratorKind::ScreenSpace;
+  d.doc = "Volumetric obscurance from the depth buffer (screen-space): the empty fraction of a ball of radius R "
+          "about each pixel's point (half-ball with the normal), point, line or area samples (docs/math.md §8).";
+  d.params = {
+      {.name = "samples", .type = ParamType::Enum, .defaultValue = "line", .choices = {"point", "line", "area"},
+       .doc = "point: points in the ball; line: chords of the ball along camera rays through disk points; "
+              "area: those chords against the depth's mean and variance over each disk cell's footprint (mip-mapped)"},
+      {.name = "radius", .type = ParamType::Float, .defaultValue = "1", .min = 0.0, .max = 1e30,
+       .doc = "R, the ball's radius (scene units); 0: nothing occludes (W = 1)"},
+      {.name = "radius2", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
+       .doc = "second radius (VO dual radii); 0: off"},
+      {.name = "combine", .type = ParamType::Enum, .defaultValue = "product", .choices = {"product", "min"},
+       .doc = "how the two radii's values combine"},
+      {.name = "centre", .type = ParamType::Bool, .defaultValue = "true",
+       .doc = "line and area samples: the disk set includes the centre"},
+      {.name = "normal", .type = ParamType::Bool, .defaultValue = "true",
+       .doc = "normal clamp: only the half-ball above the tangent plane (a plane gives 1; without: 1/2)"},
+      {.name = "thickness", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
+       .doc = "thickness model: occupied only this far behind the depth buffer (scene units); 0: off (solid)"},
+  };
+  for (ParamSpec& p : sharedParams("samples per pixel and layer (the set's size)", 16, "off")) d.params.push_back(p);
+  d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
+    VoConfig c;
+    const std::string& kind = p.getEnum("samples");
+    c.samples = kind == "point" ? VoSamples::Point : kind == "line" ? VoSamples::Line : VoSamples::Area;
+    c.R = float(p.getFloat("radius"));
+    c.R2 = float(p.getFloat("radius2"));
+    c.combine = p.getEnum("combine") == "min" ? Combine::Min : Combine::Product;
+    c.count = p.getInt("count");
+    c.centre = p.getBool("centre");
+    c.normalClamp = p.getBool("normal");
+    c.thickness = float(p.getFloat("thickness"));
+    c.interleave = p.getEnum("interleave") == "on";
+    c.filterDepth = float(p.getFloat("filter-depth"));
+    c.depth = depthSourceFromParams(p);
+    if (c.samples == VoSamples::Area && c.depth == DepthSource::Traced)
+      throw Error("integrator 'vo': samples=area reads the depth buffer's mip-mapped moments; depth=traced applies "
+                  "to point and line samples");
+    return std::make_unique<VolumetricObscurance>(c);
+  };
+  return d;
+}
+
+}  // namespace
+OBSCURA_REGISTER_INTEGRATOR(voDescriptor)
+}  // namespace obscura
