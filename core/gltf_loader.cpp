@@ -128,7 +128,7 @@ class Builder {
     const tinygltf::Value* ob = obscuraExtras(extras, owner);
     if (!ob || !ob->Has("displacement")) return std::nullopt;
     DisplacementRequest r{"", "", options_.displacementScale, options_.displacementMidlevel,
-                          owner + ".extras.obscura.displacement"};
+                          owner + ".extras.obscura.displacement", ""};
     const tinygltf::Value& d = ob->Get("displacement");
     if (!d.IsObject()) fail(r.field, "must be an object");
     const tinygltf::Value& map = d.Get("map");  // a null value when absent
@@ -156,7 +156,7 @@ class Builder {
     if (r && !subdivided) fail(r->field, "needs a subdivided mesh (" + mesh + ".extras.obscura.subdivision)");
     if (!r && subdivided && !options_.displacementMap.empty()) {
       r = DisplacementRequest{options_.displacementMap, options_.displacementMap, options_.displacementScale,
-                              options_.displacementMidlevel, settingName(Setting::Displacement)};
+                              options_.displacementMidlevel, settingName(Setting::Displacement), ""};
       cliDisplacementUsed_ = true;
     }
     return r;
