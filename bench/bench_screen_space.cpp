@@ -35,6 +35,7 @@ namespace {
 struct Options : CommonOptions {
   int count = 16;
   double radiusFraction = 0.02;
+  std::string only;  // substring of the screen-space configs to time (empty: all)
 };
 
 struct Row {
@@ -74,6 +75,7 @@ int main(int argc, char** argv) {
   addCommonOptions(app, o, "Smoke run: 320x180, 1 run");
   app.add_option("--count", o.count, "Estimator samples per pixel: obscurance rays and the screen-space count (16)");
   app.add_option("--radius-fraction", o.radiusFraction, "R as a fraction of the scene's bounding-box diagonal (0.02)");
+  app.add_option("--only", o.only, "Time only the screen-space configs whose label contains this (e.g. ssat)");
   CLI11_PARSE(app, argc, argv);
   try {
     if (o.quick) {
@@ -95,25 +97,32 @@ int main(int argc, char** argv) {
       const std::string R = "=" + std::to_string(o.radiusFraction * bs.diagonal);
       const std::string n = "=" + std::to_string(o.count);
       const RenderSettings s = benchRenderSettings(width, height, o.spp, threads);
+      std::vector<std::pair<std::string, std::vector<std::string>>> configs;
+      for (const char* kind : {"point", "line", "area"})
+        configs.push_back({"vo", {std::string("samples=") + kind, "radius" + R, "count" + n}});
+      configs.push_back({"vo", {"samples=line", "radius" + R, "count" + n, "interleave=on"}});
+      for (const char* inter : {"on", "off"})
+        configs.push_back({"ssat", {"distance" + R, "count" + n, std::string("interleave=") + inter}});
       std::vector<Row> rows;
       rows.push_back(timeConfig(bs, "obscurance", {"distance" + R, "rays" + n}, s, o.runs));
-      for (const char* kind : {"point", "line", "area"})
-        rows.push_back(timeConfig(bs, "vo", {std::string("samples=") + kind, "radius" + R, "count" + n}, s, o.runs));
-      rows.push_back(timeConfig(bs, "vo", {"samples=line", "radius" + R, "count" + n, "interleave=on"}, s, o.runs));
-      for (const char* inter : {"on", "off"})
-        rows.push_back(
-            timeConfig(bs, "ssat", {"distance" + R, "count" + n, std::string("interleave=") + inter}, s, o.runs));
+      for (const auto& [name, params] : configs) {
+        std::string label = name;
+        for (const std::string& a : params) label += "," + a;
+        if (label.find(o.only) != std::string::npos) rows.push_back(timeConfig(bs, name, params, s, o.runs));
+      }
       std::printf("\n== %s (%zu triangles, diagonal %.3g)\n", bs.label.c_str(), bs.triangles, bs.diagonal);
       std::printf("| config | render s | speed-up vs obscurance | G-buffer s | screen-space s | filter s | "
-                  "depth samples/s (screen-space pass) |\n|---|---|---|---|---|---|---|\n");
+                  "depth samples/s (screen-space pass) | bound: obscurance / G-buffer |\n"
+                  "|---|---|---|---|---|---|---|---|\n");
       const double samples = double(width) * height * o.spp * o.count;
       for (const Row& r : rows) {
         if (!r.screenSpace) {
-          std::printf("| `%s` | %.3f | 1 | | | | |\n", r.config.c_str(), r.seconds);
+          std::printf("| `%s` | %.3f | 1 | | | | | |\n", r.config.c_str(), r.seconds);
           continue;
         }
-        std::printf("| `%s` | %.3f | %.1fx | %.3f | %.3f | %.3f | %.0f M |\n", r.config.c_str(), r.seconds,
-                    rows[0].seconds / r.seconds, r.gbuffer, r.pass, r.filter, samples / r.pass * 1e-6);
+        std::printf("| `%s` | %.3f | %.1fx | %.3f | %.3f | %.3f | %.0f M | %.1fx |\n", r.config.c_str(), r.seconds,
+                    rows[0].seconds / r.seconds, r.gbuffer, r.pass, r.filter, samples / r.pass * 1e-6,
+                    rows[0].seconds / r.gbuffer);
       }
       std::fflush(stdout);
     }

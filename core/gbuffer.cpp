@@ -253,6 +253,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   stats = {};
   uint64_t cameraRays = 0;
   const auto t0 = std::chrono::steady_clock::now();
+  const int tilesX = (s.width + kScreenSpaceTile - 1) / kScreenSpaceTile;
+  const int tilesY = (s.height + kScreenSpaceTile - 1) / kScreenSpaceTile;
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
@@ -264,12 +266,18 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       stats.gbufferSeconds += secondsSince(t);
 
       t = std::chrono::steady_clock::now();
-      parallelRows(s.height, [&](int y0, int y1) {
+      tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
         std::unique_ptr<IntegratorContext>& ctx = contexts.local();
         if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer);
-        SampleEstimate* out = est.data() + g.index(0, y0);
-        for (size_t i = 0, m = size_t(y1 - y0) * size_t(s.width); i < m; ++i) out[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
-        integrator.estimateRows(g, y0, y1, *ctx, out);
+        for (int t = r.begin(); t != r.end(); ++t) {
+          PixelRect tile;
+          tile.x0 = (t % tilesX) * kScreenSpaceTile, tile.y0 = (t / tilesX) * kScreenSpaceTile;
+          tile.x1 = std::min(s.width, tile.x0 + kScreenSpaceTile);
+          tile.y1 = std::min(s.height, tile.y0 + kScreenSpaceTile);
+          for (int y = tile.y0; y < tile.y1; ++y)
+            for (int x = tile.x0; x < tile.x1; ++x) est[g.index(x, y)] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
+          integrator.estimateTile(g, tile, *ctx, est.data());
+        }
       });
       stats.screenSpaceSeconds += secondsSince(t);
 

@@ -51,14 +51,41 @@ inline Vec3 rotationSample(const GBufferLayer& g, size_t i, int x, int y, bool i
   return {Sampler::get1D(g.pixelKey[i], g.sampleIndex, kFirstIntegratorDim), s.u, s.v};
 }
 
-// A frame rotated about f.n by the angle 2 pi a.
-inline Frame rotateAboutNormal(Frame f, float a) {
-  const float phi = 6.2831853071795864f * a;
-  const float c = std::cos(phi), s = std::sin(phi);
+// A frame rotated about f.n by the angle with cosine c and sine s.
+inline Frame rotateAboutNormal(Frame f, float c, float s) {
   const Vec3 t0 = f.s * c + f.t * s, t1 = f.t * c - f.s * s;
   f.s = t0, f.t = t1;
   return f;
 }
+
+// A frame rotated about f.n by the angle 2 pi a.
+inline Frame rotateAboutNormal(Frame f, float a) {
+  const float phi = 6.2831853071795864f * a;
+  return rotateAboutNormal(f, std::cos(phi), std::sin(phi));
+}
+
+// The rotations about the normal of a tile's pixels in layer g: with
+// interleaving the 16 of the 4x4 pattern, their cosines and sines computed
+// once per tile instead of once per pixel; without, per pixel.
+class NormalRotations {
+ public:
+  NormalRotations(const GBufferLayer& g, bool interleave) : interleave_(interleave) {
+    if (!interleave) return;
+    for (int k = 0; k < 16; ++k) {
+      const float phi = 6.2831853071795864f * rotationSample(g, 0, k & 3, k >> 2, true).x;
+      cos_[k] = std::cos(phi), sin_[k] = std::sin(phi);
+    }
+  }
+  Frame rotate(const GBufferLayer& g, size_t i, int x, int y, const Frame& f) const {
+    if (!interleave_) return rotateAboutNormal(f, rotationSample(g, i, x, y, false).x);
+    const int k = (y & 3) * 4 + (x & 3);
+    return rotateAboutNormal(f, cos_[k], sin_[k]);
+  }
+
+ private:
+  bool interleave_;
+  float cos_[16] = {}, sin_[16] = {};
+};
 
 // A uniformly distributed rotation (as the images of the x, y, z axes) from
 // u in [0,1)^3: Shoemake's uniform unit quaternion.
@@ -95,6 +122,26 @@ inline bool pixelOf(const GBufferLayer& g, Vec3 q, int& x, int& y) {
 // at most the pixel's depth range) a q far from the pixel's surface gets the
 // stored depth; line samples, which place the surface on their chord, ask
 // for the plane always.
+// The depth at which the camera ray depth x (a, b, -1) meets the plane
+// stored at pixel j, or its stored depth when the ray runs along the plane.
+inline float planeDepth(const GBufferLayer& g, size_t j, float a, float b) {
+  const std::array<float, 4>& p = g.plane[j];
+  const float den = p[0] * a + p[1] * b - p[2];
+  // A plane seen nearly edge-on (|cos| below 1e-3 of the ray's length) or a
+  // background pixel (all zero): the stored depth.
+  if (!(std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f))) return g.depth[j];
+  const float z = p[3] / den;
+  return z > 0.0f ? z : g.depth[j];
+}
+
+// Far from pixel j's surface (beyond its depth range over the pixel, with
+// the bias's margin) the answer does not depend on where exactly in the
+// pixel a point at view depth `depthQ` lies: the stored depth serves, and
+// `plane` is not read.
+inline bool decidedByStoredDepth(const std::array<float, 2>& ds, float depthQ) {
+  return std::abs(depthQ - ds[0]) > ds[1] + 4.0f * kDepthBias * ds[0];
+}
+
 inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
   if (!(q.z < 0.0f)) return kInfinity;
   // The ray through q is depth x (a, b, -1).
@@ -104,18 +151,35 @@ inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
   const float fy = 0.5f * g.view.height - b * g.view.filmScaleY;
   if (!(fx >= 0.0f && fy >= 0.0f && fx < float(g.width) && fy < float(g.height))) return kInfinity;
   const size_t j = g.index(int(fx), int(fy));
-  // Far from the pixel's surface (beyond its depth range over the pixel,
-  // with the bias's margin) the answer does not depend on where exactly:
-  // the stored depth serves, and `plane` is not read.
   const std::array<float, 2> ds = g.depthSlack[j];
-  if (!exact && std::abs(-q.z - ds[0]) > ds[1] + 4.0f * kDepthBias * ds[0]) return ds[0];
-  const std::array<float, 4>& p = g.plane[j];
-  const float den = p[0] * a + p[1] * b - p[2];
-  // A plane seen nearly edge-on (|cos| below 1e-3 of the ray's length) or a
-  // background pixel (all zero): the stored depth.
-  if (!(std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f))) return g.depth[j];
-  const float z = p[3] / den;
-  return z > 0.0f ? z : g.depth[j];
+  if (!exact && decidedByStoredDepth(ds, -q.z)) return ds[0];
+  return planeDepth(g, j, a, b);
+}
+
+// The projection of many points P + s ox[k] + t oy[k] + n oz[k] (view
+// space; a pixel's point and frame, a sample set's offsets) onto the layer:
+// depth[k] = their view depth, or -1 where the point is behind the camera or
+// off the image; pixel[k] = the index of the pixel it falls in (valid where
+// depth[k] > 0). The screen-space loops' arithmetic, written branch-free over
+// arrays so that it vectorizes (compiled for AVX2 and baseline, picked at
+// load time); the depth-buffer reads that follow are scattered and stay
+// scalar.
+struct PointProjection {
+  float cx, cy, sx, sy, w, h;  // film centre, film pixels per unit x/-z and y/-z, film size
+  uint32_t width;
+  explicit PointProjection(const GBufferLayer& g)
+      : cx(0.5f * g.view.width), cy(0.5f * g.view.height), sx(g.view.filmScaleX), sy(g.view.filmScaleY),
+        w(float(g.width)), h(float(g.height)), width(uint32_t(g.width)) {}
+};
+void projectOffsets(const PointProjection& pr, Vec3 P, const Frame& f, const float* ox, const float* oy,
+                    const float* oz, int count, float* depth, uint32_t* pixel);
+
+// z* for a point q of view depth depthQ > 0 that projectOffsets placed in
+// pixel j: zBufferDepth without the projection.
+inline float zStarAt(const GBufferLayer& g, uint32_t j, float depthQ, bool exact, Vec3 q) {
+  const std::array<float, 2> ds = g.depthSlack[j];
+  if (!exact && decidedByStoredDepth(ds, depthQ)) return ds[0];
+  return planeDepth(g, j, q.x / depthQ, q.y / depthQ);
 }
 
 // Pixels per run of forEachPixelRun.
@@ -166,18 +230,18 @@ class DepthLookup {
   size_t n_ = 0;
 };
 
-// Rows [y0, y1) of layer g in runs of pixels, so that the lookups of a whole
-// run are made at once (one ray stream for the traced twin): for each
+// The pixels of `tile` in runs along its rows, so that the lookups of a
+// whole run are made at once (one ray stream for the traced twin): for each
 // covered pixel i at (x, y), push(i, x, y) queues exactly `perPixel` points
-// on `look`; after the lookup, evaluate(i, x, y, at, out) reads them from
-// index `at` and writes out, the pixel's estimate.
+// on `look`; after the lookup, evaluate(i, x, y, at, out[i]) reads them
+// from index `at` and writes the pixel's estimate.
 template <class Push, class Evaluate>
-void forEachPixelRun(const GBufferLayer& g, int y0, int y1, size_t perPixel, IntegratorContext& ctx,
+void forEachPixelRun(const GBufferLayer& g, const PixelRect& tile, size_t perPixel, IntegratorContext& ctx,
                      DepthLookup& look, SampleEstimate* out, Push&& push, Evaluate&& evaluate) {
   constexpr int kRun = kPixelRun;
-  for (int y = y0; y < y1; ++y) {
-    for (int xr = 0; xr < g.width; xr += kRun) {
-      const int xe = std::min(g.width, xr + kRun);
+  for (int y = tile.y0; y < tile.y1; ++y) {
+    for (int xr = tile.x0; xr < tile.x1; xr += kRun) {
+      const int xe = std::min(tile.x1, xr + kRun);
       look.clear();
       for (int x = xr; x < xe; ++x)
         if (g.covered(g.index(x, y))) push(g.index(x, y), x, y);
@@ -187,7 +251,7 @@ void forEachPixelRun(const GBufferLayer& g, int y0, int y1, size_t perPixel, Int
       for (int x = xr; x < xe; ++x) {
         const size_t i = g.index(x, y);
         if (!g.covered(i)) continue;
-        evaluate(i, x, y, at, out[size_t(y - y0) * size_t(g.width) + size_t(x)]);
+        evaluate(i, x, y, at, out[i]);
         at += perPixel;
       }
     }

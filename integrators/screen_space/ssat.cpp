@@ -83,54 +83,99 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
 
   float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
 
-  void estimateRows(const GBufferLayer& g, int y0, int y1, IntegratorContext& ctx, SampleEstimate* out) const override {
+  void estimateTile(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx, SampleEstimate* out) const override {
     if (zero_) {  // R = 0: nothing but the surface occludes (the limit R -> 0+): W = 1
-      for (int y = y0; y < y1; ++y)
-        for (int x = 0; x < g.width; ++x) out[size_t(y - y0) * size_t(g.width) + size_t(x)].num = Vec3(1, 1, 1);
+      for (int y = tile.y0; y < tile.y1; ++y)
+        for (int x = tile.x0; x < tile.x1; ++x) out[g.index(x, y)].num = Vec3(1, 1, 1);
       return;
     }
     const size_t perPixel = size_t(c_.count) * size_t(c_.steps);
     float ox[kMaxCount], oy[kMaxCount], oz[kMaxCount];
     layerOffsets(g.imageKey, g.sampleIndex, ox, oy, oz);
+    // The set rotated about the normal per pixel (AT §4.2, §5).
+    const NormalRotations rotations(g, c_.interleave);
+    const auto frameOf = [&](size_t i, int x, int y) {
+      return rotations.rotate(g, i, x, y, Frame::fromNormal(g.normal[i]));
+    };
+    if (c_.depth == DepthSource::GBuffer) {
+      // The offsets of every test point, m = k steps + j: the k-th sample's
+      // at (j + 1) / m of its length [AT 7].
+      alignas(32) float sx[kMaxPoints], sy[kMaxPoints], sz[kMaxPoints];
+      for (int k = 0, m = 0; k < c_.count; ++k)
+        for (int j = 1; j <= c_.steps; ++j, ++m) {
+          const float t = float(j) / float(c_.steps);
+          sx[m] = ox[k] * t, sy[m] = oy[k] * t, sz[m] = oz[k] * t;
+        }
+      const PointProjection pr(g);
+      alignas(32) float depth[kMaxPoints];
+      alignas(32) uint32_t pixel[kMaxPoints];
+      for (int y = tile.y0; y < tile.y1; ++y)
+        for (int x = tile.x0; x < tile.x1; ++x) {
+          const size_t i = g.index(x, y);
+          if (!g.covered(i)) continue;
+          const Vec3 P = g.position[i];
+          const Frame f = frameOf(i, x, y);
+          projectOffsets(pr, P, f, sx, sy, sz, int(perPixel), depth, pixel);
+          const auto point = [&](size_t m) { return P + f.s * sx[m] + f.t * sy[m] + f.n * sz[m]; };
+          tally(
+              g,
+              [&](size_t m) {
+                // Off the image or behind the camera (depth -1): no occluder known.
+                return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, point(m)) : kInfinity;
+              },
+              [&](size_t m) { return depth[m]; }, point, out[i]);
+        }
+      return;
+    }
     DepthLookup look(c_.depth, size_t(kPixelRun) * perPixel, false);
     const auto push = [&](size_t i, int x, int y) {
       const Vec3 P = g.position[i];
-      // The set rotated about the normal per pixel (AT §4.2, §5).
-      const Frame f = rotateAboutNormal(Frame::fromNormal(g.normal[i]), rotationSample(g, i, x, y, c_.interleave).x);
+      const Frame f = frameOf(i, x, y);
       for (int k = 0; k < c_.count; ++k) {
         const Vec3 off = f.s * ox[k] + f.t * oy[k] + f.n * oz[k];
         for (int j = 1; j <= c_.steps; ++j) look.push(g, P + off * (float(j) / float(c_.steps)));
       }
     };
     const auto evaluate = [&](size_t, int, int, size_t at, SampleEstimate& o) {
-      Vec3 open(0, 0, 0), closedAlbedo(0, 0, 0);
-      for (int k = 0; k < c_.count; ++k) {
-        int inside = -1;  // the first test point found inside
-        for (int j = 0; j < c_.steps; ++j) {
-          const size_t s = at + size_t(k) * size_t(c_.steps) + size_t(j);
-          const float behind = -look.q(s).z - look.z(s);
-          if (behind > kDepthBias * look.z(s) && (!c_.silhouette || behind < ruleR_)) {
-            inside = int(s);
-            break;
-          }
-        }
-        if (inside < 0)
-          open += Vec3(1, 1, 1);
-        else if (c_.albedo)
-          closedAlbedo += albedoAt(g, look.q(size_t(inside)));
-      }
-      const float n = float(c_.count);
-      if (c_.albedo) {
-        o.num = open;
-        o.den = Vec3(n, n, n) - closedAlbedo;
-      } else {
-        o.num = open * (1.0f / n);
-      }
+      tally(
+          g, [&](size_t m) { return look.z(at + m); }, [&](size_t m) { return -look.q(at + m).z; },
+          [&](size_t m) { return look.q(at + m); }, o);
     };
-    forEachPixelRun(g, y0, y1, perPixel, ctx, look, out, push, evaluate);
+    forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
   }
 
  private:
+  // One pixel's estimate from its test points m = k steps + j: zStar(m) the
+  // depth the lookup found on the camera ray through point m, depthOf(m)
+  // the point's own view depth, point(m) the point (view space).
+  template <class ZStar, class DepthOf, class Point>
+  void tally(const GBufferLayer& g, ZStar&& zStar, DepthOf&& depthOf, Point&& point, SampleEstimate& o) const {
+    Vec3 open(0, 0, 0), closedAlbedo(0, 0, 0);
+    for (int k = 0; k < c_.count; ++k) {
+      int inside = -1;  // the first test point found inside
+      for (int j = 0; j < c_.steps; ++j) {
+        const size_t m = size_t(k) * size_t(c_.steps) + size_t(j);
+        const float z = zStar(m);
+        const float behind = depthOf(m) - z;
+        if (behind > kDepthBias * z && (!c_.silhouette || behind < ruleR_)) {
+          inside = int(m);
+          break;
+        }
+      }
+      if (inside < 0)
+        open += Vec3(1, 1, 1);
+      else if (c_.albedo)
+        closedAlbedo += albedoAt(g, point(size_t(inside)));
+    }
+    const float n = float(c_.count);
+    if (c_.albedo) {
+      o.num = open;
+      o.den = Vec3(n, n, n) - closedAlbedo;
+    } else {
+      o.num = open * (1.0f / n);
+    }
+  }
+
   // The albedo of the pixel a test point projects to (the occluder's, as the
   // paper approximates it). From the z-buffer an off-image point is never
   // inside; the traced twin can find one inside off the image, where no
@@ -141,7 +186,8 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
     return g.albedo[g.index(x, y)];
   }
 
-  static constexpr int kMaxCount = 256;  // the `count` parameter's maximum
+  static constexpr int kMaxCount = 256;               // the `count` parameter's maximum
+  static constexpr int kMaxPoints = kMaxCount * 16;   // ... times `steps`' maximum
   SsatConfig c_;
   Membership mu_;
   bool zero_;

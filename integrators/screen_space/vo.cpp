@@ -85,7 +85,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
   bool needsDepthMoments() const override { return c_.samples == VoSamples::Area; }
 
-  void estimateRows(const GBufferLayer& g, int y0, int y1, IntegratorContext& ctx, SampleEstimate* out) const override {
+  void estimateTile(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx, SampleEstimate* out) const override {
     const int radii = c_.R2 > 0.0f ? 2 : 1;
     const size_t perPixel = size_t(c_.count) * size_t(radii);
     // Points: the radii shifted per layer in the ball's volume measure
@@ -102,11 +102,12 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
         radial[k] = rad_[k] > 0.0f ? std::cbrt(u) / rad_[k] : 0.0f;
       }
     }
+    const NormalRotations rotations(g, c_.interleave && c_.samples != VoSamples::Point);
     DepthLookup look(c_.samples == VoSamples::Area ? DepthSource::None : c_.depth, size_t(kPixelRun) * perPixel,
                      c_.samples == VoSamples::Line);
     forEachPixelRun(
-        g, y0, y1, perPixel, ctx, look, out,
-        [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, look); },
+        g, tile, perPixel, ctx, look, out,
+        [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, rotations, look); },
         [&](size_t i, int, int, size_t at, SampleEstimate& o) {
           float v = evaluate(g, i, look, at, c_.R);
           if (radii == 2) {
@@ -123,18 +124,17 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   // direction uniform; with the radial shift, the estimator is unbiased).
   // Lines: the disk
   // perpendicular to the view direction of P, rotated about it (VO §4.5).
-  Frame pixelFrame(const GBufferLayer& g, size_t i, int x, int y) const {
-    const Vec3 u = rotationSample(g, i, x, y, c_.interleave);
-    if (c_.samples == VoSamples::Point) return uniformRotation(u);
-    return rotateAboutNormal(Frame::fromNormal(normalize(-g.position[i])), u.x);
+  Frame pixelFrame(const GBufferLayer& g, size_t i, int x, int y, const NormalRotations& rotations) const {
+    if (c_.samples == VoSamples::Point) return uniformRotation(rotationSample(g, i, x, y, c_.interleave));
+    return rotations.rotate(g, i, x, y, Frame::fromNormal(normalize(-g.position[i])));
   }
 
   // Points: x_k. Lines: the point where the chord's camera ray crosses the
   // disk plane, Q0 = P + R (x e1 + y e2).
   void pushPoints(const GBufferLayer& g, size_t i, int x, int y, int radii, const float* radial,
-                  DepthLookup& look) const {
+                  const NormalRotations& rotations, DepthLookup& look) const {
     const Vec3 P = g.position[i], n = g.normal[i];
-    const Frame f = pixelFrame(g, i, x, y);
+    const Frame f = pixelFrame(g, i, x, y, rotations);
     for (int r = 0; r < radii; ++r) {
       const float R = r == 0 ? c_.R : c_.R2;
       for (int k = 0; k < c_.count; ++k) {
