@@ -41,7 +41,7 @@ uint64_t screenSpaceWorkingBytes(int w, int h) {
                               sizeof(std::array<float, 2>) + 2 * sizeof(uint32_t));
   const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
   // Sums: num, den, hits, and the AOVs' albedo, normal and distance.
-  return layer + moments + n * (2 * sizeof(Vec3) + sizeof(uint32_t) + 2 * sizeof(Vec3) + sizeof(float) + 2 * sizeof(SampleEstimate));
+  return layer + moments + n * (2 * sizeof(Vec3) + sizeof(uint32_t) + 2 * sizeof(Vec3) + sizeof(float) + sizeof(SampleEstimate));
 }
 
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
@@ -231,8 +231,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   Film film(s.width, s.height, s.aovs);
   const Tracer tracer(scene.rtcScene(), s.recorder);
   const size_t n = size_t(s.width) * size_t(s.height);
-  // Whole-image state: the pixel sums, one layer, its estimates (and their
-  // filtered copy when the integrator interleaves). The sums are float and
+  // Whole-image state: the pixel sums, one layer (and its estimates when
+  // the integrator interleaves). The sums are float and
   // the AOVs' only kept when written: each sums at most spp values in
   // [0, 1] (relative rounding below spp 2^-24), and at 1920x1080 every byte
   // per pixel is 2 MB to fault in and clear.
@@ -244,9 +244,11 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0, Vec3(0, 0, 0)), normalSums(s.aovs ? n : 0, Vec3(0, 0, 0));
   LargeVector<float> distanceSums(s.aovs ? n : 0, 0.0f);
   GBufferLayer g;
-  LargeVector<SampleEstimate> est(n);
+  // The layer's estimates as a whole image only for the depth-aware filter;
+  // otherwise each tile's go from a per-thread buffer into the sums.
   const float tolerance = integrator.interleaveFilterTolerance();
-  LargeVector<SampleEstimate> filtered(tolerance > 0.0f ? n : 0);
+  LargeVector<SampleEstimate> est(tolerance > 0.0f ? n : 0);
+  tbb::enumerable_thread_specific<std::vector<SampleEstimate>> tileBuffers, rowBuffers;
   tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
 
   Progress progress("render", uint64_t(s.spp), s.progress);
@@ -265,47 +267,57 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       if (integrator.needsDepthMoments()) buildDepthMoments(g);
       stats.gbufferSeconds += secondsSince(t);
 
+      // A pixel's estimate of this layer into its sums (and the AOVs').
+      const auto accumulate = [&](size_t i, const SampleEstimate& e) {
+        LayerSums& p = sums[i];
+        p.num += e.num;
+        p.den += e.den;
+        p.hits += 1;
+        if (wantAlbedo) albedoSums[i] += g.albedo[i];
+        if (s.aovs) {
+          // The ray-traced loop's AOVs: world normal, distance along the ray.
+          normalSums[i] += g.view.vectorToWorld(g.normal[i]);
+          distanceSums[i] += length(g.position[i]);
+        }
+      };
       t = std::chrono::steady_clock::now();
       tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
         std::unique_ptr<IntegratorContext>& ctx = contexts.local();
         if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer);
+        std::vector<SampleEstimate>& out = tileBuffers.local();
+        out.resize(size_t(kScreenSpaceTile) * size_t(kScreenSpaceTile));
         for (int t = r.begin(); t != r.end(); ++t) {
           PixelRect tile;
           tile.x0 = (t % tilesX) * kScreenSpaceTile, tile.y0 = (t / tilesX) * kScreenSpaceTile;
           tile.x1 = std::min(s.width, tile.x0 + kScreenSpaceTile);
           tile.y1 = std::min(s.height, tile.y0 + kScreenSpaceTile);
+          std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1)});
+          integrator.estimateTile(g, tile, *ctx, out.data());
+          // Filtered layers go to the whole-image estimates (the filter
+          // reads neighbours across tiles); the others straight to the sums.
           for (int y = tile.y0; y < tile.y1; ++y)
-            for (int x = tile.x0; x < tile.x1; ++x) est[g.index(x, y)] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
-          integrator.estimateTile(g, tile, *ctx, est.data());
+            for (int x = tile.x0; x < tile.x1; ++x) {
+              const size_t i = g.index(x, y);
+              if (tolerance > 0.0f)
+                est[i] = out[tile.offset(x, y)];
+              else if (g.covered(i))
+                accumulate(i, out[tile.offset(x, y)]);
+            }
         }
       });
       stats.screenSpaceSeconds += secondsSince(t);
 
-      const SampleEstimate* result = est.data();
       if (tolerance > 0.0f) {
         t = std::chrono::steady_clock::now();
         parallelRows(s.height, [&](int y0, int y1) {
-          depthAwareBoxFilter(g, est.data(), tolerance, y0, y1, filtered.data() + g.index(0, y0));
+          std::vector<SampleEstimate>& out = rowBuffers.local();
+          out.resize(size_t(y1 - y0) * size_t(s.width));
+          depthAwareBoxFilter(g, est.data(), tolerance, y0, y1, out.data());
+          for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i)
+            if (g.covered(i)) accumulate(i, out[i - g.index(0, y0)]);
         });
-        result = filtered.data();
         stats.filterSeconds += secondsSince(t);
       }
-
-      parallelRows(s.height, [&](int y0, int y1) {
-        for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i) {
-          if (!g.covered(i)) continue;
-          LayerSums& p = sums[i];
-          p.num += result[i].num;
-          p.den += result[i].den;
-          p.hits += 1;
-          if (wantAlbedo) albedoSums[i] += g.albedo[i];
-          if (s.aovs) {
-            // The ray-traced loop's AOVs: world normal, distance along the ray.
-            normalSums[i] += g.view.vectorToWorld(g.normal[i]);
-            distanceSums[i] += length(g.position[i]);
-          }
-        }
-      });
       progress.advance(1);
     }
     // The shared resolution (core/pixel_sums.h) from these sums.

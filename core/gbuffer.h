@@ -131,6 +131,9 @@ struct GBufferLayer {
 // A rectangle of pixels [x0, x1) x [y0, y1).
 struct PixelRect {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  size_t size() const { return size_t(x1 - x0) * size_t(y1 - y0); }
+  // Row-major index of pixel (x, y) within the rectangle.
+  size_t offset(int x, int y) const { return size_t(y - y0) * size_t(x1 - x0) + size_t(x - x0); }
 };
 
 // An integrator that reads G-buffer layers. The core never calls estimate()
@@ -139,7 +142,7 @@ class ScreenSpaceIntegrator : public Integrator {
  public:
   void estimate(std::span<const SurfaceHit>, IntegratorContext&, SampleEstimate*) const final {}
   const ScreenSpaceIntegrator* screenSpace() const final { return this; }
-  // Writes out[g.index(x, y)] for the pixels of `tile` in layer g: the
+  // Writes out[tile.offset(x, y)] for the pixels of `tile` in layer g: the
   // estimate at each covered pixel (the core has set num = 0, den = 1;
   // uncovered pixels are ignored). Called from many threads at once on
   // disjoint tiles of at most kScreenSpaceTile^2 pixels: square tiles keep
@@ -167,7 +170,7 @@ void buildDepthMoments(GBufferLayer& g);
 
 // An upper bound of the bytes renderScreenSpace keeps for a w x h image
 // besides the film: one layer with every optional array (albedo, moments),
-// the per-pixel sums, the estimates and their filtered copy.
+// the per-pixel sums and the estimates (kept whole for the filter).
 uint64_t screenSpaceWorkingBytes(int w, int h);
 
 // Renders layer s of an image into g (parallel over rows; the caller's TBB

@@ -233,7 +233,7 @@ class DepthLookup {
 // The pixels of `tile` in runs along its rows, so that the lookups of a
 // whole run are made at once (one ray stream for the traced twin): for each
 // covered pixel i at (x, y), push(i, x, y) queues exactly `perPixel` points
-// on `look`; after the lookup, evaluate(i, x, y, at, out[i]) reads them
+// on `look`; after the lookup, evaluate(i, x, y, at, out[tile.offset(x, y)]) reads them
 // from index `at` and writes the pixel's estimate.
 template <class Push, class Evaluate>
 void forEachPixelRun(const GBufferLayer& g, const PixelRect& tile, size_t perPixel, IntegratorContext& ctx,
@@ -251,7 +251,7 @@ void forEachPixelRun(const GBufferLayer& g, const PixelRect& tile, size_t perPix
       for (int x = xr; x < xe; ++x) {
         const size_t i = g.index(x, y);
         if (!g.covered(i)) continue;
-        evaluate(i, x, y, at, out[i]);
+        evaluate(i, x, y, at, out[tile.offset(x, y)]);
         at += perPixel;
       }
     }

@@ -86,7 +86,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
   void estimateTile(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx, SampleEstimate* out) const override {
     if (zero_) {  // R = 0: nothing but the surface occludes (the limit R -> 0+): W = 1
       for (int y = tile.y0; y < tile.y1; ++y)
-        for (int x = tile.x0; x < tile.x1; ++x) out[g.index(x, y)].num = Vec3(1, 1, 1);
+        for (int x = tile.x0; x < tile.x1; ++x) out[tile.offset(x, y)].num = Vec3(1, 1, 1);
       return;
     }
     const size_t perPixel = size_t(c_.count) * size_t(c_.steps);
@@ -123,7 +123,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
                 // Off the image or behind the camera (depth -1): no occluder known.
                 return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, point(m)) : kInfinity;
               },
-              [&](size_t m) { return depth[m]; }, point, out[i]);
+              [&](size_t m) { return depth[m]; }, point, out[tile.offset(x, y)]);
         }
       return;
     }
