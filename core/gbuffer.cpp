@@ -25,6 +25,15 @@ double secondsSince(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+// v[i] = value for every i, from all threads (the pages of a fresh
+// LargeVector are first touched here, in parallel).
+template <class T>
+void parallelFill(LargeVector<T>& v, const T& value) {
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, v.size(), size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+    std::fill(v.begin() + std::ptrdiff_t(r.begin()), v.begin() + std::ptrdiff_t(r.end()), value);
+  });
+}
+
 template <class F>
 void parallelRows(int height, F&& f) {
   tbb::parallel_for(tbb::blocked_range<int>(0, (height + kRowBand - 1) / kRowBand, 1),
@@ -240,9 +249,10 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     Vec3 num{0, 0, 0}, den{0, 0, 0};
     uint32_t hits = 0;
   };
+  // Allocated here, zeroed in parallel in the arena below.
   LargeVector<LayerSums> sums(n);
-  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0, Vec3(0, 0, 0)), normalSums(s.aovs ? n : 0, Vec3(0, 0, 0));
-  LargeVector<float> distanceSums(s.aovs ? n : 0, 0.0f);
+  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0);
+  LargeVector<float> distanceSums(s.aovs ? n : 0);
   GBufferLayer g;
   // The layer's estimates as a whole image only for the depth-aware filter;
   // otherwise each tile's go from a per-thread buffer into the sums.
@@ -260,6 +270,10 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
+    parallelFill(sums, LayerSums{});
+    parallelFill(albedoSums, Vec3(0, 0, 0));
+    parallelFill(normalSums, Vec3(0, 0, 0));
+    parallelFill(distanceSums, 0.0f);
     for (int si = 0; si < s.spp; ++si) {
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
       auto t = std::chrono::steady_clock::now();
