@@ -20,13 +20,18 @@ std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefaul
 // Compiled twice (AVX2, baseline): 8 points per instruction where the CPU
 // has AVX2, without requiring it of the build.
 __attribute__((target_clones("avx2", "default"))) void projectOffsets(const PointProjection& pr, Vec3 P,
-                                                                      const Frame& f, const float* ox,
+                                                                      const Frame& f, Vec3 c, const float* ox,
                                                                       const float* oy, const float* oz, int count,
                                                                       float* depth, uint32_t* pixel) {
   for (int k = 0; k < count; ++k) {
-    const float qx = P.x + f.s.x * ox[k] + f.t.x * oy[k] + f.n.x * oz[k];
-    const float qy = P.y + f.s.y * ox[k] + f.t.y * oy[k] + f.n.y * oz[k];
-    const float d = -(P.z + f.s.z * ox[k] + f.t.z * oy[k] + f.n.z * oz[k]);
+    float x = f.s.x * ox[k] + f.t.x * oy[k] + f.n.x * oz[k];
+    float y = f.s.y * ox[k] + f.t.y * oy[k] + f.n.y * oz[k];
+    float z = f.s.z * ox[k] + f.t.z * oy[k] + f.n.z * oz[k];
+    // o - 2 min(c.o, 0) c: the reflection when below, nothing otherwise.
+    const float cd = c.x * x + c.y * y + c.z * z;
+    const float r = 2.0f * (cd < 0.0f ? cd : 0.0f);
+    x -= r * c.x, y -= r * c.y, z -= r * c.z;
+    const float qx = P.x + x, qy = P.y + y, d = -(P.z + z);
     const float inv = 1.0f / d;
     const float fx = pr.cx + qx * inv * pr.sx, fy = pr.cy - qy * inv * pr.sy;
     const bool inside = d > 0.0f && fx >= 0.0f && fy >= 0.0f && fx < pr.w && fy < pr.h;

@@ -156,8 +156,10 @@ inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
   return planeDepth(g, j, a, b);
 }
 
-// The projection of many points P + s ox[k] + t oy[k] + n oz[k] (view
-// space; a pixel's point and frame, a sample set's offsets) onto the layer:
+// The projection of many points P + o_k, o_k = s ox[k] + t oy[k] + n oz[k]
+// (view space; a pixel's point and frame, a sample set's offsets), each
+// offset reflected into the half-space c . o >= 0 first (c = 0: no
+// reflection; vo's normal clamp, VO §4.4), onto the layer:
 // depth[k] = their view depth, or -1 where the point is behind the camera or
 // off the image; pixel[k] = the index of the pixel it falls in (valid where
 // depth[k] > 0). The screen-space loops' arithmetic, written branch-free over
@@ -171,7 +173,7 @@ struct PointProjection {
       : cx(0.5f * g.view.width), cy(0.5f * g.view.height), sx(g.view.filmScaleX), sy(g.view.filmScaleY),
         w(float(g.width)), h(float(g.height)), width(uint32_t(g.width)) {}
 };
-void projectOffsets(const PointProjection& pr, Vec3 P, const Frame& f, const float* ox, const float* oy,
+void projectOffsets(const PointProjection& pr, Vec3 P, const Frame& f, Vec3 c, const float* ox, const float* oy,
                     const float* oz, int count, float* depth, uint32_t* pixel);
 
 // z* for a point q of view depth depthQ > 0 that projectOffsets placed in

@@ -115,7 +115,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
           if (!g.covered(i)) continue;
           const Vec3 P = g.position[i];
           const Frame f = frameOf(i, x, y);
-          projectOffsets(pr, P, f, sx, sy, sz, int(perPixel), depth, pixel);
+          projectOffsets(pr, P, f, Vec3(0, 0, 0), sx, sy, sz, int(perPixel), depth, pixel);
           const auto point = [&](size_t m) { return P + f.s * sx[m] + f.t * sy[m] + f.n * sz[m]; };
           tally(
               g,

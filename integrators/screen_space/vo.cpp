@@ -103,19 +103,61 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       }
     }
     const NormalRotations rotations(g, c_.interleave && c_.samples != VoSamples::Point);
+    // The radii's values combined (VO §6), clamped to [0, 1].
+    const auto combine = [&](float v, float v2) {
+      if (radii == 2) v = c_.combine == Combine::Product ? v * v2 : std::min(v, v2);
+      v = std::clamp(v, 0.0f, 1.0f);
+      return Vec3(v, v, v);
+    };
+    if (c_.samples == VoSamples::Point && c_.depth == DepthSource::GBuffer) {
+      // Points read from the z-buffer: each pixel's points projected in one
+      // vectorized pass, then one depth read per point.
+      alignas(32) float ox[2 * kMaxCount], oy[2 * kMaxCount], oz[2 * kMaxCount];
+      for (int r = 0, m = 0; r < radii; ++r)
+        for (int k = 0; k < c_.count; ++k, ++m) {
+          const float scale = radial[k] * (r == 0 ? c_.R : c_.R2);
+          ox[m] = px_[k] * scale, oy[m] = py_[k] * scale, oz[m] = pz_[k] * scale;
+        }
+      const PointProjection pr(g);
+      alignas(32) float depth[2 * kMaxCount];
+      alignas(32) uint32_t pixel[2 * kMaxCount];
+      for (int y = tile.y0; y < tile.y1; ++y)
+        for (int x = tile.x0; x < tile.x1; ++x) {
+          const size_t i = g.index(x, y);
+          if (!g.covered(i)) continue;
+          const Vec3 P = g.position[i], n = g.normal[i];
+          const Frame f = pixelFrame(g, i, x, y, rotations);
+          const Vec3 clamp = c_.normalClamp ? n : Vec3(0, 0, 0);
+          projectOffsets(pr, P, f, clamp, ox, oy, oz, int(perPixel), depth, pixel);
+          float v[2] = {0.0f, 0.0f};
+          for (int r = 0, m = 0; r < radii; ++r)
+            for (int k = 0; k < c_.count; ++k, ++m) {
+              if (!(depth[m] > 0.0f)) {  // behind the camera or off the image: no occluder known
+                v[r] += w_[k];
+                continue;
+              }
+              const auto point = [&] {  // the point again, for the exact read near a surface
+                Vec3 o = f.s * ox[m] + f.t * oy[m] + f.n * oz[m];
+                const float on = dot(o, clamp);
+                if (on < 0.0f) o = o - clamp * (2.0f * on);
+                return P + o;
+              };
+              const std::array<float, 2> ds = g.depthSlack[pixel[m]];
+              const float z = decidedByStoredDepth(ds, depth[m]) ? ds[0] : zBufferDepth(g, point(), false);
+              if (!occupied(depth[m], z, c_.thickness)) v[r] += w_[k];
+            }
+          out[tile.offset(x, y)].num = combine(v[0], v[1]);
+        }
+      return;
+    }
     DepthLookup look(c_.samples == VoSamples::Area ? DepthSource::None : c_.depth, size_t(kPixelRun) * perPixel,
                      c_.samples == VoSamples::Line);
     forEachPixelRun(
         g, tile, perPixel, ctx, look, out,
         [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, rotations, look); },
         [&](size_t i, int, int, size_t at, SampleEstimate& o) {
-          float v = evaluate(g, i, look, at, c_.R);
-          if (radii == 2) {
-            const float v2 = evaluate(g, i, look, at + size_t(c_.count), c_.R2);
-            v = c_.combine == Combine::Product ? v * v2 : std::min(v, v2);
-          }
-          v = std::clamp(v, 0.0f, 1.0f);
-          o.num = Vec3(v, v, v);
+          const float v = evaluate(g, i, look, at, c_.R);
+          o.num = combine(v, radii == 2 ? evaluate(g, i, look, at + size_t(c_.count), c_.R2) : 1.0f);
         });
   }
 
