@@ -206,6 +206,71 @@ void expectNoRayEscapes(const SubdividedMesh& m) {
   expectNoRayEscapes(scene);
 }
 
+// --- screen-space passes ------------------------------------------------------
+
+MeanSe meanSe(const std::vector<double>& v) {
+  MeanSe m;
+  m.n = v.size();
+  if (v.empty()) return m;
+  for (double x : v) m.mean += x;
+  m.mean /= double(v.size());
+  double var = 0;
+  for (double x : v) var += (x - m.mean) * (x - m.mean);
+  var /= std::max<double>(1.0, double(v.size()) - 1.0);
+  m.se = std::sqrt(var / double(v.size()));
+  return m;
+}
+
+MeanSe replicateMean(int replicates, const std::function<double(uint32_t seed)>& stat) {
+  std::vector<double> v;
+  for (int r = 1; r <= replicates; ++r) v.push_back(stat(uint32_t(r)));
+  return meanSe(v);
+}
+
+std::vector<double> coveredW(const Film& f, int border) {
+  std::vector<double> v;
+  for (int y = border; y < f.height() - border; ++y)
+    for (int x = border; x < f.width() - border; ++x)
+      if (f.at(kA, x, y) == 1.0f) v.push_back(f.at(kR, x, y));
+  return v;
+}
+
+Crease::Crease() : cam(makeLookAtCamera(Vec3(3.5f, -2.5f, 3.0f), Vec3(0.2f, 0, 0.1f), Vec3(0, 0, 1), 0.7f, "crease")) {
+  scene.addWorldPrimitive({{0, -10, 0}, {10, -10, 0}, {10, 10, 0}, {0, 10, 0}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene.addWorldPrimitive({{0, -10, 0}, {0, 10, 0}, {0, 10, 10}, {0, -10, 10}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene.commit();
+}
+
+bool Crease::floorAtFilm(int w, int h, float fx, float fy, Vec3& p) const {
+  const RasterCamera rc(cam, w, h);
+  const Vec3 d = rc.direction(fx, fy);
+  const RTCRayHit hit = traceClosest(scene, rc.org, d);
+  if (hit.hit.geomID != 0) return false;
+  p = rc.org + d * hit.ray.tfar;
+  return true;
+}
+
+double creaseVo(double h, double R) {
+  const double eta = std::min(h / R, 1.0);
+  return (2.0 + 3.0 * eta - eta * eta * eta) / 4.0;
+}
+
+CreaseCentres creaseCentres(const Crease& c, int w, int h, double R) {
+  CreaseCentres out;
+  for (int y = 1; y + 1 < h; ++y)
+    for (int x = 1; x + 1 < w; ++x) {
+      Vec3 p, px, py;
+      if (!c.floorAt(w, h, x, y, p) || !c.floorAt(w, h, x + 1, y, px) || !c.floorAt(w, h, x, y + 1, py) ||
+          p.x > 1.5 * R || std::abs(p.y) > 1.0f)
+        continue;
+      out.pixels.emplace_back(x, y);
+      out.V.push_back(creaseVo(p.x, R));
+      out.footprint += 3.0 / (4.0 * R) * (std::abs(px.x - p.x) + std::abs(py.x - p.x)) / 2.0;
+    }
+  out.footprint /= double(std::max<size_t>(1, out.pixels.size()));
+  return out;
+}
+
 // --- files ------------------------------------------------------------------
 
 std::vector<unsigned char> readBytes(const std::string& path) {

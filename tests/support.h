@@ -110,6 +110,62 @@ void expectNoRayEscapes(const Scene& scene, Vec3 eye = Vec3(0.1f, -0.05f, 0.02f)
 // The same for a refined mesh, as one robust world-space primitive.
 void expectNoRayEscapes(const SubdividedMesh& m);
 
+// --- screen-space passes (tests/test_screen_space*.cpp) ------------------------
+
+// Mean and standard error of the mean of a list of values.
+struct MeanSe {
+  double mean = 0, se = 0;
+  size_t n = 0;
+};
+MeanSe meanSe(const std::vector<double>& v);
+
+// The mean over `replicates` independent renders (seeds 1..replicates) of a
+// per-render statistic, with its standard error from their spread. For
+// estimators that share randomness across an image (the per-layer shifts of
+// vo's radii and ssat's sets), pixels are not independent draws; renders
+// with different seeds are.
+MeanSe replicateMean(int replicates, const std::function<double(uint32_t seed)>& stat);
+
+// Every fully covered pixel of the pass (W = R / A), but a `border` of
+// pixels along the image's edges, where part of a neighbourhood projects off
+// the image (and reads as empty: nothing is known there).
+std::vector<double> coveredW(const Film& f, int border = 0);
+
+// Floor z = 0 (x >= 0) meeting a wall x = 0, seen from the open quadrant:
+// every occluder of a floor point near the wall is the wall, which the depth
+// buffer holds, and everything behind it is solid - the closed forms' world.
+struct Crease {
+  Scene scene;
+  Camera cam;
+  Crease();
+  // The floor point seen through film position (fx, fy) of a w x h image, if any.
+  bool floorAtFilm(int w, int h, float fx, float fy, Vec3& p) const;
+  // The floor point seen through the centre of pixel (x, y), if any.
+  bool floorAt(int w, int h, int x, int y, Vec3& p) const {
+    return floorAtFilm(w, h, float(x) + 0.5f, float(y) + 0.5f, p);
+  }
+};
+
+// VO with the normal at a floor point at distance h from the wall: the half
+// ball above the floor minus the part behind the wall, which is half of the
+// spherical cap of height R - h:
+//   V = 1 - [pi (R-h)^2 (2R+h) / 3] / 2 / (2 pi R^3 / 3) = (2 + 3 eta - eta^3) / 4,
+// eta = min(h / R, 1).
+double creaseVo(double h, double R);
+
+// The crease's floor pixels near the wall (h < 1.5 R, |y| < 1) whose right
+// and lower neighbours see the floor too, V = creaseVo(h, R) at each centre,
+// and the mean over them of the pixel-footprint bound: a pixel averages V
+// over its area, where h varies by up to |dh/dx| + |dh/dy| between pixel
+// centres, and |dV/dh| <= 3 / (4R), so a pixel may differ from V at its
+// centre by 3 / (4R) (|dh/dx| + |dh/dy|) / 2.
+struct CreaseCentres {
+  std::vector<std::pair<int, int>> pixels;
+  std::vector<double> V;
+  double footprint = 0.0;
+};
+CreaseCentres creaseCentres(const Crease& c, int w, int h, double R);
+
 // --- files ------------------------------------------------------------------
 
 // The whole file (empty if it cannot be read).

@@ -21,35 +21,6 @@
 namespace obscura::test {
 namespace {
 
-// Mean and standard error of the mean of a list of values.
-struct MeanSe {
-  double mean = 0, se = 0;
-  size_t n = 0;
-};
-MeanSe meanSe(const std::vector<double>& v) {
-  MeanSe m;
-  m.n = v.size();
-  if (v.empty()) return m;
-  for (double x : v) m.mean += x;
-  m.mean /= double(v.size());
-  double var = 0;
-  for (double x : v) var += (x - m.mean) * (x - m.mean);
-  var /= std::max<double>(1.0, double(v.size()) - 1.0);
-  m.se = std::sqrt(var / double(v.size()));
-  return m;
-}
-
-// The mean over `replicates` independent renders (seeds 1..replicates) of a
-// per-render statistic, with its standard error from their spread. For
-// estimators that share randomness across an image (the per-layer shifts of
-// vo's radii and ssat's sets), pixels are not independent draws; renders
-// with different seeds are.
-MeanSe replicateMean(int replicates, const std::function<double(uint32_t seed)>& stat) {
-  std::vector<double> v;
-  for (int r = 1; r <= replicates; ++r) v.push_back(stat(uint32_t(r)));
-  return meanSe(v);
-}
-
 // A large floor z = 0 seen obliquely from above.
 struct FloorView {
   Scene scene;
@@ -59,17 +30,6 @@ struct FloorView {
     scene.commit();
   }
 };
-
-// Every fully covered pixel of the pass (W = R / A), but a `border` of
-// pixels along the image's edges, where part of a neighbourhood projects off
-// the image (and reads as empty: nothing is known there).
-std::vector<double> coveredW(const Film& f, int border = 0) {
-  std::vector<double> v;
-  for (int y = border; y < f.height() - border; ++y)
-    for (int x = border; x < f.width() - border; ++x)
-      if (f.at(kA, x, y) == 1.0f) v.push_back(f.at(kR, x, y));
-  return v;
-}
 
 // --- the seam ---------------------------------------------------------------------
 
@@ -241,65 +201,20 @@ TEST(ScreenSpacePlane, AreaSamplesOnAFrontalPlane) {
 
 // --- a 90 degree crease -----------------------------------------------------------
 
-// Floor z = 0 (x >= 0) meeting a wall x = 0, seen from the open quadrant:
-// every occluder of a floor point near the wall is the wall, which the depth
-// buffer holds, and everything behind it is solid - the closed forms' world.
-struct Crease {
-  Scene scene;
-  Camera cam = makeLookAtCamera(Vec3(3.5f, -2.5f, 3.0f), Vec3(0.2f, 0, 0.1f), Vec3(0, 0, 1), 0.7f, "crease");
-  Crease() {
-    scene.addWorldPrimitive({{0, -10, 0}, {10, -10, 0}, {10, 10, 0}, {0, 10, 0}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
-    scene.addWorldPrimitive({{0, -10, 0}, {0, 10, 0}, {0, 10, 10}, {0, -10, 10}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
-    scene.commit();
-  }
-  // The floor point seen through the centre of pixel (x, y), if any.
-  bool floorAt(int w, int h, int x, int y, Vec3& p) const {
-    const RasterCamera rc(cam, w, h);
-    const Vec3 d = rc.direction(float(x) + 0.5f, float(y) + 0.5f);
-    const RTCRayHit hit = traceClosest(scene, rc.org, d);
-    if (hit.hit.geomID != 0) return false;
-    p = rc.org + d * hit.ray.tfar;
-    return true;
-  }
-};
-
-// VO with the normal at a floor point at distance h from the wall: the half
-// ball above the floor minus the part behind the wall, which is half of the
-// spherical cap of height R - h:
-//   V = 1 - [pi (R-h)^2 (2R+h) / 3] / 2 / (2 pi R^3 / 3) = (2 + 3 eta - eta^3) / 4,
-// eta = min(h / R, 1).
-double creaseVo(double h, double R) {
-  const double eta = std::min(h / R, 1.0);
-  return (2.0 + 3.0 * eta - eta * eta * eta) / 4.0;
-}
-
 // Point samples are unbiased for the ball integral (uniform direction and
 // radius per point), so the mean over pixels of (W - V(h)) is 0 within 4
 // standard errors (from 16 independent renders: the radial shift is shared
-// by a layer's pixels) plus the pixel footprint: a pixel averages V over its
-// area, where h varies by up to |dh/dx| + |dh/dy| between pixel centres, and
-// |dV/dh| <= 3 / (4R), so each pixel may differ from V(h at its centre) by
-// 3 / (4R) (|dh/dx| + |dh/dy|) / 2.
+// by a layer's pixels) plus the pixel footprint (creaseCentres).
 TEST(ScreenSpaceCrease, VoPointsMatchTheClosedForm) {
   const Crease c;
   const int w = 64, h = 48;
   const double R = 0.5;
   // The pixels: floor seen near the wall, with their footprint bound.
-  std::vector<std::pair<int, int>> pixels;
-  std::vector<double> V;
-  double footprint = 0.0;
-  for (int y = 1; y + 1 < h; ++y)
-    for (int x = 1; x + 1 < w; ++x) {
-      Vec3 p, px, py;
-      if (!c.floorAt(w, h, x, y, p) || !c.floorAt(w, h, x + 1, y, px) || !c.floorAt(w, h, x, y + 1, py) ||
-          p.x > 1.5 * R || std::abs(p.y) > 1.0f)
-        continue;
-      pixels.emplace_back(x, y);
-      V.push_back(creaseVo(p.x, R));
-      footprint += 3.0 / (4.0 * R) * (std::abs(px.x - p.x) + std::abs(py.x - p.x)) / 2.0;
-    }
+  const CreaseCentres cc = creaseCentres(c, w, h, R);
+  const auto& pixels = cc.pixels;
+  const auto& V = cc.V;
+  const double footprint = cc.footprint;
   ASSERT_GT(pixels.size(), 100u);
-  footprint /= double(pixels.size());
   for (const char* depth : {"depth=gbuffer", "depth=traced"}) {
     const MeanSe m = replicateMean(16, [&](uint32_t seed) {
       const Film f = renderWith(c.scene, c.cam, "vo", {"samples=point", "radius=0.5", depth}, passSettings(w, h, 2, seed));
