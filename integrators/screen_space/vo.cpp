@@ -21,9 +21,15 @@
 //   parallel to the view axis, ours along the camera rays, which makes a
 //   plane exact under perspective too). With the normal clamp the chord is
 //   cut at the tangent plane. V ~ Sum a_k free_k / Sum a_k chord_k with a_k
-//   = w_k / (2 sqrt(1 - x_k^2 - y_k^2)): each disk cell's share of the ball
-//   per unit of chord length; the ratio makes the plane exactly 1 (clamp)
-//   and 1/2 (no clamp, to the set's symmetry).
+//   = w_k / (2 sqrt(1 - x_k^2 - y_k^2)) cos(theta_k): each disk cell's share
+//   of the ball per unit of chord length, times the cosine of its ray with
+//   the disk's normal; free and chord lengths are weighed by the camera
+//   rays' spread, ((dQ + s) / dQ)^2 at s along a chord whose disk point is
+//   dQ from the camera, so that the chords measure the ball's volume under
+//   perspective (dV = ((dQ + s) / dQ)^2 cos(theta) dA ds). The ratio makes
+//   the plane exactly 1 (clamp), and 1/2 without the clamp to the disk set's
+//   quadrature (plain lengths gave 1/2 + (3/8) R / d, d the camera's
+//   distance).
 // - radius2 > 0: V computed at both radii with the same samples, combined by
 //   product or min (VO §6).
 //
@@ -219,6 +225,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       level = std::min(level, int(g.moments.size()) - 1);
     }
     double freeSum = 0.0, chordSum = 0.0;
+    const float lengthP = length(P);
     for (int k = 0; k < c_.count; ++k) {
       const Vec3& Q0 = look.q(at + size_t(k));
       const float dQ = length(Q0);
@@ -241,7 +248,14 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           s1 = s0;  // parallel to the plane, below it
       }
       if (!(s1 > s0)) continue;
-      const float chord = s1 - s0;
+      // The volume the chord stands for: the rays through a disk cell fan
+      // out from the camera, so at s along the chord the cross-section is
+      // the cell's area x cos(theta) x ((dQ + s) / dQ)^2, theta the angle
+      // between the ray and the disk's normal (the view direction of P):
+      // cos = |P| / dQ. Lengths are weighed by that (weightedLength); with
+      // plain lengths a plane without the clamp reads 1/2 + (3/8) R / d.
+      const float cosTheta = lengthP / dQ;
+      const float chord = weightedLength(s0, s1, dQ);
       // Depth along a camera ray is proportional to distance along it: a
       // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
       const float perDepth = dQ / -Q0.z;
@@ -252,31 +266,48 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
         const float bias = kDepthBias * zMean * perDepth;
         const float lo = zMean * perDepth - dQ + bias - zSigma * perDepth;
         const float hi = zMean * perDepth - dQ + bias + zSigma * perDepth;
-        float f = freeAlong(s0, s1, lo, hi);
+        float f = freeAlong(s0, s1, lo, hi, dQ);
         if (c_.thickness > 0.0f) {  // VO §4.3: the occupancy shifted back by T, complemented, added
           const float t = c_.thickness * perDepth;
-          f += chord - freeAlong(s0, s1, lo + t, hi + t);
+          f += chord - freeAlong(s0, s1, lo + t, hi + t, dQ);
         }
         freeLen = (1.0f - covered) * chord + covered * std::clamp(f, 0.0f, chord);
       }
-      freeSum += double(w_[k]) * double(freeLen);
-      chordSum += double(w_[k]) * double(chord);
+      freeSum += double(w_[k] * cosTheta) * double(freeLen);
+      chordSum += double(w_[k] * cosTheta) * double(chord);
     }
     return chordSum > 0.0 ? float(freeSum / chordSum) : 1.0f;
   }
 
-  // The empty length of the chord [s0, s1] when the surface's depth along
-  // it is distributed uniformly on [lo, hi] (VO §4.2's box model: empty with
-  // probability 1 before lo, 0 after hi, linear between); lo = hi is one
-  // surface at lo (line samples). The integral of that visibility, F(s1) -
-  // F(s0) with F its antiderivative.
-  static float freeAlong(float s0, float s1, float lo, float hi) {
-    auto F = [lo, hi](float s) {
-      if (s <= lo) return s;
-      if (s >= hi) return lo + 0.5f * (hi - lo);
-      return s - 0.5f * (s - lo) * (s - lo) / (hi - lo);
-    };
-    return F(s1) - F(s0);
+  // The weight of the volume element at s along a chord whose disk point
+  // is dQ from the camera, (1 + s / dQ)^2, integrated over [a, b]: exact
+  // for the quadratic as (b - a)(A^2 + AB + B^2)/3, A and B its square
+  // roots at the ends - no difference of cubes, which would cancel when
+  // the chord is short against dQ.
+  static float weightedLength(float a, float b, float dQ) {
+    const float A = 1.0f + a / dQ, B = 1.0f + b / dQ;
+    return (b - a) * (A * A + A * B + B * B) * (1.0f / 3.0f);
+  }
+
+  // The weighted empty length of the chord [s0, s1] when the surface's
+  // depth along it is distributed uniformly on [lo, hi] (VO §4.2's box
+  // model: empty with probability 1 before lo, 0 after hi, linear
+  // between); lo = hi is one surface at lo (line samples). The ramp's
+  // integrand (hi - s)/(hi - lo) (1 + s/dQ)^2 is a cubic: Simpson's rule is
+  // exact for it.
+  static float freeAlong(float s0, float s1, float lo, float hi, float dQ) {
+    float f = 0.0f;
+    const float e = std::min(s1, lo);
+    if (e > s0) f += weightedLength(s0, e, dQ);
+    const float a = std::max(s0, lo), b = std::min(s1, hi);
+    if (b > a && hi > lo) {
+      const auto g = [&](float s) {
+        const float w = 1.0f + s / dQ;
+        return (hi - s) / (hi - lo) * w * w;
+      };
+      f += (b - a) * (1.0f / 6.0f) * (g(a) + 4.0f * g(0.5f * (a + b)) + g(b));
+    }
+    return f;
   }
 
   // Area samples: the depth moments at the texel of `level` that Q0
