@@ -1,5 +1,9 @@
 #include "integrators/screen_space/common.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
 namespace obscura::screen_space {
 
 std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefault, const std::string& interleaveDefault) {
@@ -20,26 +24,38 @@ std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefaul
 // Compiled twice (AVX2, baseline): 8 points per instruction where the CPU
 // has AVX2, without requiring it of the build.
 __attribute__((target_clones("avx2", "default"))) void projectOffsets(const PointProjection& pr, Vec3 P,
-                                                                      const Frame& f, Vec3 c, const float* ox,
-                                                                      const float* oy, const float* oz, int count,
-                                                                      float* depth, uint32_t* pixel) {
+                                                                      const Frame& f, Vec3 c,
+                                                                      const float* __restrict ox,
+                                                                      const float* __restrict oy,
+                                                                      const float* __restrict oz, int count,
+                                                                      float* __restrict depth,
+                                                                      uint32_t* __restrict pixel) {
+  // Everything in locals, the conditions as selects: the loop vectorizes.
+  const float sx = f.s.x, sy = f.s.y, sz = f.s.z, tx = f.t.x, ty = f.t.y, tz = f.t.z;
+  const float nx = f.n.x, ny = f.n.y, nz = f.n.z;
+  const float cx = pr.cx, cy = pr.cy, scaleX = pr.sx, scaleY = pr.sy, w = pr.w, h = pr.h;
+  const float wMax = pr.w - 1.0f, hMax = pr.h - 1.0f;
+  const uint32_t width = pr.width;
   for (int k = 0; k < count; ++k) {
-    float x = f.s.x * ox[k] + f.t.x * oy[k] + f.n.x * oz[k];
-    float y = f.s.y * ox[k] + f.t.y * oy[k] + f.n.y * oz[k];
-    float z = f.s.z * ox[k] + f.t.z * oy[k] + f.n.z * oz[k];
-    // o - 2 min(c.o, 0) c: the reflection when below, nothing otherwise.
+    float x = sx * ox[k] + tx * oy[k] + nx * oz[k];
+    float y = sy * ox[k] + ty * oy[k] + ny * oz[k];
+    float z = sz * ox[k] + tz * oy[k] + nz * oz[k];
+    // o - 2 min(c.o, 0) c: the reflection when below, nothing otherwise
+    // (2 min(a, 0) = a - |a|: arithmetic, where a select kept GCC from
+    // vectorizing the loop).
     const float cd = c.x * x + c.y * y + c.z * z;
-    const float r = 2.0f * (cd < 0.0f ? cd : 0.0f);
+    const float r = cd - std::fabs(cd);
     x -= r * c.x, y -= r * c.y, z -= r * c.z;
-    const float qx = P.x + x, qy = P.y + y, d = -(P.z + z);
+    const float d = -(P.z + z);
     const float inv = 1.0f / d;
-    const float fx = pr.cx + qx * inv * pr.sx, fy = pr.cy - qy * inv * pr.sy;
-    const bool inside = d > 0.0f && fx >= 0.0f && fy >= 0.0f && fx < pr.w && fy < pr.h;
+    const float fx = cx + (P.x + x) * inv * scaleX, fy = cy - (P.y + y) * inv * scaleY;
+    const bool inside = (d > 0.0f) & (fx >= 0.0f) & (fy >= 0.0f) & (fx < w) & (fy < h);
     // Clamped before the conversion so that no lane converts an
-    // out-of-range float (undefined); the clamp changes no valid pixel.
-    const float cxl = fx > 0.0f ? (fx < pr.w - 1.0f ? fx : pr.w - 1.0f) : 0.0f;
-    const float cyl = fy > 0.0f ? (fy < pr.h - 1.0f ? fy : pr.h - 1.0f) : 0.0f;
-    pixel[k] = uint32_t(cyl) * pr.width + uint32_t(cxl);
+    // out-of-range float (undefined; NaN compares false and clamps to 0);
+    // the clamp changes no valid pixel.
+    const float cxl = std::min(std::max(0.0f, fx), wMax);  // max(0, NaN) = 0
+    const float cyl = std::min(std::max(0.0f, fy), hMax);
+    pixel[k] = uint32_t(int32_t(cyl)) * width + uint32_t(int32_t(cxl));
     depth[k] = inside ? d : -1.0f;
   }
 }

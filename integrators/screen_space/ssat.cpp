@@ -107,24 +107,30 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
           sx[m] = ox[k] * t, sy[m] = oy[k] * t, sz[m] = oz[k] * t;
         }
       const PointProjection pr(g);
-      alignas(32) float depth[kMaxPoints];
-      alignas(32) uint32_t pixel[kMaxPoints];
-      for (int y = tile.y0; y < tile.y1; ++y)
-        for (int x = tile.x0; x < tile.x1; ++x) {
-          const size_t i = g.index(x, y);
-          if (!g.covered(i)) continue;
-          const Vec3 P = g.position[i];
-          const Frame f = frameOf(i, x, y);
-          projectOffsets(pr, P, f, Vec3(0, 0, 0), sx, sy, sz, int(perPixel), depth, pixel);
-          const auto point = [&](size_t m) { return P + f.s * sx[m] + f.t * sy[m] + f.n * sz[m]; };
-          tally(
-              g,
-              [&](size_t m) {
-                // Off the image or behind the camera (depth -1): no occluder known.
-                return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, point(m)) : kInfinity;
-              },
-              [&](size_t m) { return depth[m]; }, point, out[tile.offset(x, y)]);
-        }
+      alignas(32) float depth[2][kMaxPoints];
+      alignas(32) uint32_t pixel[2][kMaxPoints];
+      Vec3 Ps[2];
+      Frame fs[2];
+      forEachPixelPipelined(
+          g, tile,
+          [&](size_t i, int x, int y, int b) {
+            Ps[b] = g.position[i];
+            fs[b] = frameOf(i, x, y);
+            projectOffsets(pr, Ps[b], fs[b], Vec3(0, 0, 0), sx, sy, sz, int(perPixel), depth[b], pixel[b]);
+            return std::pair<int, const uint32_t*>(int(perPixel), pixel[b]);
+          },
+          [&](size_t, int x, int y, int b) {
+            const Vec3 P = Ps[b];
+            const Frame& f = fs[b];
+            const auto point = [&](size_t m) { return P + f.s * sx[m] + f.t * sy[m] + f.n * sz[m]; };
+            tally(
+                g,
+                [&](size_t m) {
+                  // Off the image or behind the camera (depth -1): no occluder known.
+                  return depth[b][m] > 0.0f ? zStarAt(g, pixel[b][m], depth[b][m], false, point(m)) : kInfinity;
+                },
+                [&](size_t m) { return depth[b][m]; }, point, out[tile.offset(x, y)]);
+          });
       return;
     }
     DepthLookup look(c_.depth, size_t(kPixelRun) * perPixel, false);
