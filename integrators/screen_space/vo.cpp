@@ -125,35 +125,41 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           ox[m] = px_[k] * scale, oy[m] = py_[k] * scale, oz[m] = pz_[k] * scale;
         }
       const PointProjection pr(g);
-      alignas(32) float depth[2 * kMaxCount];
-      alignas(32) uint32_t pixel[2 * kMaxCount];
-      for (int y = tile.y0; y < tile.y1; ++y)
-        for (int x = tile.x0; x < tile.x1; ++x) {
-          const size_t i = g.index(x, y);
-          if (!g.covered(i)) continue;
-          const Vec3 P = g.position[i], n = g.normal[i];
-          const Frame f = pixelFrame(g, i, x, y, rotations);
-          const Vec3 clamp = c_.normalClamp ? n : Vec3(0, 0, 0);
-          projectOffsets(pr, P, f, clamp, ox, oy, oz, int(perPixel), depth, pixel);
-          float v[2] = {0.0f, 0.0f};
-          for (int r = 0, m = 0; r < radii; ++r)
-            for (int k = 0; k < c_.count; ++k, ++m) {
-              if (!(depth[m] > 0.0f)) {  // behind the camera or off the image: no occluder known
-                v[r] += w_[k];
-                continue;
+      alignas(32) float depth[2][2 * kMaxCount];
+      alignas(32) uint32_t pixel[2][2 * kMaxCount];
+      Vec3 Ps[2], clamps[2];
+      Frame fs[2];
+      forEachPixelPipelined(
+          g, tile,
+          [&](size_t i, int x, int y, int b) {
+            Ps[b] = g.position[i];
+            fs[b] = pixelFrame(g, i, x, y, rotations);
+            clamps[b] = c_.normalClamp ? g.normal[i] : Vec3(0, 0, 0);
+            projectOffsets(pr, Ps[b], fs[b], clamps[b], ox, oy, oz, int(perPixel), depth[b], pixel[b]);
+            return std::pair<int, const uint32_t*>(int(perPixel), pixel[b]);
+          },
+          [&](size_t, int x, int y, int b) {
+            const Vec3 P = Ps[b], clamp = clamps[b];
+            const Frame& f = fs[b];
+            float v[2] = {0.0f, 0.0f};
+            for (int r = 0, m = 0; r < radii; ++r)
+              for (int k = 0; k < c_.count; ++k, ++m) {
+                if (!(depth[b][m] > 0.0f)) {  // behind the camera or off the image: no occluder known
+                  v[r] += w_[k];
+                  continue;
+                }
+                const auto point = [&] {  // the point again, for the exact read near a surface
+                  Vec3 o = f.s * ox[m] + f.t * oy[m] + f.n * oz[m];
+                  const float on = dot(o, clamp);
+                  if (on < 0.0f) o = o - clamp * (2.0f * on);
+                  return P + o;
+                };
+                const std::array<float, 2> ds = g.depthSlack[pixel[b][m]];
+                const float z = decidedByStoredDepth(ds, depth[b][m]) ? ds[0] : zBufferDepth(g, point(), false);
+                if (!occupied(depth[b][m], z, c_.thickness)) v[r] += w_[k];
               }
-              const auto point = [&] {  // the point again, for the exact read near a surface
-                Vec3 o = f.s * ox[m] + f.t * oy[m] + f.n * oz[m];
-                const float on = dot(o, clamp);
-                if (on < 0.0f) o = o - clamp * (2.0f * on);
-                return P + o;
-              };
-              const std::array<float, 2> ds = g.depthSlack[pixel[m]];
-              const float z = decidedByStoredDepth(ds, depth[m]) ? ds[0] : zBufferDepth(g, point(), false);
-              if (!occupied(depth[m], z, c_.thickness)) v[r] += w_[k];
-            }
-          out[tile.offset(x, y)].num = combine(v[0], v[1]);
-        }
+            out[tile.offset(x, y)].num = combine(v[0], v[1]);
+          });
       return;
     }
     DepthLookup look(c_.samples == VoSamples::Area ? DepthSource::None : c_.depth, size_t(kPixelRun) * perPixel,
