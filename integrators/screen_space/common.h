@@ -184,34 +184,53 @@ inline float zStarAt(const GBufferLayer& g, uint32_t j, float depthQ, bool exact
   return planeDepth(g, j, q.x / depthQ, q.y / depthQ);
 }
 
-// The covered pixels of `tile` in two stages one pixel apart, so that the
-// cache misses of a pixel's scattered depth reads overlap the previous
-// pixel's arithmetic: project(i, x, y, slot) places the pixel's points in
-// buffer `slot` (0 or 1) and returns how many and their pixel indices, whose
-// (depth, slack) are prefetched; finish(i, x, y, slot) reads them one pixel
-// later. (Measured on the generated scene of bench/bench_screen_space.cpp,
-// where a ball spans ~100 pixels and its reads miss the L2.)
+// Pixels in flight in forEachPixelPipelined: the slots a caller's buffers
+// hold.
+constexpr int kPipelineSlots = 4;
+
+// The covered pixels of `tile` in two stages kPipelineSlots - 1 pixels
+// apart, so that the cache misses of a pixel's scattered depth reads
+// overlap the work on the pixels before it: project(i, x, y, slot) places
+// the pixel's points in buffer `slot` (0..kPipelineSlots-1) and returns how
+// many and their pixel indices, whose (depth, slack) are prefetched;
+// finish(i, x, y, slot) reads them later. (Measured on the generated scene
+// of bench/bench_screen_space.cpp, where a ball spans ~100 pixels and its
+// reads miss the L2.)
+// `byClass`: the pixels one 4x4 interleaving class after the other
+// ((x, y) mod 4; tiles start at multiples of 4), so that consecutive pixels
+// share their rotation and read the depth buffer 4 pixels apart - mostly in
+// the cache lines the previous pixel loaded (deinterleaved order).
 template <class Project, class Finish>
-void forEachPixelPipelined(const GBufferLayer& g, const PixelRect& tile, Project&& project, Finish&& finish) {
+void forEachPixelPipelined(const GBufferLayer& g, const PixelRect& tile, bool byClass, Project&& project,
+                           Finish&& finish) {
   struct Pending {
     size_t i;
     int x, y;
   };
-  Pending pending[2] = {};
-  int slot = 0;
-  bool waiting = false;
-  for (int y = tile.y0; y < tile.y1; ++y)
-    for (int x = tile.x0; x < tile.x1; ++x) {
-      const size_t i = g.index(x, y);
-      if (!g.covered(i)) continue;
-      const auto [count, pixels] = project(i, x, y, slot);
-      for (int m = 0; m < count; ++m) __builtin_prefetch(&g.depthSlack[pixels[m]]);
-      if (waiting) finish(pending[slot ^ 1].i, pending[slot ^ 1].x, pending[slot ^ 1].y, slot ^ 1);
-      pending[slot] = {i, x, y};
-      waiting = true;
-      slot ^= 1;
+  Pending pending[kPipelineSlots] = {};
+  int issued = 0, finished = 0;
+  const auto visit = [&](int x, int y) {
+    const size_t i = g.index(x, y);
+    if (!g.covered(i)) return;
+    const int slot = issued % kPipelineSlots;
+    if (issued - finished == kPipelineSlots) {  // the ring is full: finish the oldest (this slot's)
+      finish(pending[slot].i, pending[slot].x, pending[slot].y, slot);
+      ++finished;
     }
-  if (waiting) finish(pending[slot ^ 1].i, pending[slot ^ 1].x, pending[slot ^ 1].y, slot ^ 1);
+    const auto [count, pixels] = project(i, x, y, slot);
+    for (int m = 0; m < count; ++m) __builtin_prefetch(&g.depthSlack[pixels[m]]);
+    pending[slot] = {i, x, y};
+    ++issued;
+  };
+  const int step = byClass ? 4 : 1;
+  for (int cy = 0; cy < step; ++cy)
+    for (int cx = 0; cx < step; ++cx)
+      for (int y = tile.y0 + cy; y < tile.y1; y += step)
+        for (int x = tile.x0 + cx; x < tile.x1; x += step) visit(x, y);
+  for (; finished < issued; ++finished) {
+    const int slot = finished % kPipelineSlots;
+    finish(pending[slot].i, pending[slot].x, pending[slot].y, slot);
+  }
 }
 
 // Pixels per run of forEachPixelRun.

@@ -29,6 +29,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "core/error.h"
 #include "core/gbuffer.h"
@@ -107,12 +108,18 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
           sx[m] = ox[k] * t, sy[m] = oy[k] * t, sz[m] = oz[k] * t;
         }
       const PointProjection pr(g);
-      alignas(32) float depth[2][kMaxPoints];
-      alignas(32) uint32_t pixel[2][kMaxPoints];
-      Vec3 Ps[2];
-      Frame fs[2];
+      // Per slot of the pipeline: the points' depths and pixels (on the
+      // heap: up to 4 x 32 KB; one allocation per tile).
+      std::vector<float> depthStore(size_t(kPipelineSlots) * perPixel);
+      std::vector<uint32_t> pixelStore(size_t(kPipelineSlots) * perPixel);
+      float* depth[kPipelineSlots];
+      uint32_t* pixel[kPipelineSlots];
+      for (int b = 0; b < kPipelineSlots; ++b)
+        depth[b] = depthStore.data() + size_t(b) * perPixel, pixel[b] = pixelStore.data() + size_t(b) * perPixel;
+      Vec3 Ps[kPipelineSlots];
+      Frame fs[kPipelineSlots];
       forEachPixelPipelined(
-          g, tile,
+          g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
             Ps[b] = g.position[i];
             fs[b] = frameOf(i, x, y);

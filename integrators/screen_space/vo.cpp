@@ -125,12 +125,12 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           ox[m] = px_[k] * scale, oy[m] = py_[k] * scale, oz[m] = pz_[k] * scale;
         }
       const PointProjection pr(g);
-      alignas(32) float depth[2][2 * kMaxCount];
-      alignas(32) uint32_t pixel[2][2 * kMaxCount];
-      Vec3 Ps[2], clamps[2];
-      Frame fs[2];
+      alignas(32) float depth[kPipelineSlots][2 * kMaxCount];
+      alignas(32) uint32_t pixel[kPipelineSlots][2 * kMaxCount];
+      Vec3 Ps[kPipelineSlots], clamps[kPipelineSlots];
+      Frame fs[kPipelineSlots];
       forEachPixelPipelined(
-          g, tile,
+          g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
             Ps[b] = g.position[i];
             fs[b] = pixelFrame(g, i, x, y, rotations);
