@@ -188,12 +188,17 @@ inline float zStarAt(const GBufferLayer& g, uint32_t j, float depthQ, bool exact
 // hold.
 constexpr int kPipelineSlots = 4;
 
+// Prefetches layer array `a` at the pixels of n points.
+template <class T>
+inline void prefetchAt(const LargeVector<T>& a, const uint32_t* pixels, size_t n) {
+  for (size_t m = 0; m < n; ++m) __builtin_prefetch(&a[pixels[m]]);
+}
+
 // The covered pixels of `tile` in two stages kPipelineSlots - 1 pixels
 // apart, so that the cache misses of a pixel's scattered depth reads
 // overlap the work on the pixels before it: project(i, x, y, slot) places
-// the pixel's points in buffer `slot` (0..kPipelineSlots-1) and returns how
-// many and their pixel indices, whose (depth, slack) are prefetched;
-// finish(i, x, y, slot) reads them later. (Measured on the generated scene
+// the pixel's points in buffer `slot` (0..kPipelineSlots-1) and prefetches
+// what finish(i, x, y, slot) will read of the layer for them, later. (Measured on the generated scene
 // of bench/bench_screen_space.cpp, where a ball spans ~100 pixels and its
 // reads miss the L2.)
 // `byClass`: the pixels one 4x4 interleaving class after the other
@@ -217,8 +222,7 @@ void forEachPixelPipelined(const GBufferLayer& g, const PixelRect& tile, bool by
       finish(pending[slot].i, pending[slot].x, pending[slot].y, slot);
       ++finished;
     }
-    const auto [count, pixels] = project(i, x, y, slot);
-    for (int m = 0; m < count; ++m) __builtin_prefetch(&g.depthSlack[pixels[m]]);
+    project(i, x, y, slot);
     pending[slot] = {i, x, y};
     ++issued;
   };

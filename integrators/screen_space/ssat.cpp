@@ -124,7 +124,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
             Ps[b] = g.position[i];
             fs[b] = frameOf(i, x, y);
             projectOffsets(pr, Ps[b], fs[b], Vec3(0, 0, 0), sx, sy, sz, int(perPixel), depth[b], pixel[b]);
-            return std::pair<int, const uint32_t*>(int(perPixel), pixel[b]);
+            prefetchAt(g.depthSlack, pixel[b], perPixel);
           },
           [&](size_t, int x, int y, int b) {
             const Vec3 P = Ps[b];

@@ -136,7 +136,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
             fs[b] = pixelFrame(g, i, x, y, rotations);
             clamps[b] = c_.normalClamp ? g.normal[i] : Vec3(0, 0, 0);
             projectOffsets(pr, Ps[b], fs[b], clamps[b], ox, oy, oz, int(perPixel), depth[b], pixel[b]);
-            return std::pair<int, const uint32_t*>(int(perPixel), pixel[b]);
+            prefetchAt(g.depthSlack, pixel[b], perPixel);
           },
           [&](size_t, int x, int y, int b) {
             const Vec3 P = Ps[b], clamp = clamps[b];
@@ -162,14 +162,63 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           });
       return;
     }
+    if (c_.samples == VoSamples::Line && c_.depth == DepthSource::GBuffer) {
+      // Lines read from the z-buffer: each pixel's disk points projected in
+      // one vectorized pass, their (depth, slack) and planes prefetched
+      // pixels ahead, then the exact read (the plane) per chord.
+      alignas(32) float ox[2 * kMaxCount], oy[2 * kMaxCount], oz[2 * kMaxCount];
+      for (int r = 0, m = 0; r < radii; ++r)
+        for (int k = 0; k < c_.count; ++k, ++m) {
+          const float R = r == 0 ? c_.R : c_.R2;
+          ox[m] = px_[k] * R, oy[m] = py_[k] * R, oz[m] = 0.0f;
+        }
+      const PointProjection pr(g);
+      alignas(32) float depth[kPipelineSlots][2 * kMaxCount];
+      alignas(32) uint32_t pixel[kPipelineSlots][2 * kMaxCount];
+      Vec3 Ps[kPipelineSlots];
+      Frame fs[kPipelineSlots];
+      forEachPixelPipelined(
+          g, tile, c_.interleave,
+          [&](size_t i, int x, int y, int b) {
+            Ps[b] = g.position[i];
+            fs[b] = pixelFrame(g, i, x, y, rotations);
+            projectOffsets(pr, Ps[b], fs[b], Vec3(0, 0, 0), ox, oy, oz, int(perPixel), depth[b], pixel[b]);
+            prefetchAt(g.plane, pixel[b], perPixel);  // the exact read: the plane only
+          },
+          [&](size_t i, int x, int y, int b) {
+            const Vec3 P = Ps[b];
+            const Frame& f = fs[b];
+            const auto radius = [&](int first, float R) {
+              const auto q = [&](int k) { return P + f.s * ox[first + k] + f.t * oy[first + k]; };
+              return evaluate(
+                  g, i, q,
+                  [&](int k) {
+                    // Off the image or behind the camera (depth -1): no occluder known.
+                    const float d = depth[b][first + k];
+                    if (!(d > 0.0f)) return kInfinity;
+                    const Vec3 Q0 = q(k);
+                    return planeDepth(g, pixel[b][first + k], Q0.x / d, Q0.y / d);
+                  },
+                  R);
+            };
+            const float v = radius(0, c_.R);
+            out[tile.offset(x, y)].num = combine(v, radii == 2 ? radius(c_.count, c_.R2) : 1.0f);
+          });
+      return;
+    }
     DepthLookup look(c_.samples == VoSamples::Area ? DepthSource::None : c_.depth, size_t(kPixelRun) * perPixel,
                      c_.samples == VoSamples::Line);
     forEachPixelRun(
         g, tile, perPixel, ctx, look, out,
         [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, rotations, look); },
         [&](size_t i, int, int, size_t at, SampleEstimate& o) {
-          const float v = evaluate(g, i, look, at, c_.R);
-          o.num = combine(v, radii == 2 ? evaluate(g, i, look, at + size_t(c_.count), c_.R2) : 1.0f);
+          const auto radius = [&](size_t first, float R) {
+            return evaluate(
+                g, i, [&](int k) { return look.q(first + size_t(k)); }, [&](int k) { return look.z(first + size_t(k)); },
+                R);
+          };
+          const float v = radius(at, c_.R);
+          o.num = combine(v, radii == 2 ? radius(at + size_t(c_.count), c_.R2) : 1.0f);
         });
   }
 
@@ -209,12 +258,15 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     return behind > kDepthBias * zStar && (thick <= 0.0f || behind < thick);
   }
 
-  float evaluate(const GBufferLayer& g, size_t i, const DepthLookup& look, size_t at, float R) const {
+  // V at pixel i for radius R from its points k = 0..count-1: q(k) the
+  // point (points) or the chord's disk point Q0 (lines, areas), zStar(k)
+  // the depth the lookup found on the camera ray through it.
+  template <class Point, class ZStar>
+  float evaluate(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R) const {
     if (c_.samples == VoSamples::Point) {
       float v = 0.0f;
       for (int k = 0; k < c_.count; ++k) {
-        const Vec3& q = look.q(at + size_t(k));
-        if (!occupied(-q.z, look.z(at + size_t(k)), c_.thickness)) v += w_[k];
+        if (!occupied(-q(k).z, zStar(k), c_.thickness)) v += w_[k];
       }
       return v;
     }
@@ -233,10 +285,11 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     double freeSum = 0.0, chordSum = 0.0;
     const float lengthP = length(P);
     for (int k = 0; k < c_.count; ++k) {
-      const Vec3& Q0 = look.q(at + size_t(k));
+      const Vec3 Q0 = q(k);
       const float dQ = length(Q0);
       if (!(dQ > 0.0f) || w_[k] == 0.0f) continue;
-      const Vec3 u = Q0 * (1.0f / dQ);
+      const float invDQ = 1.0f / dQ;
+      const Vec3 u = Q0 * invDQ;
       // Chord of the sphere |Q0 + s u - P| = R along the ray: s^2 + 2 b s + c = 0.
       const Vec3 o = Q0 - P;
       const float b = dot(u, o), c = dot(o, o) - R * R;
@@ -260,22 +313,22 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       // between the ray and the disk's normal (the view direction of P):
       // cos = |P| / dQ. Lengths are weighed by that (weightedLength); with
       // plain lengths a plane without the clamp reads 1/2 + (3/8) R / d.
-      const float cosTheta = lengthP / dQ;
-      const float chord = weightedLength(s0, s1, dQ);
+      const float cosTheta = lengthP * invDQ;
+      const float chord = weightedLength(s0, s1, invDQ);
       // Depth along a camera ray is proportional to distance along it: a
       // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
       const float perDepth = dQ / -Q0.z;
-      float covered = 1.0f, zMean = look.z(at + size_t(k)), zSigma = 0.0f;
+      float covered = 1.0f, zMean = c_.samples == VoSamples::Area ? kInfinity : zStar(k), zSigma = 0.0f;
       if (c_.samples == VoSamples::Area) depthModel(g, level, Q0, covered, zMean, zSigma);
       float freeLen = chord;
       if (covered > 0.0f && zMean < kInfinity) {
         const float bias = kDepthBias * zMean * perDepth;
         const float lo = zMean * perDepth - dQ + bias - zSigma * perDepth;
         const float hi = zMean * perDepth - dQ + bias + zSigma * perDepth;
-        float f = freeAlong(s0, s1, lo, hi, dQ);
+        float f = freeAlong(s0, s1, lo, hi, invDQ);
         if (c_.thickness > 0.0f) {  // VO §4.3: the occupancy shifted back by T, complemented, added
           const float t = c_.thickness * perDepth;
-          f += chord - freeAlong(s0, s1, lo + t, hi + t, dQ);
+          f += chord - freeAlong(s0, s1, lo + t, hi + t, invDQ);
         }
         freeLen = (1.0f - covered) * chord + covered * std::clamp(f, 0.0f, chord);
       }
@@ -286,12 +339,12 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   }
 
   // The weight of the volume element at s along a chord whose disk point
-  // is dQ from the camera, (1 + s / dQ)^2, integrated over [a, b]: exact
+  // is dQ = 1 / invDQ from the camera, (1 + s / dQ)^2, integrated over [a, b]: exact
   // for the quadratic as (b - a)(A^2 + AB + B^2)/3, A and B its square
   // roots at the ends - no difference of cubes, which would cancel when
   // the chord is short against dQ.
-  static float weightedLength(float a, float b, float dQ) {
-    const float A = 1.0f + a / dQ, B = 1.0f + b / dQ;
+  static float weightedLength(float a, float b, float invDQ) {
+    const float A = 1.0f + a * invDQ, B = 1.0f + b * invDQ;
     return (b - a) * (A * A + A * B + B * B) * (1.0f / 3.0f);
   }
 
@@ -301,14 +354,14 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   // between); lo = hi is one surface at lo (line samples). The ramp's
   // integrand (hi - s)/(hi - lo) (1 + s/dQ)^2 is a cubic: Simpson's rule is
   // exact for it.
-  static float freeAlong(float s0, float s1, float lo, float hi, float dQ) {
+  static float freeAlong(float s0, float s1, float lo, float hi, float invDQ) {
     float f = 0.0f;
     const float e = std::min(s1, lo);
-    if (e > s0) f += weightedLength(s0, e, dQ);
+    if (e > s0) f += weightedLength(s0, e, invDQ);
     const float a = std::max(s0, lo), b = std::min(s1, hi);
     if (b > a && hi > lo) {
       const auto g = [&](float s) {
-        const float w = 1.0f + s / dQ;
+        const float w = 1.0f + s * invDQ;
         return (hi - s) / (hi - lo) * w * w;
       };
       f += (b - a) * (1.0f / 6.0f) * (g(a) + 4.0f * g(0.5f * (a + b)) + g(b));
