@@ -194,6 +194,32 @@ inline void prefetchAt(const LargeVector<T>& a, const uint32_t* pixels, size_t n
   for (size_t m = 0; m < n; ++m) __builtin_prefetch(&a[pixels[m]]);
 }
 
+// The points of the pixels in flight in forEachPixelPipelined, one slot
+// each: the pixel's point P, frame f and clamp normal c, and its points'
+// projection (projectOffsets: view depth or -1, pixel index). On the heap,
+// once per tile (up to kPipelineSlots x 4096 points).
+class PixelPoints {
+ public:
+  PixelPoints(const GBufferLayer& g, size_t perPixel)
+      : pr_(g), n_(perPixel), depth_(size_t(kPipelineSlots) * perPixel), pixel_(size_t(kPipelineSlots) * perPixel) {}
+  // Slot b: P + o_k for the offsets (ox, oy, oz) in frame f, reflected by c.
+  void project(int b, Vec3 P, const Frame& f, Vec3 c, const float* ox, const float* oy, const float* oz) {
+    this->P[b] = P, this->f[b] = f, this->c[b] = c;
+    projectOffsets(pr_, P, f, c, ox, oy, oz, int(n_), depth(b), pixels(b));
+  }
+  float* depth(int b) { return depth_.data() + size_t(b) * n_; }
+  uint32_t* pixels(int b) { return pixel_.data() + size_t(b) * n_; }
+  size_t size() const { return n_; }
+  Vec3 P[kPipelineSlots], c[kPipelineSlots];
+  Frame f[kPipelineSlots];
+
+ private:
+  PointProjection pr_;
+  size_t n_;
+  std::vector<float> depth_;
+  std::vector<uint32_t> pixel_;
+};
+
 // The covered pixels of `tile` in two stages kPipelineSlots - 1 pixels
 // apart, so that the cache misses of a pixel's scattered depth reads
 // overlap the work on the pixels before it: project(i, x, y, slot) places

@@ -107,36 +107,26 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
           const float t = float(j) / float(c_.steps);
           sx[m] = ox[k] * t, sy[m] = oy[k] * t, sz[m] = oz[k] * t;
         }
-      const PointProjection pr(g);
-      // Per slot of the pipeline: the points' depths and pixels (on the
-      // heap: up to 4 x 32 KB; one allocation per tile).
-      std::vector<float> depthStore(size_t(kPipelineSlots) * perPixel);
-      std::vector<uint32_t> pixelStore(size_t(kPipelineSlots) * perPixel);
-      float* depth[kPipelineSlots];
-      uint32_t* pixel[kPipelineSlots];
-      for (int b = 0; b < kPipelineSlots; ++b)
-        depth[b] = depthStore.data() + size_t(b) * perPixel, pixel[b] = pixelStore.data() + size_t(b) * perPixel;
-      Vec3 Ps[kPipelineSlots];
-      Frame fs[kPipelineSlots];
+      PixelPoints pts(g, perPixel);
       forEachPixelPipelined(
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
-            Ps[b] = g.position[i];
-            fs[b] = frameOf(i, x, y);
-            projectOffsets(pr, Ps[b], fs[b], Vec3(0, 0, 0), sx, sy, sz, int(perPixel), depth[b], pixel[b]);
-            prefetchAt(g.depthSlack, pixel[b], perPixel);
+            pts.project(b, g.position[i], frameOf(i, x, y), Vec3(0, 0, 0), sx, sy, sz);
+            prefetchAt(g.depthSlack, pts.pixels(b), perPixel);
           },
           [&](size_t, int x, int y, int b) {
-            const Vec3 P = Ps[b];
-            const Frame& f = fs[b];
+            const Vec3 P = pts.P[b];
+            const Frame& f = pts.f[b];
+            const float* depth = pts.depth(b);
+            const uint32_t* pixel = pts.pixels(b);
             const auto point = [&](size_t m) { return P + f.s * sx[m] + f.t * sy[m] + f.n * sz[m]; };
             tally(
                 g,
                 [&](size_t m) {
                   // Off the image or behind the camera (depth -1): no occluder known.
-                  return depth[b][m] > 0.0f ? zStarAt(g, pixel[b][m], depth[b][m], false, point(m)) : kInfinity;
+                  return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, point(m)) : kInfinity;
                 },
-                [&](size_t m) { return depth[b][m]; }, point, out[tile.offset(x, y)]);
+                [&](size_t m) { return depth[m]; }, point, out[tile.offset(x, y)]);
           });
       return;
     }

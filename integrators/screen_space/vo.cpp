@@ -124,27 +124,23 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           const float scale = radial[k] * (r == 0 ? c_.R : c_.R2);
           ox[m] = px_[k] * scale, oy[m] = py_[k] * scale, oz[m] = pz_[k] * scale;
         }
-      const PointProjection pr(g);
-      alignas(32) float depth[kPipelineSlots][2 * kMaxCount];
-      alignas(32) uint32_t pixel[kPipelineSlots][2 * kMaxCount];
-      Vec3 Ps[kPipelineSlots], clamps[kPipelineSlots];
-      Frame fs[kPipelineSlots];
+      PixelPoints pts(g, perPixel);
       forEachPixelPipelined(
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
-            Ps[b] = g.position[i];
-            fs[b] = pixelFrame(g, i, x, y, rotations);
-            clamps[b] = c_.normalClamp ? g.normal[i] : Vec3(0, 0, 0);
-            projectOffsets(pr, Ps[b], fs[b], clamps[b], ox, oy, oz, int(perPixel), depth[b], pixel[b]);
-            prefetchAt(g.depthSlack, pixel[b], perPixel);
+            pts.project(b, g.position[i], pixelFrame(g, i, x, y, rotations),
+                        c_.normalClamp ? g.normal[i] : Vec3(0, 0, 0), ox, oy, oz);
+            prefetchAt(g.depthSlack, pts.pixels(b), perPixel);
           },
           [&](size_t, int x, int y, int b) {
-            const Vec3 P = Ps[b], clamp = clamps[b];
-            const Frame& f = fs[b];
+            const Vec3 P = pts.P[b], clamp = pts.c[b];
+            const Frame& f = pts.f[b];
+            const float* depth = pts.depth(b);
+            const uint32_t* pixel = pts.pixels(b);
             float v[2] = {0.0f, 0.0f};
             for (int r = 0, m = 0; r < radii; ++r)
               for (int k = 0; k < c_.count; ++k, ++m) {
-                if (!(depth[b][m] > 0.0f)) {  // behind the camera or off the image: no occluder known
+                if (!(depth[m] > 0.0f)) {  // behind the camera or off the image: no occluder known
                   v[r] += w_[k];
                   continue;
                 }
@@ -154,9 +150,9 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
                   if (on < 0.0f) o = o - clamp * (2.0f * on);
                   return P + o;
                 };
-                const std::array<float, 2> ds = g.depthSlack[pixel[b][m]];
-                const float z = decidedByStoredDepth(ds, depth[b][m]) ? ds[0] : zBufferDepth(g, point(), false);
-                if (!occupied(depth[b][m], z, c_.thickness)) v[r] += w_[k];
+                const std::array<float, 2> ds = g.depthSlack[pixel[m]];
+                const float z = decidedByStoredDepth(ds, depth[m]) ? ds[0] : zBufferDepth(g, point(), false);
+                if (!occupied(depth[m], z, c_.thickness)) v[r] += w_[k];
               }
             out[tile.offset(x, y)].num = combine(v[0], v[1]);
           });
@@ -172,32 +168,28 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           const float R = r == 0 ? c_.R : c_.R2;
           ox[m] = px_[k] * R, oy[m] = py_[k] * R, oz[m] = 0.0f;
         }
-      const PointProjection pr(g);
-      alignas(32) float depth[kPipelineSlots][2 * kMaxCount];
-      alignas(32) uint32_t pixel[kPipelineSlots][2 * kMaxCount];
-      Vec3 Ps[kPipelineSlots];
-      Frame fs[kPipelineSlots];
+      PixelPoints pts(g, perPixel);
       forEachPixelPipelined(
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
-            Ps[b] = g.position[i];
-            fs[b] = pixelFrame(g, i, x, y, rotations);
-            projectOffsets(pr, Ps[b], fs[b], Vec3(0, 0, 0), ox, oy, oz, int(perPixel), depth[b], pixel[b]);
-            prefetchAt(g.plane, pixel[b], perPixel);  // the exact read: the plane only
+            pts.project(b, g.position[i], pixelFrame(g, i, x, y, rotations), Vec3(0, 0, 0), ox, oy, oz);
+            prefetchAt(g.plane, pts.pixels(b), perPixel);  // the exact read: the plane only
           },
           [&](size_t i, int x, int y, int b) {
-            const Vec3 P = Ps[b];
-            const Frame& f = fs[b];
+            const Vec3 P = pts.P[b];
+            const Frame& f = pts.f[b];
+            const float* depth = pts.depth(b);
+            const uint32_t* pixel = pts.pixels(b);
             const auto radius = [&](int first, float R) {
               const auto q = [&](int k) { return P + f.s * ox[first + k] + f.t * oy[first + k]; };
               return evaluate(
                   g, i, q,
                   [&](int k) {
                     // Off the image or behind the camera (depth -1): no occluder known.
-                    const float d = depth[b][first + k];
+                    const float d = depth[first + k];
                     if (!(d > 0.0f)) return kInfinity;
                     const Vec3 Q0 = q(k);
-                    return planeDepth(g, pixel[b][first + k], Q0.x / d, Q0.y / d);
+                    return planeDepth(g, pixel[first + k], Q0.x / d, Q0.y / d);
                   },
                   R);
             };
