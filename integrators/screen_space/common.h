@@ -112,16 +112,6 @@ inline bool pixelOf(const GBufferLayer& g, Vec3 q, int& x, int& y) {
   return true;
 }
 
-// z* from the z-buffer: the depth, along the camera ray through q, of the
-// surface stored at the pixel q projects to - that pixel's plane met by the
-// ray (GBufferLayer::plane), or its stored depth when the ray runs along the
-// plane; +inf when q is behind the camera, off the image, or over the
-// background (no occluder known there).
-// Without `exact` (enough to classify q as in front or behind, and for the
-// thresholds of the silhouette rule and the thickness model, which move by
-// at most the pixel's depth range) a q far from the pixel's surface gets the
-// stored depth; line samples, which place the surface on their chord, ask
-// for the plane always.
 // The depth at which the camera ray depth x (a, b, -1) meets the plane
 // stored at pixel j, or its stored depth when the ray runs along the plane.
 inline float planeDepth(const GBufferLayer& g, size_t j, float a, float b) {
@@ -142,6 +132,16 @@ inline bool decidedByStoredDepth(const std::array<float, 2>& ds, float depthQ) {
   return std::abs(depthQ - ds[0]) > ds[1] + 4.0f * kDepthBias * ds[0];
 }
 
+// z* from the z-buffer: the depth, along the camera ray through q, of the
+// surface stored at the pixel q projects to - that pixel's plane met by the
+// ray (GBufferLayer::plane), or its stored depth when the ray runs along the
+// plane; +inf when q is behind the camera, off the image, or over the
+// background (no occluder known there).
+// Without `exact` (enough to classify q as in front or behind, and for the
+// thresholds of the silhouette rule and the thickness model, which move by
+// at most the pixel's depth range) a q far from the pixel's surface gets the
+// stored depth; line samples, which place the surface on their chord, ask
+// for the plane always.
 inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
   if (!(q.z < 0.0f)) return kInfinity;
   // The ray through q is depth x (a, b, -1).
@@ -176,11 +176,14 @@ struct PointProjection {
 void projectOffsets(const PointProjection& pr, Vec3 P, const Frame& f, Vec3 c, const float* ox, const float* oy,
                     const float* oz, int count, float* depth, uint32_t* pixel);
 
-// z* for a point q of view depth depthQ > 0 that projectOffsets placed in
-// pixel j: zBufferDepth without the projection.
-inline float zStarAt(const GBufferLayer& g, uint32_t j, float depthQ, bool exact, Vec3 q) {
+// z* for a point of view depth depthQ > 0 that projectOffsets placed in
+// pixel j: zBufferDepth without the projection. point() rebuilds the point
+// (view space), only when the plane must be read.
+template <class Point>
+inline float zStarAt(const GBufferLayer& g, uint32_t j, float depthQ, bool exact, Point&& point) {
   const std::array<float, 2> ds = g.depthSlack[j];
   if (!exact && decidedByStoredDepth(ds, depthQ)) return ds[0];
+  const Vec3 q = point();
   return planeDepth(g, j, q.x / depthQ, q.y / depthQ);
 }
 

@@ -124,7 +124,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
                 g,
                 [&](size_t m) {
                   // Off the image or behind the camera (depth -1): no occluder known.
-                  return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, point(m)) : kInfinity;
+                  return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, [&] { return point(m); }) : kInfinity;
                 },
                 [&](size_t m) { return depth[m]; }, point, out[tile.offset(x, y)]);
           });

@@ -150,9 +150,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
                   if (on < 0.0f) o = o - clamp * (2.0f * on);
                   return P + o;
                 };
-                const std::array<float, 2> ds = g.depthSlack[pixel[m]];
-                const float z = decidedByStoredDepth(ds, depth[m]) ? ds[0] : zBufferDepth(g, point(), false);
-                if (!occupied(depth[m], z, c_.thickness)) v[r] += w_[k];
+                if (!occupied(depth[m], zStarAt(g, pixel[m], depth[m], false, point), c_.thickness)) v[r] += w_[k];
               }
             out[tile.offset(x, y)].num = combine(v[0], v[1]);
           });
@@ -188,8 +186,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
                     // Off the image or behind the camera (depth -1): no occluder known.
                     const float d = depth[first + k];
                     if (!(d > 0.0f)) return kInfinity;
-                    const Vec3 Q0 = q(k);
-                    return planeDepth(g, pixel[first + k], Q0.x / d, Q0.y / d);
+                    return zStarAt(g, pixel[first + k], d, true, [&] { return q(k); });
                   },
                   R);
             };
