@@ -232,6 +232,42 @@ TEST(Plugin, BentNormalInTheSphericalCavity) {
   EXPECT_NEAR(meanCovered(film, kR), 0.0, 4.0 * std::sqrt(sideVar / N) + tessellation);
 }
 
+// A screen-space integrator from a plugin: registered with its kind, run on
+// the core's G-buffer tiles. covered-neighbours' W at a covered pixel is the
+// covered fraction of its neighbours (window of half-size r, inside the
+// image), which the test recounts from the film's coverage: with one camera
+// sample per pixel, A is the layer's coverage, 0 or 1. A plane seen from
+// above fills the middle of the frame, so the window straddles its edges.
+TEST(Plugin, ScreenSpacePluginReadsTheGBuffer) {
+  loadPlugin(OBSCURA_SCREEN_SPACE_PLUGIN);
+  EXPECT_EQ(IntegratorRegistry::instance().find("covered-neighbours").kind, IntegratorKind::ScreenSpace);
+  Scene scene;
+  addPlane(scene, 1.0f, 0.0f);
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(0, 0, 4), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.7f, "top");
+  const int w = 40, h = 30;
+  for (int r : {1, 3}) {
+    const Film film = renderWith(scene, cam, "covered-neighbours", {"radius=" + std::to_string(r)}, passSettings(w, h, 1));
+    int covered = 0, partial = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const float a = film.at(kA, x, y);
+        ASSERT_TRUE(a == 0.0f || a == 1.0f) << x << "," << y << ": A " << a;
+        if (a == 0.0f) continue;
+        ++covered;
+        int c = 0, total = 0;
+        for (int yy = std::max(0, y - r); yy <= std::min(h - 1, y + r); ++yy)
+          for (int xx = std::max(0, x - r); xx <= std::min(w - 1, x + r); ++xx)
+            if (xx != x || yy != y) ++total, c += film.at(kA, xx, yy) == 1.0f;
+        const float expected = float(c) / float(total);
+        partial += expected < 1.0f;
+        EXPECT_FLOAT_EQ(film.at(kR, x, y), expected) << "r " << r << " at " << x << "," << y;
+      }
+    EXPECT_GT(covered, 100) << r;
+    EXPECT_GT(partial, 20) << r;  // the plane's edges are in the frame
+  }
+}
+
 TEST(Plugin, CliListsAndRendersWithPlugin) {
   const std::string dir = tempDir("plugin_cli");
   const CliResult list = runCli({"integrators", "--plugin", OBSCURA_BENT_PLUGIN}, dir + "/list.txt");
@@ -242,6 +278,17 @@ TEST(Plugin, CliListsAndRendersWithPlugin) {
   EXPECT_EQ(render.exitCode, 0) << render.stderrText;
   const ReadBack r = readExr(dir + "/bent.exr");
   EXPECT_EQ(r.spec.get_string_attribute("obscura:integrator"), "bent-normal");
+  // A screen-space plugin from the CLI, beside a built-in in compare.
+  const CliResult ss = runCli({"render", "--plugin", OBSCURA_SCREEN_SPACE_PLUGIN, "-i", "covered-neighbours", "-p",
+                               "radius=2", "-o", dir + "/ss.exr", "--res", "16x9", "--spp", "2", "-q"},
+                              dir + "/ss.txt");
+  EXPECT_EQ(ss.exitCode, 0) << ss.stderrText;
+  EXPECT_EQ(readExr(dir + "/ss.exr").spec.get_string_attribute("obscura:integrator"), "covered-neighbours");
+  const CliResult cmp = runCli({"compare", "--plugin", OBSCURA_SCREEN_SPACE_PLUGIN, "-o", dir + "/cmp", "--res", "16x9",
+                                "--spp", "2", "--reference-spp", "8", "--seeds", "1", "-q", "-c", "ao", "-c",
+                                "covered-neighbours:radius=2"},
+                               dir + "/cmp.txt");
+  EXPECT_EQ(cmp.exitCode, 0) << cmp.stderrText;
   const CliResult bad = runCli({"render", "--plugin", OBSCURA_BAD_ABI_PLUGIN, "-o", dir + "/x.exr", "-q"},
                                dir + "/bad.txt");
   EXPECT_EQ(bad.exitCode, 1);
