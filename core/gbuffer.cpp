@@ -171,18 +171,21 @@ void buildDepthMoments(GBufferLayer& g) {
           // its coverage (children at an odd edge span fewer pixels than
           // their siblings - a small error on the last texel of a row or
           // column, accepted).
+          const auto forChildren = [&](auto&& f) {
+            for (int dy = 0; dy < 2; ++dy)
+              for (int dx = 0; dx < 2; ++dx) {
+                const int cx = 2 * x + dx, cy = 2 * y + dy;
+                if (cx < a.width && cy < a.height) f(size_t(cy) * size_t(a.width) + size_t(cx));
+              }
+          };
           double w = 0.0, mean = 0.0, cov = 0.0;
           int children = 0;
-          for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-              const int cx = 2 * x + dx, cy = 2 * y + dy;
-              if (cx >= a.width || cy >= a.height) continue;
-              const size_t j = size_t(cy) * size_t(a.width) + size_t(cx);
-              ++children;
-              cov += a.coverage[j];
-              w += a.coverage[j];
-              mean += double(a.coverage[j]) * a.mean[j];
-            }
+          forChildren([&](size_t j) {
+            ++children;
+            cov += a.coverage[j];
+            w += a.coverage[j];
+            mean += double(a.coverage[j]) * a.mean[j];
+          });
           const size_t i = size_t(y) * size_t(b.width) + size_t(x);
           b.coverage[i] = float(cov / children);
           if (!(w > 0.0)) {
@@ -191,14 +194,10 @@ void buildDepthMoments(GBufferLayer& g) {
           }
           mean /= w;
           double var = 0.0;
-          for (int dy = 0; dy < 2; ++dy)
-            for (int dx = 0; dx < 2; ++dx) {
-              const int cx = 2 * x + dx, cy = 2 * y + dy;
-              if (cx >= a.width || cy >= a.height) continue;
-              const size_t j = size_t(cy) * size_t(a.width) + size_t(cx);
-              const double d = double(a.mean[j]) - mean;
-              var += double(a.coverage[j]) * (double(a.variance[j]) + d * d);
-            }
+          forChildren([&](size_t j) {
+            const double d = double(a.mean[j]) - mean;
+            var += double(a.coverage[j]) * (double(a.variance[j]) + d * d);
+          });
           b.mean[i] = float(mean);
           b.variance[i] = float(var / w);
         }
@@ -273,8 +272,6 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   stats = {};
   uint64_t cameraRays = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  const int tilesX = (s.width + kScreenSpaceTile - 1) / kScreenSpaceTile;
-  const int tilesY = (s.height + kScreenSpaceTile - 1) / kScreenSpaceTile;
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
@@ -303,16 +300,14 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         }
       };
       t = std::chrono::steady_clock::now();
-      tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
+      const int tiles = PixelRect::tileCount(kScreenSpaceTile, s.width, s.height);
+      tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
         std::unique_ptr<IntegratorContext>& ctx = contexts.local();
         if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer);
         std::vector<SampleEstimate>& out = tileBuffers.local();
         out.resize(size_t(kScreenSpaceTile) * size_t(kScreenSpaceTile));
         for (int t = r.begin(); t != r.end(); ++t) {
-          PixelRect tile;
-          tile.x0 = (t % tilesX) * kScreenSpaceTile, tile.y0 = (t / tilesX) * kScreenSpaceTile;
-          tile.x1 = std::min(s.width, tile.x0 + kScreenSpaceTile);
-          tile.y1 = std::min(s.height, tile.y0 + kScreenSpaceTile);
+          const PixelRect tile = PixelRect::tile(t, kScreenSpaceTile, s.width, s.height);
           std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1)});
           integrator.estimateTile(g, tile, *ctx, out.data());
           // Filtered layers go to the whole-image estimates (the filter

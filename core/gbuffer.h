@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/camera.h"
+#include "core/film.h"
 #include "core/integrator.h"
 #include "core/large_vector.h"
 #include "core/sampler.h"
@@ -126,14 +127,6 @@ struct GBufferLayer {
   std::vector<DepthMoments> moments;
   bool covered(size_t i) const { return depth[i] < kInfinity; }
   size_t index(int x, int y) const { return size_t(y) * size_t(width) + size_t(x); }
-};
-
-// A rectangle of pixels [x0, x1) x [y0, y1).
-struct PixelRect {
-  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  size_t size() const { return size_t(x1 - x0) * size_t(y1 - y0); }
-  // Row-major index of pixel (x, y) within the rectangle.
-  size_t offset(int x, int y) const { return size_t(y - y0) * size_t(x1 - x0) + size_t(x - x0); }
 };
 
 // An integrator that reads G-buffer layers. The core never calls estimate()

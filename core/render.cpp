@@ -39,10 +39,6 @@ struct ThreadScratch {
   RayCounters cameraCounters;
 };
 
-struct TileRect {
-  int x0, y0, w, h;
-  size_t pixels() const { return size_t(w) * size_t(h); }
-};
 
 // Where a tile's walk through its samples stands. Pixel-major, sample-minor:
 // each pixel's samples are summed in sample order whatever the chunking. The
@@ -67,16 +63,16 @@ class TileRenderer {
                const Tracer& tracer, Film& film, bool wantAlbedo)
       : scene_(scene), integrator_(integrator), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
-        tilesX_((s.width + s.tileSize - 1) / s.tileSize), wantAlbedo_(wantAlbedo) {}
+        wantAlbedo_(wantAlbedo) {}
 
-  int tileCount() const { return tilesX_ * ((s_.height + s_.tileSize - 1) / s_.tileSize); }
+  int tileCount() const { return PixelRect::tileCount(s_.tileSize, s_.width, s_.height); }
 
   // Renders one tile into the film; returns its pixel count, or 0 when
   // cancelled (checked once per chunk: a relaxed load per kChunk samples).
   size_t renderTile(int tile, ThreadScratch& ts, const std::atomic<bool>* cancel) const {
-    const TileRect r = tileRect(tile);
-    ts.sums.assign(r.pixels(), PixelSums{});
-    const uint64_t total = uint64_t(r.pixels()) * uint64_t(s_.spp);
+    const PixelRect r = tileRect(tile);
+    ts.sums.assign(r.size(), PixelSums{});
+    const uint64_t total = uint64_t(r.size()) * uint64_t(s_.spp);
     SampleCursor c = startCursor(r);
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
@@ -88,16 +84,13 @@ class TileRenderer {
       accumulate(n, ts);
     }
     resolve(r, ts);
-    return r.pixels();
+    return r.size();
   }
 
  private:
-  TileRect tileRect(int tile) const {
-    const int x0 = (tile % tilesX_) * s_.tileSize, y0 = (tile / tilesX_) * s_.tileSize;
-    return {x0, y0, std::min(s_.tileSize, s_.width - x0), std::min(s_.tileSize, s_.height - y0)};
-  }
+  PixelRect tileRect(int tile) const { return PixelRect::tile(tile, s_.tileSize, s_.width, s_.height); }
 
-  SampleCursor startCursor(const TileRect& r) const {
+  SampleCursor startCursor(const PixelRect& r) const {
     SampleCursor c;
     c.px = r.x0, c.py = r.y0;
     c.key = sampler_.pixelKey(uint32_t(r.x0), uint32_t(r.y0));
@@ -107,7 +100,7 @@ class TileRenderer {
 
   // Camera samples -> rays: the next n samples of the tile into ts.camera,
   // with each lane's pixel, sampler key and sample index.
-  void cameraRays(const TileRect& r, SampleCursor& c, size_t n, ThreadScratch& ts) const {
+  void cameraRays(const PixelRect& r, SampleCursor& c, size_t n, ThreadScratch& ts) const {
     IntersectBatch& cam = ts.camera;
     cam.clear();
     for (size_t l = 0; l < n; ++l) {
@@ -120,7 +113,7 @@ class TileRenderer {
       if (++c.si == uint32_t(s_.spp)) {  // next pixel
         c.si = 0;
         ++c.pix;
-        if (++c.px == r.x0 + r.w) c.px = r.x0, ++c.py;
+        if (++c.px == r.x1) c.px = r.x0, ++c.py;
         c.key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
         c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
       }
@@ -179,10 +172,10 @@ class TileRenderer {
 
   // The tile's sums into the film. Each pixel belongs to exactly one tile,
   // so no locking.
-  void resolve(const TileRect& r, const ThreadScratch& ts) const {
-    for (int y = 0; y < r.h; ++y)
-      for (int x = 0; x < r.w; ++x)
-        resolvePixelSums(ts.sums[size_t(y) * r.w + x], s_.spp, integrator_, wantAlbedo_, s_.sky, film_, r.x0 + x,
+  void resolve(const PixelRect& r, const ThreadScratch& ts) const {
+    for (int y = 0; y < r.height(); ++y)
+      for (int x = 0; x < r.width(); ++x)
+        resolvePixelSums(ts.sums[size_t(y) * size_t(r.width()) + size_t(x)], s_.spp, integrator_, wantAlbedo_, s_.sky, film_, r.x0 + x,
                          r.y0 + y);
   }
 
@@ -194,7 +187,6 @@ class TileRenderer {
   const RasterCamera raster_;
   const Sampler sampler_;
   const float tnear_, tfar_;
-  const int tilesX_;
   const bool wantAlbedo_;
 };
 
