@@ -185,6 +185,20 @@ class JsonChecker {
     });
     arr("bufferViews", [&](const json& v, const std::string& w) {
       fields(v, w, {{"buffer", Kind::Index}, {"byteOffset", Kind::Uint}, {"byteLength", Kind::Uint}, {"byteStride", Kind::Uint}});
+      // A view must lie inside its buffer's declared length: tinygltf hands
+      // an image's view to the image loader by the view's own length (an
+      // overread, found by fuzz/obscura_fuzz_gltf).
+      const auto bi = v.find("buffer"), bufs = root.find("buffers");
+      if (bi == v.end() || bufs == root.end() || !bufs->is_array() || bi->get<uint64_t>() >= bufs->size()) return;
+      const json& b = (*bufs)[size_t(bi->get<uint64_t>())];
+      const auto bl = b.is_object() ? b.find("byteLength") : b.end();
+      const auto vl = v.find("byteLength"), vo = v.find("byteOffset");
+      if (!b.is_object() || bl == b.end() || !bl->is_number_unsigned() || vl == v.end()) return;
+      const uint64_t size = bl->get<uint64_t>(), length = vl->get<uint64_t>();
+      const uint64_t offset = vo == v.end() ? 0 : vo->get<uint64_t>();
+      if (offset > size || length > size - offset)
+        doc_.fail(w, "byteOffset " + std::to_string(offset) + " + byteLength " + std::to_string(length) +
+                         " runs past buffers[" + std::to_string(bi->get<uint64_t>()) + "].byteLength " + std::to_string(size));
     });
     arr("buffers", [&](const json& b, const std::string& w) { fields(b, w, {{"uri", Kind::String}, {"byteLength", Kind::Uint}}); });
     arr("materials", [&](const json& m, const std::string& w) {
@@ -293,6 +307,21 @@ void GltfDocument::read() {
           fail(std::string(array) + "[" + std::to_string(i) + "].uri",
                "'" + uri->get<std::string>() + "' is not a file" + (fs::is_directory(file, ec) || name.empty() ? " (a directory)" : ""));
       }
+    }
+  }
+
+  // Every chunk of a .glb must lie inside the file: tinygltf copies the
+  // binary chunk by its declared length without checking it against the
+  // file's end (found by fuzz/obscura_fuzz_gltf: an overread).
+  if (binary && bytes.size() >= 12) {
+    for (uint64_t at = 12; at < bytes.size();) {
+      uint32_t length = 0;
+      if (bytes.size() - at < 8) throw Error(path_ + ": not a valid glTF 2.0 file: a .glb chunk header is cut off");
+      std::memcpy(&length, bytes.data() + at, 4);
+      if (uint64_t(length) > bytes.size() - at - 8)
+        throw Error(path_ + ": not a valid glTF 2.0 file: a .glb chunk of " + std::to_string(length) +
+                    " bytes runs past the end of the file");
+      at += 8 + uint64_t(length);
     }
   }
 

@@ -351,3 +351,20 @@ TEST(LoaderHardening, FuzzSeedsAreValid) {
 
 }  // namespace
 }  // namespace obscura::test
+
+namespace obscura::test {
+namespace {
+
+// A bufferView longer than its buffer is refused before tinygltf reads it
+// (an image in such a view was copied past the buffer's end: a fuzz finding).
+TEST(LoaderHardening, BufferViewPastItsBufferIsRefused) {
+  const std::string dir = tempDir("loader_view_past_buffer");
+  const std::string path = dir + "/view.gltf";
+  std::ofstream(path) << R"({"asset":{"version":"2.0"},)"
+                      << R"("buffers":[{"byteLength":4,"uri":"data:application/octet-stream;base64,AAAAAA=="}],)"
+                      << R"("bufferViews":[{"buffer":0,"byteOffset":2,"byteLength":8}]})";
+  EXPECT_EQ(loadError(path), path + ": bufferViews[0]: byteOffset 2 + byteLength 8 runs past buffers[0].byteLength 4");
+}
+
+}  // namespace
+}  // namespace obscura::test
