@@ -123,6 +123,7 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   o.displacementScale = a.displaceScale;
   o.displacementMidlevel = a.displaceMidlevel;
   o.maxMemoryBytes = size_t(a.maxMemoryGiB * double(size_t(1) << 30));
+  for (const std::string& text : a.objects) o.objectOverrides.push_back(parseObjectOverride(text));
   return o;
 }
 
@@ -181,6 +182,14 @@ ExrOptions passHeader(const PassInfo& i) {
       str("obscura:displaceMidlevel", formatFloat(a->displaceMidlevel));
     }
   }
+  if (i.sceneArgs && !i.sceneArgs->objects.empty()) {
+    std::string all;
+    for (const std::string& o : i.sceneArgs->objects) all += (all.empty() ? "" : " ") + ("--object '" + o + "'");
+    str("obscura:objectOverrides", all);
+  }
+  // Every object whose roles differ from the default, whoever set them (the
+  // file's extras or --object): README "Objects and roles".
+  if (i.scene) str("obscura:objectRoles", nonDefaultRoles(i.scene->objects));
   str("obscura:sky", formatFloat(i.settings.sky.x) + "," + formatFloat(i.settings.sky.y) + "," + formatFloat(i.settings.sky.z));
   exr.attributes.push_back({"obscura:threads", i.settings.threads > 0 ? i.settings.threads : int(tbb::this_task_arena::max_concurrency())});
   exr.attributes.push_back({"obscura:renderTime", float(i.stats.seconds)});

@@ -32,6 +32,7 @@ struct SceneArgs {
   double maxMemoryGiB = 8;
   std::string displace;  // height map
   double displaceScale = 0.1, displaceMidlevel = 0.5;
+  std::vector<std::string> objects;  // --object GLOB:role=value,... (core/objects.h)
 };
 // Checks them; throws obscura::Error naming the option.
 LoadOptions sceneOptions(const SceneArgs& a);
@@ -60,6 +61,7 @@ struct PassInfo {
   std::string filterName;
   bool robust = false;
   const SceneArgs* sceneArgs = nullptr;  // subdivision and displacement options, when given
+  const Scene* scene = nullptr;          // its objects' roles, when given
   double bvhSeconds = 0;
 };
 ExrOptions passHeader(const PassInfo& info);

@@ -276,6 +276,11 @@ class CompareRun {
     viewHash_.add(&camera.yfov, sizeof camera.yfov).add(a.res);
     viewHash_.add(formatFloat(plan.base.sky.x) + "," + formatFloat(plan.base.sky.y) + "," + formatFloat(plan.base.sky.z));
     viewHash_.add(a.robust ? "robust" : "fast");
+    // What the scene is made of beyond its file: the geometry options and
+    // the objects' roles (a reference with other roles is another image).
+    viewHash_.add(a.subdiv + "/" + a.subdivBackend + "/" + std::to_string(a.subdivLevel) + "/" + formatFloat(a.subdivEdge));
+    viewHash_.add(a.displace + "/" + formatFloat(a.displaceScale) + "/" + formatFloat(a.displaceMidlevel));
+    viewHash_.add(nonDefaultRoles(scene.objects));
   }
 
   // --- stage 2: the reference (given, cached or rendered); nullopt when interrupted.
@@ -303,7 +308,7 @@ class CompareRun {
     s.seed = seed;
     return passHeader(PassInfo{.scenePath = a_.scene, .camera = camera_, .integrator = d, .params = p, .settings = s,
                                .stats = stats, .filterName = "box", .robust = a_.robust, .sceneArgs = &a_,
-                               .bvhSeconds = scene_.buildSeconds()});
+                               .scene = &scene_, .bvhSeconds = scene_.buildSeconds()});
   }
   // One cell: renders its seeds and measures them; nullopt when interrupted.
   std::optional<Cell> measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d, const ParamSet& params,

@@ -37,6 +37,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--displace", a.displace, "Height map (PNG/EXR/...) displacing a subdivided OBJ cage along its limit normals");
   cmd->add_option("--displace-scale", a.displaceScale, "Displacement: scene units per unit of height");
   cmd->add_option("--displace-midlevel", a.displaceMidlevel, "Displacement: the height that does not move the surface");
+  cmd->add_option("--object", a.objects,
+                  "Roles of objects by name (glob): GLOB:role=value[,role=value...], roles occluder, camera, matte "
+                  "(true/false) and occlusion (all/self/others); repeatable, applied in order after the file's extras");
 }
 
 struct RenderArgs : SceneArgs {
@@ -138,7 +141,7 @@ int runRender(const RenderArgs& a) {
 
   ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
                                         .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
-                                        .bvhSeconds = scene->buildSeconds()});
+                                        .scene = scene.get(), .bvhSeconds = scene->buildSeconds()});
   exr.half = a.half;
   // The pass and its preview land together or not at all.
   OutputSet out;
@@ -200,13 +203,20 @@ int runInfo(const InfoArgs& a) {
     const Vec3 p = c.position();
     std::printf("           [%zu] %s  yfov %.4g rad  at (%g, %g, %g)\n", i, c.name.c_str(), c.yfov, p.x, p.y, p.z);
   }
+  std::printf("objects    %zu\n", scene->objects.size());
+  for (const SceneObject& o : scene->objects)
+    std::printf("           %s  %s\n", o.name.c_str(), o.roles.isDefault() ? "(default roles)" : o.roles.describe().c_str());
   std::printf("materials  %zu\n", scene->materials.size());
   for (size_t i = 0; i < scene->materials.size(); ++i) {
     const Material& m = scene->materials[i];
-    std::printf("           [%zu] %s  baseColorFactor (%g, %g, %g)%s\n", i, m.name.c_str(), m.baseColorFactor.x,
-                m.baseColorFactor.y, m.baseColorFactor.z, m.texture >= 0 ? "  x texture" : "");
+    const char* mode = m.alphaMode == AlphaMode::Mask ? "  alphaMode MASK" : m.alphaMode == AlphaMode::Blend ? "  alphaMode BLEND" : "";
+    std::printf("           [%zu] %s  baseColorFactor (%g, %g, %g)%s%s", i, m.name.c_str(), m.baseColorFactor.x,
+                m.baseColorFactor.y, m.baseColorFactor.z, m.texture >= 0 ? "  x texture" : "", mode);
+    if (m.alphaMode != AlphaMode::Opaque) std::printf(" (alpha %g%s)", m.alpha, m.alphaMode == AlphaMode::Mask ? (", cutoff " + formatFloat(m.alphaCutoff)).c_str() : "");
+    std::printf("\n");
   }
   std::printf("textures   %zu\n", scene->textures.size());
+  std::printf("cut-outs   %zu primitive%s with alpha (filtered)\n", scene->alphaPrimitives(), scene->alphaPrimitives() == 1 ? "" : "s");
   if (b.empty())
     std::printf("bounds     empty\n");
   else

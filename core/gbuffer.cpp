@@ -70,6 +70,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   g.albedo.resize(albedo ? n : 0);
   const RasterCamera raster(camera, s.width, s.height);
   const Sampler sampler(s.seed);
+  const bool mattes = scene.hasMattes();
   // No pixel has coordinates (2^32 - 1, 2^32 - 1): a key of its own.
   g.imageKey = sampler.pixelKey(~0U, ~0U);
   tbb::enumerable_thread_specific<IntersectBatch> batches;
@@ -96,14 +97,15 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
         const uint32_t key = sampler.pixelKey(uint32_t(px), uint32_t(py));
         float fx, fy;
         cameraSampleFilm(s.filter, Sampler::seeds2D(key, kDimPixelFilter), sampleIndex, px, py, fx, fy);
-        cam.push(raster.org, raster.direction(fx, fy), camera.znear, camera.zfar);
+        cam.pushCamera(raster.org, raster.direction(fx, fy), camera.znear, camera.zfar);
         g.pixelKey[i] = key;
       }
       tracer.intersect(cam, RayCoherence::Coherent);
       rays.local() += n;
       for (size_t l = 0; l < n; ++l) {
         const size_t i = order[l];
-        if (!cam.hit(l)) {
+        // A matte object holds out: its pixels are background (README "Objects and roles").
+        if (!cam.hit(l) || (mattes && scene.isMatte(scene.objectOf(cam.geomID(l), cam.instID(l))))) {
           g.depth[i] = kInfinity;
           g.position[i] = Vec3(0, 0, 0);
           g.normal[i] = Vec3(0, 0, 0);
@@ -245,7 +247,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     for (const auto& t : scene.textures) t->decode();
 
   Film film(s.width, s.height, s.aovs);
-  const Tracer tracer(scene.rtcScene(), s.recorder);
+  const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   const size_t n = size_t(s.width) * size_t(s.height);
   // Whole-image state: the pixel sums, one layer (and its estimates when
   // the integrator interleaves). The sums are float and

@@ -203,7 +203,7 @@ class JsonChecker {
     arr("buffers", [&](const json& b, const std::string& w) { fields(b, w, {{"uri", Kind::String}, {"byteLength", Kind::Uint}}); });
     arr("materials", [&](const json& m, const std::string& w) {
       fields(m, w, {{"name", Kind::String}, {"pbrMetallicRoughness", Kind::Object}, {"alphaMode", Kind::String},
-                    {"emissiveFactor", Kind::NumberArray}});
+                    {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}});
       if (auto pbr = m.find("pbrMetallicRoughness"); pbr != m.end()) {
         const std::string pw = w + ".pbrMetallicRoughness";
         fields(*pbr, pw, {{"baseColorFactor", Kind::NumberArray}, {"baseColorTexture", Kind::Object}});
@@ -360,8 +360,18 @@ void GltfDocument::decodeMaterials() {
       if (!isFinite(m.baseColorFactor) || m.baseColorFactor.x < 0 || m.baseColorFactor.y < 0 || m.baseColorFactor.z < 0)
         fail(field + ".pbrMetallicRoughness.baseColorFactor", "must be finite and non-negative");
     }
-    if (gm.alphaMode == "BLEND" || gm.alphaMode == "MASK")
-      warn("alphaMode " + gm.alphaMode + " is not supported (surfaces are opaque)");
+    // Coverage (core/alpha.h): alpha = baseColorFactor[3] x the texture's alpha.
+    if (gm.alphaMode == "MASK") m.alphaMode = AlphaMode::Mask;
+    else if (gm.alphaMode == "BLEND") m.alphaMode = AlphaMode::Blend;
+    else if (!gm.alphaMode.empty() && gm.alphaMode != "OPAQUE")
+      fail(field + ".alphaMode", "expected OPAQUE, MASK or BLEND, got '" + gm.alphaMode + "'");
+    if (f.size() >= 4) {
+      m.alpha = float(f[3]);
+      if (!(m.alpha >= 0.0f && m.alpha <= 1.0f))
+        fail(field + ".pbrMetallicRoughness.baseColorFactor", "alpha (the 4th component) must be in [0, 1]");
+    }
+    m.alphaCutoff = float(gm.alphaCutoff);
+    if (!(m.alphaCutoff >= 0.0f) || !std::isfinite(m.alphaCutoff)) fail(field + ".alphaCutoff", "must be a finite number >= 0");
     if (gm.emissiveFactor.size() >= 3 && (gm.emissiveFactor[0] > 0 || gm.emissiveFactor[1] > 0 || gm.emissiveFactor[2] > 0))
       warn("emission is ignored by ambient passes");
     const auto& ti = gm.pbrMetallicRoughness.baseColorTexture;
@@ -448,7 +458,7 @@ void GltfDocument::visit(int index, const Matrix4d& parent, std::vector<int>& st
   if (n.skin >= 0) warn("skinned meshes render in their bind pose");
   if (n.mesh >= 0) {
     if (size_t(n.mesh) >= model_->meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
-    uses_.push_back({n.mesh, world, n.name.empty() ? field : n.name, index});
+    uses_.push_back({n.mesh, world, n.name.empty() ? field : n.name, index, stack});
   }
   if (n.camera >= 0) addCamera(index, n.camera, world, field);
   stack.push_back(index);

@@ -62,6 +62,7 @@ class GltfDocument {
     Matrix4d world;
     std::string node;  // its name, else "nodes[i]"
     int nodeIndex;
+    std::vector<int> ancestors;  // the node's ancestors, root first (their extras are inherited)
   };
   const std::vector<MeshUse>& meshUses() const { return uses_; }
 

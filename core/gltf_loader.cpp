@@ -34,6 +34,7 @@ class Builder {
     for (const auto& t : doc_.textures()) scene_->textures.push_back(std::make_unique<Texture>(t.encoded, t.name, true));
     scene_->cameras = doc_.cameras();
     buildGeometry();
+    applyObjectOverrides(scene_->objects, options_.objectOverrides);
     scene_->setUvsRunDown();  // glTF's v = 0 is the top row of an image
     scene_->setRobust(options_.robust);
     scene_->commit();
@@ -273,6 +274,39 @@ class Builder {
     addCage(*scene_, c, o, d, p.material, doc_.path() + ": " + p.field);
   }
 
+  // The roles node `index` sets in its extras.obscura (README "Objects and
+  // roles"): booleans occluder, camera, matte and the string occlusion.
+  RoleSettings nodeRoles(int index) const {
+    const std::string owner = "nodes[" + std::to_string(index) + "]";
+    RoleSettings r;
+    const tinygltf::Value* ob = obscuraExtras(doc_.model().nodes[size_t(index)].extras, owner);
+    if (!ob) return r;
+    const std::string where = doc_.path() + ": " + owner + ".extras.obscura";
+    for (const char* key : {"occluder", "camera", "matte"}) {
+      if (!ob->Has(key)) continue;
+      const tinygltf::Value& v = ob->Get(key);
+      if (!v.IsBool()) fail(owner + ".extras.obscura." + key, "expected true or false");
+      r.set(key, v.Get<bool>() ? "true" : "false", where);
+    }
+    if (ob->Has("occlusion")) {
+      const tinygltf::Value& v = ob->Get("occlusion");
+      if (!v.IsString()) fail(owner + ".extras.obscura.occlusion", "expected \"all\", \"self\" or \"others\"");
+      r.set("occlusion", v.Get<std::string>(), where);
+    }
+    return r;
+  }
+
+  // Each mesh use is an object named by its node, with the roles of its
+  // ancestors' extras and then its own (a child overrides its parent).
+  uint32_t addObject(const GltfDocument::MeshUse& u) {
+    SceneObject o;
+    o.name = u.node;
+    for (const int a : u.ancestors) nodeRoles(a).applyTo(o.roles);
+    nodeRoles(u.nodeIndex).applyTo(o.roles);
+    scene_->objects.push_back(std::move(o));
+    return uint32_t(scene_->objects.size() - 1);
+  }
+
   void buildGeometry() {
     // A node with a displacement of its own gets its own copy of the mesh:
     // geometry is keyed by (mesh, that node), -1 for the mesh as the file has it.
@@ -291,6 +325,7 @@ class Builder {
       if (subdivisionOf(u.mesh)) useCount[key(u)] = 1;
     std::map<std::pair<int, int>, int> instanced;  // (glTF mesh, node) -> Scene instanced mesh
     for (const auto& u : doc_.meshUses()) {
+      scene_->setCurrentObject(addObject(u));
       const Affine xf = Affine::fromColumnMajor4x4(u.world.data());
       const auto k = key(u);
       if (useCount[k] == 1) {
@@ -320,6 +355,7 @@ class Builder {
       }
       if (it->second >= 0) scene_->addInstance(it->second, xf, u.node);
     }
+    scene_->setCurrentObject(kNoObject);
     if (!options_.displacementMap.empty() && !cliDisplacementUsed_)
       warn(settingName(Setting::Displacement) + " applies to subdivided meshes (extras.obscura.subdivision) without a displacement of their own; "
            "none here (height map unused)");

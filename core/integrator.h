@@ -128,7 +128,7 @@ inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, floa
     const Frame frame = Frame::fromNormal(h.ns);
     for (uint32_t k = 0; k < rays; ++k) {
       const Vec3 w = cosineDirection(h, frame, rays, k);
-      batch.push(spawnOrigin(h, w), w, 0.0f, R);
+      batch.push(spawnOrigin(h, w), w, 0.0f, R, h.object);
     }
   }
 }

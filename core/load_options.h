@@ -4,8 +4,10 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/camera.h"
+#include "core/objects.h"
 #include "core/subdivision.h"
 
 namespace obscura {
@@ -37,6 +39,9 @@ struct LoadOptions {
   std::string displacementMap;
   double displacementScale = 0.1;
   double displacementMidlevel = 0.5;
+  // Roles set on objects by name (--object), applied in order after the
+  // file's own (core/objects.h).
+  std::vector<ObjectOverride> objectOverrides;
 };
 
 }  // namespace obscura

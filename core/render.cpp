@@ -63,7 +63,7 @@ class TileRenderer {
                const Tracer& tracer, Film& film, bool wantAlbedo)
       : scene_(scene), integrator_(integrator), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
-        wantAlbedo_(wantAlbedo) {}
+        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()) {}
 
   int tileCount() const { return PixelRect::tileCount(s_.tileSize, s_.width, s_.height); }
 
@@ -106,7 +106,7 @@ class TileRenderer {
     for (size_t l = 0; l < n; ++l) {
       float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
       cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx, fy);
-      cam.push(raster_.org, raster_.direction(fx, fy), tnear_, tfar_);
+      cam.pushCamera(raster_.org, raster_.direction(fx, fy), tnear_, tfar_);
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key;
       ts.laneSample[l] = c.si;
@@ -127,12 +127,14 @@ class TileRenderer {
   }
 
   // Rays -> surface hits: one SurfaceHit per lane that hit (ts.hits, in
-  // lane order), ts.laneHit its index or -1.
+  // lane order), ts.laneHit its index or -1. A hit on a matte object is a
+  // holdout: it hides what is behind it and counts as a miss (alpha 0,
+  // pass 0; README "Objects and roles").
   void surfaceHits(size_t n, ThreadScratch& ts) const {
     const IntersectBatch& cam = ts.camera;
     ts.hits.clear();
     for (size_t l = 0; l < n; ++l) {
-      if (!cam.hit(l)) {
+      if (!cam.hit(l) || (mattes_ && scene_.isMatte(scene_.objectOf(cam.geomID(l), cam.instID(l))))) {
         ts.laneHit[l] = -1;
         continue;
       }
@@ -188,6 +190,7 @@ class TileRenderer {
   const Sampler sampler_;
   const float tnear_, tfar_;
   const bool wantAlbedo_;
+  const bool mattes_;
 };
 
 }  // namespace
@@ -242,7 +245,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     for (const auto& t : scene.textures) t->decode();
 
   Film film(s.width, s.height, s.aovs);
-  const Tracer tracer(scene.rtcScene(), s.recorder);
+  const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   const TileRenderer tiles(scene, camera, integrator, s, tracer, film, wantAlbedo);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "core/alpha.h"
 #include "core/error.h"
 
 namespace obscura {
@@ -79,6 +80,7 @@ int Scene::addWorldPrimitive(const std::vector<Vec3>& positions, const std::vect
   for (const Vec3& v : positions) bounds_.extend(v);
   if (topLevel_.size() <= id) topLevel_.resize(id + 1);
   topLevel_[id].primitive = int(worldPrimitives_.size());
+  topLevel_[id].object = currentObject_;
   worldPrimitives_.push_back(std::move(p));
   return int(worldPrimitives_.size()) - 1;
 }
@@ -184,6 +186,7 @@ int Scene::addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<
   hasSubdivision_ = true;
   if (topLevel_.size() <= id) topLevel_.resize(id + 1);
   topLevel_[id].primitive = int(worldPrimitives_.size());
+  topLevel_[id].object = currentObject_;
   worldPrimitives_.push_back(std::move(p));
   return int(worldPrimitives_.size()) - 1;
 }
@@ -216,6 +219,7 @@ void Scene::addInstance(int mesh, const Affine& toWorld, std::string node) {
   rtcReleaseGeometry(g);
   if (topLevel_.size() <= id) topLevel_.resize(id + 1);
   topLevel_[id].instance = int(instances_.size());
+  topLevel_[id].object = currentObject_;
   instances_.push_back({mesh, toWorld, std::move(node)});
   if (!m.objectBounds.empty()) {
     for (int c = 0; c < 8; ++c) {
@@ -247,8 +251,18 @@ void Scene::commit() {
         throw Error((sourcePath.empty() ? "" : sourcePath + ": ") + "the scene's bounds reach " + buf +
                     " (after node transforms), outside the range Embree traces (|x| <= 1e+16)");
       }
+  for (const SceneObject& o : objects)
+    if (o.roles.occlusion != OcclusionScope::All) {
+      scopes_.objectCount = uint32_t(objects.size());
+      break;
+    }
+  applyObjectRoles();
+  attachAlphaFilters();
   const auto t0 = std::chrono::steady_clock::now();
-  const RTCSceneFlags flags = robust_ ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
+  RTCSceneFlags flags = robust_ ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
+  // The context filter runs only in scenes that ask for it (and is then
+  // called for every candidate hit): only when some object is scoped.
+  if (scopes_.objectCount) flags = RTCSceneFlags(flags | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
   rtcSetSceneFlags(top_, flags);
   for (auto& m : meshes_) {
     rtcSetSceneFlags(m.rtcScene, flags);
@@ -266,6 +280,63 @@ void Scene::commit() {
     bounds_.extend(Vec3(b.upper_x, b.upper_y, b.upper_z));
   }
   committed_ = true;
+}
+
+void Scene::applyObjectRoles() {
+  for (size_t o = 0; o < objects.size(); ++o)
+    if (objects[o].roles.matte) {
+      matte_.resize(objects.size(), 0);
+      matte_[o] = 1;
+    }
+  for (size_t id = 0; id < topLevel_.size(); ++id) {
+    const uint32_t o = topLevel_[id].object;
+    if (o == kNoObject) continue;
+    if (o >= objects.size()) throw Error("internal: geometry of an object that does not exist");
+    const ObjectRoles& r = objects[o].roles;
+    // Default roles keep Embree's default mask (all bits): the geometry is
+    // left exactly as a scene without roles has it.
+    if (r.camera && r.occluder) continue;
+    RTCGeometry g = rtcGetGeometry(top_, unsigned(id));
+    rtcSetGeometryMask(g, r.mask());
+    rtcCommitGeometry(g);
+  }
+  if (!scopes_.objectCount) return;
+  objectOfTop_.resize(topLevel_.size());
+  for (size_t id = 0; id < topLevel_.size(); ++id) objectOfTop_[id] = topLevel_[id].object;
+  scopeOfObject_.resize(objects.size());
+  for (size_t o = 0; o < objects.size(); ++o) scopeOfObject_[o] = uint8_t(objects[o].roles.occlusion);
+  scopes_.objectOfTop = objectOfTop_.data();
+  scopes_.scope = scopeOfObject_.data();
+}
+
+void Scene::attachAlphaFilters() {
+  const auto attach = [&](const Primitive& p) {
+    const Material* m = materialOf(p);
+    if (!m || m->alphaMode == AlphaMode::Opaque) return;
+    const Texture* tex = m->texture >= 0 && !p.uvs.empty() ? textures[size_t(m->texture)].get() : nullptr;
+    if (tex) tex->decode();  // up front: the filter never throws
+    if (!m->cutsOut(tex && tex->hasAlpha())) return;
+    if (p.subdivision) {
+      Log::warn((sourcePath.empty() ? "" : sourcePath + ": ") + (p.name.empty() ? "a subdivision surface" : p.name) +
+                ": alpha (alphaMode " + (m->alphaMode == AlphaMode::Mask ? "MASK" : "BLEND") +
+                ") is not applied to Embree subdivision surfaces (rendered opaque; the osd backend applies it)");
+      return;
+    }
+    auto s = std::make_unique<AlphaSurface>();
+    s->indices = p.indices;
+    s->uvs = tex ? p.uvs.data() : nullptr;
+    s->texture = tex && tex->hasAlpha() ? tex : nullptr;
+    s->wrapS = m->wrapS, s->wrapT = m->wrapT;
+    s->mode = m->alphaMode;
+    s->alpha = m->alpha;
+    s->cutoff = m->alphaCutoff;
+    attachAlphaFilter(p, *s);
+    rtcCommitGeometry(p.geometry);
+    alphaSurfaces_.push_back(std::move(s));
+  };
+  for (const Primitive& p : worldPrimitives_) attach(p);
+  for (const InstancedMesh& m : meshes_)
+    for (const Primitive& p : m.primitives) attach(p);
 }
 
 size_t Scene::attributeBytes() const {

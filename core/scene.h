@@ -19,16 +19,35 @@
 
 #include "core/camera.h"
 #include "core/math.h"
+#include "core/objects.h"
 #include "core/subdivision.h"
 #include "core/texture.h"
+#include "core/tracer.h"
 
 namespace obscura {
+
+// glTF's alphaMode: OPAQUE ignores alpha; MASK cuts out where alpha <
+// alphaCutoff; BLEND lets a ray through with probability 1 - alpha
+// (README "Objects and roles").
+enum class AlphaMode : uint8_t { Opaque, Mask, Blend };
 
 struct Material {
   std::string name;
   Vec3 baseColorFactor{1, 1, 1};
   int texture = -1;  // index into Scene::textures, -1 = none
   WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+  // Coverage: alpha = alpha factor (baseColorFactor's 4th component) x the
+  // texture's alpha channel.
+  AlphaMode alphaMode = AlphaMode::Opaque;
+  float alpha = 1.0f;
+  float alphaCutoff = 0.5f;
+  // Does anything a ray meets depend on alpha? (OPAQUE never; MASK and
+  // BLEND unless alpha is 1 everywhere.)
+  bool cutsOut(bool textureHasAlpha) const {
+    if (alphaMode == AlphaMode::Opaque) return false;
+    if (alphaMode == AlphaMode::Mask) return textureHasAlpha || !(alpha >= alphaCutoff);
+    return textureHasAlpha || alpha < 1.0f;
+  }
 };
 
 // An Embree subdivision surface's own data: what its displacement callback
@@ -85,7 +104,12 @@ struct Instance {
 struct TopLevelGeometry {
   int primitive = -1;  // index into Scene::worldPrimitives, or -1
   int instance = -1;   // index into Scene::instances, or -1
+  uint32_t object = kNoObject;  // index into Scene::objects
 };
+
+// What a hit on a cut-out surface needs to find its alpha (Embree's filter
+// functions get it as the geometry's user data): core/alpha.cpp.
+struct AlphaSurface;
 
 // Counts for `obscura info` and the EXR header.
 struct SceneStats {
@@ -129,6 +153,26 @@ class Scene {
   int addSubdivisionSurface(const SubdivisionCage& cage, const std::vector<float>& edgeLevels,
                             std::shared_ptr<const HeightMap> height, float scale, float midlevel, bool flipV,
                             int material);
+  // Objects (core/objects.h): geometry added after setCurrentObject(i)
+  // belongs to objects[i] (an instance: the placement; a world primitive:
+  // itself); kNoObject (the default) = to none, which has the default roles.
+  // The loaders set roles before commit(), which turns them into masks and
+  // filters.
+  std::vector<SceneObject> objects;
+  void setCurrentObject(uint32_t object) { currentObject_ = object; }
+  // The object a hit belongs to (kNoObject if none).
+  uint32_t objectOf(unsigned geomID, unsigned instID) const {
+    return topLevel_[instID != RTC_INVALID_GEOMETRY_ID ? instID : geomID].object;
+  }
+  // After commit(): does any object hold out (matte), and is this one of them?
+  bool hasMattes() const { return !matte_.empty(); }
+  bool isMatte(uint32_t object) const { return object < matte_.size() && matte_[object]; }
+  // After commit(): what the tracer needs for objects whose occlusion is
+  // self or others, or null when there are none (core/tracer.h).
+  const OcclusionScopes* occlusionScopes() const { return scopes_.objectCount ? &scopes_ : nullptr; }
+  // After commit(): how many primitives cut out by alpha (filter functions).
+  size_t alphaPrimitives() const { return alphaSurfaces_.size(); }
+
   // Adds an instanced mesh (object space) and returns its index.
   int addInstancedMesh(std::string name);
   void addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions,
@@ -180,6 +224,8 @@ class Scene {
   };
 
  private:
+  void applyObjectRoles();
+  void attachAlphaFilters();
   Primitive makePrimitive(RTCScene target, const std::vector<Vec3>& positions,
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
                           std::vector<float> uvs, int material, unsigned* geomID);
@@ -196,6 +242,12 @@ class Scene {
   bool committed_ = false;
   bool robust_ = false;
   bool hasSubdivision_ = false;
+  uint32_t currentObject_ = kNoObject;
+  std::vector<uint8_t> matte_;           // per object, when any is a matte
+  std::vector<uint32_t> objectOfTop_;    // per top-level geomID, when scopes are on
+  std::vector<uint8_t> scopeOfObject_;   // OcclusionScope per object, when scopes are on
+  OcclusionScopes scopes_;
+  std::vector<std::unique_ptr<AlphaSurface>> alphaSurfaces_;
 };
 
 }  // namespace obscura

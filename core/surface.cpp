@@ -94,6 +94,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& 
   out.t = rh.ray.tfar;
   out.p = org + dir * out.t;
   out.geomID = rh.hit.geomID, out.primID = face, out.instID = rh.hit.instID[0];
+  out.object = scene.objectOf(out.geomID, out.instID);
   out.hitU = u, out.hitV = v;
   // o + t d errs by ulps of |o| and of t|d|; the grid test by ulps of |p|.
   const float mag = std::max(absMax(out.p), absMax(org) + out.t * absMax(dir));
@@ -179,6 +180,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   out.p = v0 * w + v1 * u + v2 * v;
   out.t = t;
   out.geomID = geomID, out.primID = primID, out.instID = instID;
+  out.object = scene.objectOf(geomID, instID);
   out.hitU = u, out.hitV = v;
 
   // Offset scale from the magnitudes that bound the hit point's error.

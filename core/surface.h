@@ -25,6 +25,9 @@ struct SurfaceHit {
   // lookups few integrators need (surfaceUvFrame).
   uint32_t geomID, primID, instID;
   float hitU, hitV;
+  // The object (Scene::objects) the surface belongs to, kNoObject if none:
+  // rays leaving the hit carry it (RayBatch::push's `from`).
+  uint32_t object;
 };
 
 // The surface's texture parametrization at a hit: uv, and the world-space
@@ -72,7 +75,8 @@ Vec3 surfaceAlbedo(const Scene& scene, unsigned geomID, unsigned primID, unsigne
 constexpr float kRayOffsetRelative = 0x1p-16f;
 
 // Origin for a ray leaving the hit in direction d: pushed off the surface to
-// the side d points to.
+// the side d points to. (Push the ray with `from` = h.object, so objects'
+// occlusion scopes see where it leaves from.)
 inline Vec3 spawnOrigin(const SurfaceHit& h, Vec3 d) {
   const float s = dot(d, h.ng) >= 0.0f ? h.eps : -h.eps;
   return h.p + h.ng * s;

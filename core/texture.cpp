@@ -37,28 +37,34 @@ void Texture::decode() const {
     const bool is16 = stbi_is_16_bit_from_memory(encoded_.data(), int(encoded_.size()));
     std::vector<float> lut;
     if (is16) {
-      stbi_us* data = stbi_load_16_from_memory(encoded_.data(), int(encoded_.size()), &w, &h, &comp, 3);
+      stbi_us* data = stbi_load_16_from_memory(encoded_.data(), int(encoded_.size()), &w, &h, &comp, 4);
       if (!data) {
         decodeError_ = stbi_failure_reason() ? stbi_failure_reason() : "decode failed";
         return;
       }
+      hasAlpha_ = comp == 2 || comp == 4;
       texels_.resize(size_t(w) * size_t(h));
+      if (hasAlpha_) alphas_.resize(texels_.size());
       for (size_t i = 0; i < texels_.size(); ++i) {
-        Vec3 c(data[3 * i] / 65535.0f, data[3 * i + 1] / 65535.0f, data[3 * i + 2] / 65535.0f);
+        Vec3 c(data[4 * i] / 65535.0f, data[4 * i + 1] / 65535.0f, data[4 * i + 2] / 65535.0f);
         if (srgb_) c = Vec3(srgbToLinear(c.x), srgbToLinear(c.y), srgbToLinear(c.z));
         texels_[i] = c;
+        if (hasAlpha_) alphas_[i] = data[4 * i + 3] / 65535.0f;  // alpha is linear (glTF 2.0 3.9.2)
       }
       stbi_image_free(data);
     } else {
-      stbi_uc* data = stbi_load_from_memory(encoded_.data(), int(encoded_.size()), &w, &h, &comp, 3);
+      stbi_uc* data = stbi_load_from_memory(encoded_.data(), int(encoded_.size()), &w, &h, &comp, 4);
       if (!data) {
         decodeError_ = stbi_failure_reason() ? stbi_failure_reason() : "decode failed";
         return;
       }
+      hasAlpha_ = comp == 2 || comp == 4;
       for (int i = 0; i < 256; ++i) lut_[i] = srgb_ ? srgbToLinear(i / 255.0f) : i / 255.0f;
       bytes_.resize(size_t(w) * size_t(h));
+      // stb fills alpha with 255 when the image has none.
       for (size_t i = 0; i < bytes_.size(); ++i)
-        bytes_[i] = uint32_t(data[3 * i]) | uint32_t(data[3 * i + 1]) << 8 | uint32_t(data[3 * i + 2]) << 16;
+        bytes_[i] = uint32_t(data[4 * i]) | uint32_t(data[4 * i + 1]) << 8 | uint32_t(data[4 * i + 2]) << 16 |
+                    uint32_t(data[4 * i + 3]) << 24;
       stbi_image_free(data);
     }
     width_ = w;
@@ -96,16 +102,33 @@ inline void wrapPair(double f, int n, WrapMode mode, int& i0, int& i1) {
 }
 }  // namespace
 
-Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
-  if (width_ == 0 || !std::isfinite(u) || !std::isfinite(v)) return Vec3(0, 0, 0);
+bool Texture::footprint(float u, float v, WrapMode wrapS, WrapMode wrapT, int& x0, int& x1, int& y0, int& y1, float& tx,
+                        float& ty) const {
+  if (width_ == 0 || !std::isfinite(u) || !std::isfinite(v)) return false;
   // Texel centres at half-integers; floor in double so huge uvs stay exact
   // enough and never overflow int.
   const double x = double(u) * width_ - 0.5, y = double(v) * height_ - 0.5;
   const double fx = std::floor(x), fy = std::floor(y);
-  const float tx = float(x - fx), ty = float(y - fy);
-  int x0, x1, y0, y1;
+  tx = float(x - fx), ty = float(y - fy);
   wrapPair(fx, width_, wrapS, x0, x1);
   wrapPair(fy, height_, wrapT, y0, y1);
+  return true;
+}
+
+float Texture::sampleAlpha(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
+  if (!hasAlpha_) return 1.0f;
+  int x0, x1, y0, y1;
+  float tx, ty;
+  if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) return 0.0f;
+  const float a = alphaTexel(x0, y0) * (1 - tx) + alphaTexel(x1, y0) * tx;
+  const float b = alphaTexel(x0, y1) * (1 - tx) + alphaTexel(x1, y1) * tx;
+  return a * (1 - ty) + b * ty;
+}
+
+Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
+  int x0, x1, y0, y1;
+  float tx, ty;
+  if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) return Vec3(0, 0, 0);
   const Vec3 a = texel(x0, y0) * (1 - tx) + texel(x1, y0) * tx;
   const Vec3 b = texel(x0, y1) * (1 - tx) + texel(x1, y1) * tx;
   return a * (1 - ty) + b * ty;

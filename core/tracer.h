@@ -17,8 +17,18 @@
 #include <vector>
 
 #include "core/math.h"
+#include "core/objects.h"
 
 namespace obscura {
+
+// What rays from objects whose occlusion is self or others need (core/objects.h):
+// the object of each top-level geometry and each object's scope. The
+// object a ray leaves from is its id (RayBatch::push).
+struct OcclusionScopes {
+  const uint32_t* objectOfTop = nullptr;  // by top-level geomID
+  const uint8_t* scope = nullptr;         // OcclusionScope, by object
+  uint32_t objectCount = 0;
+};
 
 // Aligned storage that never shrinks, so steady-state batches don't allocate.
 template <class T>
@@ -52,14 +62,23 @@ class RayBatch {
   void reserve(size_t rays) { rays_.reserve(rays); }
   size_t size() const { return size_; }
 
-  // Appends a ray from org along unit dir over (tnear, tfar). Returns its index.
-  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar) {
+  // Appends a secondary ray from org along unit dir over (tnear, tfar),
+  // leaving from a surface of object `from` (SurfaceHit::object; kNoObject
+  // for none): what objects' occlusion scopes test. Returns its index.
+  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar, uint32_t from = kNoObject) {
+    return push(org, dir, tnear, tfar, from, kRayMaskSecondary);
+  }
+  // A camera ray: sees the objects whose `camera` role is on.
+  size_t pushCamera(Vec3 org, Vec3 dir, float tnear, float tfar) {
+    return push(org, dir, tnear, tfar, kNoObject, kRayMaskCamera);
+  }
+  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar, uint32_t from, uint32_t mask) {
     const size_t i = size_++;
     Ray& r = rays_.data()[i];
     RTCRay& p = ray(r);
     p.org_x = org.x; p.org_y = org.y; p.org_z = org.z; p.tnear = tnear;
     p.dir_x = dir.x; p.dir_y = dir.y; p.dir_z = dir.z; p.time = 0.0f;
-    p.tfar = tfar; p.mask = 0xffffffffU; p.id = unsigned(i); p.flags = 0;
+    p.tfar = tfar; p.mask = mask; p.id = from; p.flags = 0;
     if constexpr (std::is_same_v<Ray, RTCRayHit>) {
       r.hit.geomID = RTC_INVALID_GEOMETRY_ID;
       r.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
@@ -132,7 +151,10 @@ class RayRecorder {
 // Traces batches against one Embree scene. Stateless and thread-safe.
 class Tracer {
  public:
-  explicit Tracer(RTCScene scene, RayRecorder* recorder = nullptr) : scene_(scene), recorder_(recorder) {}
+  // `scopes`: Scene::occlusionScopes(), null when no object limits its
+  // occluders (then no filter runs).
+  explicit Tracer(RTCScene scene, RayRecorder* recorder = nullptr, const OcclusionScopes* scopes = nullptr)
+      : scene_(scene), recorder_(recorder), scopes_(scopes) {}
   void occluded(OcclusionBatch& batch, RayCoherence c = RayCoherence::Incoherent) const;
   void intersect(IntersectBatch& batch, RayCoherence c = RayCoherence::Incoherent) const;
   RTCScene scene() const { return scene_; }
@@ -140,6 +162,7 @@ class Tracer {
  private:
   RTCScene scene_;
   RayRecorder* recorder_;  // null but in a benchmark's capture (see RayRecorder)
+  const OcclusionScopes* scopes_;
 };
 
 }  // namespace obscura

@@ -82,9 +82,9 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
         tfar = mu.segment(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 1));
       p.self = intoSurface(p.x, w);
       if (tfar > 0.0f && !p.self)
-        batch.push(spawnOrigin(p.x, w), w, 0.0f, tfar);
+        batch.push(spawnOrigin(p.x, w), w, 0.0f, tfar, p.x.object);
       else  // blocked by the surface itself, or an empty segment: not traced
-        batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f);
+        batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f, p.x.object);
     }
     ctx.trace(batch);
 

@@ -224,14 +224,14 @@ class Containment final : public Integrator {
         closedBy[j] = none;
         if (frame && !outside(L, w, r, &su, &sv)) {
           closedBy[j] = ctx.albedoAtUv(h, float(su), float(sv));
-          batch.push(o, w, kInfinity, 0.0f);  // inactive
+          batch.push(o, w, kInfinity, 0.0f, h.object);  // inactive
         } else if (!frame && intoSurface(h, w)) {
           closedBy[j] = h.albedo;
-          batch.push(o, w, kInfinity, 0.0f);
+          batch.push(o, w, kInfinity, 0.0f, h.object);
         } else if (r > 0.0f && !intoSurface(h, w)) {
-          batch.push(o, w, 0.0f, r);
+          batch.push(o, w, 0.0f, r, h.object);
         } else {
-          batch.push(o, w, kInfinity, 0.0f);  // empty segment, or below the macro plane: open
+          batch.push(o, w, kInfinity, 0.0f, h.object);  // empty segment, or below the macro plane: open
         }
       }
     }
@@ -263,11 +263,11 @@ class Containment final : public Integrator {
       const float r = mu_.segment(Sampler::get1D(h.pixelKey, index, kFirstIntegratorDim + 1));
       const Vec3 o = spawnOrigin(h, w);
       if (!outside(L, w, r))
-        batch.push(o, w, kInfinity, -kInfinity);  // closed by the height field
+        batch.push(o, w, kInfinity, -kInfinity, h.object);  // closed by the height field
       else if (r > 0.0f && !intoSurface(h, w))
-        batch.push(o, w, 0.0f, r);  // the macro geometry decides
+        batch.push(o, w, 0.0f, r, h.object);  // the macro geometry decides
       else  // empty segment, or below the macro plane: open
-        batch.push(o, w, kInfinity, 0.0f);
+        batch.push(o, w, kInfinity, 0.0f, h.object);
     }
   }
 
@@ -278,11 +278,11 @@ class Containment final : public Integrator {
       const Vec3 w = cosineDirection(h, frame, rays_, k);
       const float r = mu_.segment(Sampler::get1D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim + 1));
       if (intoSurface(h, w))
-        batch.push(spawnOrigin(h, w), w, kInfinity, -kInfinity);  // the surface itself, d = 0
+        batch.push(spawnOrigin(h, w), w, kInfinity, -kInfinity, h.object);  // the surface itself, d = 0
       else if (r > 0.0f)
-        batch.push(spawnOrigin(h, w), w, 0.0f, r);
+        batch.push(spawnOrigin(h, w), w, 0.0f, r, h.object);
       else
-        batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f);
+        batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
     }
   }
 

@@ -36,7 +36,7 @@ class MultiBounce final : public Integrator {
         for (uint32_t k = 0; k < rays_; ++k) {
           const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
           const Vec3 w = frame.toWorld(squareToUniformHemisphere(s.u, s.v));
-          batch.push(spawnOrigin(h, w), w, 0.0f, R_);
+          batch.push(spawnOrigin(h, w), w, 0.0f, R_, h.object);
         }
       }
     }

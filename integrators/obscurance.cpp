@@ -91,9 +91,9 @@ class Obscurance final : public Integrator {
       for (uint32_t k = 0; k < rays_; ++k) {
         const Vec3 w = cosineDirection(h, frame, rays_, k);
         if (intoSurface(h, w))
-          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f);
+          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
         else
-          batch.push(spawnOrigin(h, w), w, 0.0f, mu_.tfar());
+          batch.push(spawnOrigin(h, w), w, 0.0f, mu_.tfar(), h.object);
       }
     }
     ctx.trace(batch);
@@ -118,9 +118,9 @@ class Obscurance final : public Integrator {
         const double xi = Sampler::get1D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim + 1);
         const float r = mu_.segment(xi);
         if (r > 0.0f && !intoSurface(h, w))
-          batch.push(spawnOrigin(h, w), w, 0.0f, r);
+          batch.push(spawnOrigin(h, w), w, 0.0f, r, h.object);
         else  // inactive (tnear > tfar): Embree skips it and leaves tfar = 0
-          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f);
+          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
       }
     }
     ctx.trace(batch);

@@ -319,6 +319,15 @@ std::string writeRgbTexture(const std::string& path, int w, int h, const std::fu
   return path;
 }
 
+std::string writeAlphaTexture(const std::string& path, int w, int h, const std::function<double(int, int)>& alpha) {
+  std::vector<uint8_t> px(size_t(w) * size_t(h) * 4, 255);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      px[(size_t(y) * size_t(w) + size_t(x)) * 4 + 3] = uint8_t(std::lround(std::clamp(alpha(x, y), 0.0, 1.0) * 255));
+  writeImage(path, w, h, 4, OIIO::TypeDesc::UINT8, px.data());
+  return path;
+}
+
 int addTexturedMaterial(Scene& scene, const std::string& path) {
   scene.textures.push_back(std::make_unique<Texture>(readBytes(path), path, false));
   Material m;

@@ -195,6 +195,9 @@ std::string writeRgbTexture(const std::string& path, int w, int h, const std::fu
 // Appends a material whose albedo is the texture in the file at `path`
 // (linear values, not sRGB); returns its index.
 int addTexturedMaterial(Scene& scene, const std::string& path);
+// Writes an 8-bit RGBA PNG of w x h texels whose alpha at texel (x, y) (row
+// 0 at the top of the image) is alpha(x, y) in [0, 1], colour white.
+std::string writeAlphaTexture(const std::string& path, int w, int h, const std::function<double(int x, int y)>& alpha);
 // dir/ripples.exr: h(u, v) = 0.5 + 0.5 cos(4 pi u), 64 x 4 texels.
 std::string writeRipples(const std::string& dir);
 

@@ -293,9 +293,9 @@ class DepthLookup {
       const Vec3 d = g.view.vectorToWorld(q_[i]);
       const float len = length(d);
       if (q_[i].z < 0.0f && len > 0.0f)
-        b.push(org, d * (1.0f / len), 0.0f, kInfinity);
+        b.pushCamera(org, d * (1.0f / len), 0.0f, kInfinity);
       else  // behind the camera: nothing known (inactive ray)
-        b.push(org, Vec3(0, 0, -1), kInfinity, 0.0f);
+        b.pushCamera(org, Vec3(0, 0, -1), kInfinity, 0.0f);
     }
     ctx.trace(b);
     for (size_t i = 0; i < n_; ++i) {
