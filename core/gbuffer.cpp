@@ -70,7 +70,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   g.albedo.resize(albedo ? n : 0);
   const RasterCamera raster(camera, s.width, s.height);
   const Sampler sampler(s.seed);
-  const bool mattes = scene.hasMattes();
+  const bool mattes = scene.hasMattes(), nonOccluders = scene.hasNonOccluders();
   // No pixel has coordinates (2^32 - 1, 2^32 - 1): a key of its own.
   g.imageKey = sampler.pixelKey(~0U, ~0U);
   tbb::enumerable_thread_specific<IntersectBatch> batches;
@@ -140,6 +140,10 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
           slack = z > 0.0f ? std::max(slack, std::abs(z - g.depth[i])) : kInfinity;
         }
         g.depthSlack[i] = {g.depth[i], slack};
+        // An object that occludes nothing (README "Objects and roles") is
+        // shaded where the camera sees it but is no occluder in the depth
+        // buffer its neighbours read: there it reads as background.
+        if (nonOccluders && !scene.objectOccludes(h.object)) g.depthSlack[i] = {kInfinity, 0.0f}, g.plane[i] = {0, 0, 0, 0};
         g.object[i] = h.geomID ^ (h.instID << 20);
         if (albedo) g.albedo[i] = h.albedo;
       }
@@ -156,7 +160,8 @@ void buildDepthMoments(GBufferLayer& g) {
   const size_t n = size_t(g.width) * size_t(g.height);
   base.mean.resize(n), base.variance.assign(n, 0.0f), base.coverage.resize(n);
   for (size_t i = 0; i < n; ++i) {
-    const bool c = g.covered(i);
+    // Occluders only: a non-occluding object's pixels are no depth here.
+    const bool c = g.covered(i) && g.depthSlack[i][0] < kInfinity;
     base.mean[i] = c ? g.depth[i] : 0.0f;
     base.coverage[i] = c ? 1.0f : 0.0f;
   }

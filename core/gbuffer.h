@@ -103,13 +103,16 @@ struct GBufferLayer {
   LargeVector<Vec3> position;      // view-space position of the visible point
   LargeVector<Vec3> normal;        // view-space unit shading normal, facing the camera
   // The visible triangle's plane, view space: (n, n.p) with n its unit
-  // geometric normal and p the visible point. A depth-buffer read at film
+  // geometric normal and p the visible point; all zero where nothing is an
+  // occluder (background, and objects whose `occluder` role is off). A depth-buffer read at film
   // position (fx, fy) within the pixel intersects its camera ray with this
   // plane (zBufferDepth) instead of returning the depth of the pixel's own,
   // jittered, sample: exact for planar surfaces, first order for curved
   // ones; the stored depth stays the fallback for rays along the plane.
   LargeVector<std::array<float, 4>> plane;
-  // (depth, slack) per pixel, packed for the z-buffer read: slack bounds how
+  // (depth, slack) per pixel, packed for the z-buffer read - the depth an
+  // occluder query reads: +inf (slack 0) where nothing occludes, over the
+  // background and over objects that occlude nothing. Slack bounds how
   // far the plane's depth strays from `depth` over the pixel, so a point
   // farther than that from `depth` is decided without reading `plane`
   // (half the memory traffic of the screen-space loops). +inf slack where

@@ -167,6 +167,13 @@ class Scene {
   // After commit(): does any object hold out (matte), and is this one of them?
   bool hasMattes() const { return !matte_.empty(); }
   bool isMatte(uint32_t object) const { return object < matte_.size() && matte_[object]; }
+  // Does object o occlude (kNoObject: yes), and does any object not?
+  bool objectOccludes(uint32_t o) const { return o >= objects.size() || objects[o].roles.occluder; }
+  bool hasNonOccluders() const {
+    for (const SceneObject& o : objects)
+      if (!o.roles.occluder) return true;
+    return false;
+  }
   // After commit(): what the tracer needs for objects whose occlusion is
   // self or others, or null when there are none (core/tracer.h).
   const OcclusionScopes* occlusionScopes() const { return scopes_.objectCount ? &scopes_ : nullptr; }

@@ -310,3 +310,42 @@ TEST(ObjectRoles, OverridesMatchByGlobAndRefuseUnknownNames) {
 
 }  // namespace
 }  // namespace obscura::test
+
+namespace obscura::test {
+namespace {
+
+// Screen-space integrators occlude by the depth buffer: with no object an
+// occluder, every tap reads background and every covered pixel is open (W
+// = the sum of the taps' weights: 1 up to float rounding of a sum of a few
+// dozen weights, within 1e-5; vo with point samples, whose weights sum to 1 -
+// line samples weight chords by a perspective Jacobian, normalized only in
+// expectation); a matte slab holds out in their G-buffer as in the
+// ray-traced loop.
+TEST(ObjectRoles, ScreenSpaceHonoursOccluderAndMatte) {
+  const Camera side = makeLookAtCamera(Vec3(0.5f, -3, 1.6f), Vec3(0, 0, 0.4f), Vec3(0, 0, 1), 1.0f, "side");
+  for (const std::string integrator : {"vo", "ssat"}) {
+    const std::vector<std::string> params = integrator == "vo" ? std::vector<std::string>{"samples=point"} : std::vector<std::string>{};
+    Scene scene;
+    addFloorAndSlab(scene);
+    for (SceneObject& o : scene.objects) o.roles.occluder = false;
+    scene.commit();
+    const Film f = renderWith(scene, side, integrator, params, passSettings(24, 24, 4));
+    size_t covered = 0;
+    for (int y = 0; y < 24; ++y)
+      for (int x = 0; x < 24; ++x) {
+        ASSERT_NEAR(f.at(kR, x, y), f.at(kA, x, y), 1e-5) << integrator << " pixel " << x << "," << y;  // W = 1, premultiplied
+        covered += f.at(kA, x, y) > 0 ? 1 : 0;
+      }
+    EXPECT_GT(covered, 400u) << integrator;
+    Scene held;
+    addFloorAndSlab(held);
+    held.objects[kSlab].roles.matte = true;
+    held.commit();
+    const Film m = renderWith(held, aboveSlab(), integrator, params, passSettings(kRes, kRes, 4));
+    expectExactly(m, kA, 0.0f, integrator.c_str());
+    expectExactly(m, kR, 0.0f, integrator.c_str());
+  }
+}
+
+}  // namespace
+}  // namespace obscura::test

@@ -113,15 +113,17 @@ inline bool pixelOf(const GBufferLayer& g, Vec3 q, int& x, int& y) {
 }
 
 // The depth at which the camera ray depth x (a, b, -1) meets the plane
-// stored at pixel j, or its stored depth when the ray runs along the plane.
+// stored at pixel j, or its stored occluder depth (depthSlack: the depth,
+// +inf for background and for objects that occlude nothing) when the ray
+// runs along the plane.
 inline float planeDepth(const GBufferLayer& g, size_t j, float a, float b) {
   const std::array<float, 4>& p = g.plane[j];
   const float den = p[0] * a + p[1] * b - p[2];
   // A plane seen nearly edge-on (|cos| below 1e-3 of the ray's length) or a
-  // background pixel (all zero): the stored depth.
-  if (!(std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f))) return g.depth[j];
+  // background or non-occluding pixel (all zero): the stored depth.
+  if (!(std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f))) return g.depthSlack[j][0];
   const float z = p[3] / den;
-  return z > 0.0f ? z : g.depth[j];
+  return z > 0.0f ? z : g.depthSlack[j][0];
 }
 
 // Far from pixel j's surface (beyond its depth range over the pixel, with
@@ -293,9 +295,9 @@ class DepthLookup {
       const Vec3 d = g.view.vectorToWorld(q_[i]);
       const float len = length(d);
       if (q_[i].z < 0.0f && len > 0.0f)
-        b.pushCamera(org, d * (1.0f / len), 0.0f, kInfinity);
+        b.push(org, d * (1.0f / len), 0.0f, kInfinity);  // an occluder query: occluders' mask
       else  // behind the camera: nothing known (inactive ray)
-        b.pushCamera(org, Vec3(0, 0, -1), kInfinity, 0.0f);
+        b.push(org, Vec3(0, 0, -1), kInfinity, 0.0f);
     }
     ctx.trace(b);
     for (size_t i = 0; i < n_; ++i) {
