@@ -86,6 +86,28 @@ void gltfSeeds(const std::string& dir) {
     g.scene({a, b});  // no camera: the auto camera frames it
     g.writeGlb(dir, "subdivision_displacement");
   }
+  {  // objects' roles (inherited, every role) and alpha: MASK with an RGBA
+     // texture on an instanced mesh, BLEND by factor
+    GltfBuilder g;
+    const std::string pngPath = writeAlphaTexture(dir + "/alpha.png", 4, 4, [](int x, int y) { return ((x + y) & 1) ? 1.0 : 0.2; });
+    const std::vector<unsigned char> png = readBytes(pngPath);
+    std::filesystem::remove(pngPath);
+    g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
+    g.push("textures", {{"source", 0}});
+    g.push("materials", {{"alphaMode", "MASK"}, {"alphaCutoff", 0.4}, {"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+    g.push("materials", {{"alphaMode", "BLEND"}, {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 0.5}}}}});
+    const int leaf = g.quadMesh(0.5f, 0, true);
+    const int veil = g.quadMesh(1, 1, true);
+    const int floor = g.quadMesh(2);
+    const auto roles = [](json r) { return json{{"obscura", std::move(r)}}; };
+    const int l1 = g.node({{"name", "leaf1"}, {"mesh", leaf}, {"translation", {0, 0, 0.5}}, {"extras", roles({{"occlusion", "self"}})}});
+    const int l2 = g.node({{"name", "leaf2"}, {"mesh", leaf}, {"translation", {0.5, 0, 1}}});
+    const int group = g.node({{"name", "leaves"}, {"children", {l1, l2}}, {"extras", roles({{"occlusion", "others"}, {"matte", true}})}});
+    const int v = g.node({{"name", "veil"}, {"mesh", veil}, {"translation", {0, 0, 1.5}}, {"extras", roles({{"camera", false}})}});
+    const int f = g.node({{"name", "floor"}, {"mesh", floor}, {"extras", roles({{"occluder", false}})}});
+    g.scene({group, v, f, cameraNode(g)});
+    g.writeGlb(dir, "roles_alpha");
+  }
 }
 
 void objSeeds(const std::string& dir) {

@@ -344,7 +344,7 @@ TEST(LoaderHardening, FuzzSeedsAreValid) {
     while (std::getline(in, line)) EXPECT_NO_THROW(p.setAssignment(line)) << line;
     ++params;
   }
-  EXPECT_EQ(gltf, 4u);
+  EXPECT_EQ(gltf, 5u);
   EXPECT_EQ(obj, 6u);
   EXPECT_GE(params, IntegratorRegistry::instance().all().size());
 }
