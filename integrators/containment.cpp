@@ -328,6 +328,12 @@ IntegratorDescriptor containmentDescriptor() {
     d.params.push_back(std::move(s));
   }
   addLobeParams(d.params, LobeSet::SpreadNear);
+  // What the controls mean here (no `inside`: behind the displaced surface
+  // is inside its own height field).
+  for (ParamSpec& s : d.params) {
+    if (s.name == "spread") s.doc += "; the cone is about the displaced normal (containment has no `inside`)";
+    if (s.name == "near") s.doc += "; containment test points nearer than it are skipped too";
+  }
   d.needs = [](const ParamSet& p) { return IntegratorNeeds{.albedo = p.getBool("albedo")}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const std::string& map = p.getString("map");
