@@ -348,6 +348,43 @@ TEST(LobeControls, InsideIsAThicknessPass) {
   EXPECT_NEAR(narrowed, cone, 4 * bernoulliStdErr(cone, N));
 }
 
+// near only opens: each sample's direction and segment are the same with
+// and without it, and a sample open without near is open with it (the ray
+// tests [near, r] instead of [0, r]; containment's test points closer than
+// near are skipped, the others are the same), so every pixel's W can only
+// rise - exactly, not statistically. Checked for ao under the slab and for
+// containment's height field (ripples of amplitude 0.1 and wavelength 0.5,
+// uvs over the unit square; step falloff, so the test points are at R/2 and
+// R, and near = 2R/3 skips the first), where it also rises somewhere: a
+// sample whose first point is under a crest and whose second is past it.
+TEST(LobeControls, NearOnlyOpens) {
+  const auto expectRises = [](const Film& plain, const Film& clipped, const std::string& what) {
+    bool rose = false;
+    for (int y = 0; y < plain.height(); ++y)
+      for (int x = 0; x < plain.width(); ++x) {
+        ASSERT_GE(clipped.at(kR, x, y), plain.at(kR, x, y)) << what << " " << x << "," << y;
+        rose = rose || clipped.at(kR, x, y) > plain.at(kR, x, y);
+      }
+    EXPECT_TRUE(rose) << what;
+  };
+  const Slab s(1.0, 0.5);
+  expectRises(renderSlab(s, "ao", {}), renderSlab(s, "ao", {"near=0.8"}), "ao");
+
+  Scene scene;
+  scene.addWorldPrimitive({{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, {0, 1, 2, 0, 2, 3}, {}, {0, 0, 1, 0, 1, 1, 0, 1}, -1);
+  scene.commit();
+  const Camera top = makeLookAtCamera(Vec3(0.5f, 0.5f, 10), Vec3(0.5f, 0.5f, 0), Vec3(0, 1, 0), 0.05f, "top");
+  const std::string map = writeRipples(tempDir("lobe_near_containment"));
+  const std::vector<std::string> field = {"map=" + map, "scale=0.2", "distance=0.3", "rays=4"};
+  auto with = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> p = field;
+    p.insert(p.end(), extra.begin(), extra.end());
+    return renderWith(scene, top, "containment", p, passSettings(16, 16, 16));
+  };
+  expectRises(with({}), with({"near=0.2"}), "containment");
+  expectRises(with({"spread=0.8"}), with({"spread=0.8", "near=0.2"}), "containment, spread 0.8");
+}
+
 // Explicit defaults are the defaults: the same image bit for bit for every
 // integrator that has the controls (and they are what the code before them
 // did: the warp is checked in ConeWarp, the sign 1 and tnear 0 are exact).
