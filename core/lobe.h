@@ -29,6 +29,8 @@
 namespace obscura {
 
 // One hit's lobe: what its directions and its below-surface test use.
+// spawnOrigin (core/surface.h) needs no sign: it offsets the origin to the
+// side the direction points to, whichever way ng faces.
 struct Lobe {
   Frame frame;        // about sign * ns
   Vec3 ng;            // sign * ng: the plane that bounds the lobe
