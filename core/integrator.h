@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "core/lobe.h"
 #include "core/params.h"
 #include "core/scene.h"
 #include "core/sampler.h"
@@ -112,35 +113,37 @@ class IntegratorContext {
 };
 
 // Direction k of `rays` drawn for hit h with density cos(theta)/pi about its
-// shading normal (docs/math.md §1); `frame` = Frame::fromNormal(h.ns). The
-// pixel's (sample, ray) pairs index one sequence, so all of a pixel's rays
-// are jointly stratified.
-inline Vec3 cosineDirection(const SurfaceHit& h, const Frame& frame, uint32_t rays, uint32_t k) {
-  const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays + k, kFirstIntegratorDim);
-  return frame.toWorld(squareToCosineHemisphere(s.u, s.v));
+// shading normal (docs/math.md §1), or about the lobe's normal and within
+// its cone (docs/math.md §11); `lobe` = LobeControls::at(h). The pixel's
+// (sample, ray) pairs index one sequence, so all of a pixel's rays are
+// jointly stratified.
+inline Vec3 cosineDirection(const SurfaceHit& h, const Lobe& lobe, uint32_t rays, uint32_t k) {
+  return lobe.direction(Sampler::get2D(h.pixelKey, h.sampleIndex * rays + k, kFirstIntegratorDim));
 }
 
 // For each hit, `rays` any-hit rays along cosineDirection k = 0..rays-1,
-// with tfar = R: the visibility rays of AO-style estimators, ray
+// over (controls.tnear, R]: the visibility rays of AO-style estimators, ray
 // i * rays + k belonging to hits[i].
-inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, OcclusionBatch& batch) {
+inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, const LobeControls& controls,
+                           OcclusionBatch& batch) {
   for (const SurfaceHit& h : hits) {
-    const Frame frame = Frame::fromNormal(h.ns);
+    const Lobe lobe = controls.at(h);
     for (uint32_t k = 0; k < rays; ++k) {
-      const Vec3 w = cosineDirection(h, frame, rays, k);
-      batch.push(spawnOrigin(h, w), w, 0.0f, R, h.object);
+      const Vec3 w = cosineDirection(h, lobe, rays, k);
+      batch.push(spawnOrigin(h, w), w, controls.tnear, R, h.object);
     }
   }
 }
 
 // out[i].num = the fraction of hits[i]'s rays (rays i * rays + k of an
-// any-hit batch) whose direction is open, as a grey estimate.
+// any-hit batch) whose direction is open (on the lobe's side of the
+// surface, and unoccluded), as a grey estimate.
 inline void writeMeanVisibility(std::span<const SurfaceHit> hits, const OcclusionBatch& batch, uint32_t rays,
-                                SampleEstimate* out) {
+                                const LobeControls& controls, SampleEstimate* out) {
   size_t r = 0;
   for (size_t i = 0; i < hits.size(); ++i) {
     uint32_t open = 0;
-    for (uint32_t k = 0; k < rays; ++k, ++r) open += openDirection(hits[i], batch, r) ? 1U : 0U;
+    for (uint32_t k = 0; k < rays; ++k, ++r) open += controls.open(hits[i], batch, r) ? 1U : 0U;
     const float v = sampleMean(double(open), rays);
     out[i].num = Vec3(v, v, v);
   }

@@ -50,6 +50,8 @@ class ParamSet {
   // Every parameter's current value, as text, in declaration order.
   std::vector<std::pair<std::string, std::string>> values() const;
   const std::vector<ParamSpec>& specs() const { return specs_; }
+  // The integrator's name, as messages give it.
+  const std::string& owner() const { return owner_; }
 
  private:
   using Value = std::variant<double, int, bool, std::string>;

@@ -92,7 +92,10 @@ inline Vec3 spawnOrigin(const SurfaceHit& h, Vec3 d) {
 // parallel to the surface at the offset height eps, so whether it met the
 // neighbouring facets would depend on eps, not on the scene. A NaN direction
 // fails the comparison and is blocked as well.
-inline bool intoSurface(const SurfaceHit& h, Vec3 w) { return !(dot(w, h.ng) > 0.0f); }
+// The test itself, against a geometric normal ng (a lobe's, core/lobe.h,
+// which may face away from the hit's).
+inline bool intoSurface(Vec3 ng, Vec3 w) { return !(dot(w, ng) > 0.0f); }
+inline bool intoSurface(const SurfaceHit& h, Vec3 w) { return intoSurface(h.ng, w); }
 
 // An any-hit ray i of `batch` that was spawned from h: is its direction open?
 template <class Batch>

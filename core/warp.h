@@ -28,24 +28,47 @@ inline void squareToConcentricDisk(float u, float v, float& dx, float& dy) {
   dy = r * std::sin(phi);
 }
 
-// Direction with density cos(theta)/pi about +z (Malley's method: project the
-// uniform disk up to the hemisphere). docs/math.md §1: with this density
-// the estimator of W = (1/pi) int V cos dw is the plain mean of V.
-inline Vec3 squareToCosineHemisphere(float u, float v) {
+// Direction with density cos(theta) / (pi sin^2(thetaMax)) over the cone
+// theta < thetaMax about +z, from sinThetaMax = sin(thetaMax) in (0, 1]
+// (the `spread` lobe, docs/math.md §11). Malley's method again: a point
+// uniform on the disk of radius s = sinThetaMax (density 1/(pi s^2) per unit
+// area) projected straight up to the unit hemisphere lands at
+// z = sqrt(1 - r^2) = cos(theta), r = sin(theta) <= s, so inside the cone; the
+// projection's area element is dA = cos(theta) dw, hence the density
+// cos(theta)/(pi s^2) per solid angle, which integrates to 1 over the cone.
+// The uniform disk of radius s is the unit concentric disk scaled by s (area
+// preserving up to the constant s^2, so stratification survives).
+// s = 1 is the cosine hemisphere, with the arithmetic of the hemisphere warp
+// before the cone existed: x * 1.0f == x exactly in IEEE arithmetic.
+inline Vec3 squareToCosineCone(float u, float v, float sinThetaMax) {
   float x, y;
   squareToConcentricDisk(u, v, x, y);
+  x *= sinThetaMax;
+  y *= sinThetaMax;
   const float z = std::sqrt(std::max(0.0f, 1.0f - x * x - y * y));
   return {x, y, z};
 }
 
-// Direction with uniform density 1/(2 pi) over the hemisphere about +z
-// (z = cos(theta) is uniform on [0, 1]).
-inline Vec3 squareToUniformHemisphere(float u, float v) {
-  const float z = u;
+// Direction with density cos(theta)/pi about +z (Malley's method: project the
+// uniform disk up to the hemisphere). docs/math.md §1: with this density
+// the estimator of W = (1/pi) int V cos dw is the plain mean of V. The cone
+// of half-angle pi/2, exactly (see above).
+inline Vec3 squareToCosineHemisphere(float u, float v) { return squareToCosineCone(u, v, 1.0f); }
+
+// Direction with uniform density 1/(2 pi (1 - cos(thetaMax))) over the cone
+// theta < thetaMax about +z: z = cos(theta) uniform on [cosThetaMax, 1]
+// (Archimedes: equal z-slabs of the sphere have equal area). cosThetaMax = 0
+// gives z = 0 + u * 1 == u exactly.
+inline Vec3 squareToUniformCone(float u, float v, float cosThetaMax) {
+  const float z = cosThetaMax + u * (1.0f - cosThetaMax);
   const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
   const float phi = 2.0f * kPi * v;
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
+
+// Direction with uniform density 1/(2 pi) over the hemisphere about +z
+// (z = cos(theta) is uniform on [0, 1]): the cone of half-angle pi/2.
+inline Vec3 squareToUniformHemisphere(float u, float v) { return squareToUniformCone(u, v, 0.0f); }
 
 // Pixel reconstruction by filter importance sampling: each camera sample is
 // offset from the pixel centre with a density equal to the normalised filter,

@@ -51,7 +51,7 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
   for (size_t i = 0; i < hits.size(); ++i)
     for (uint32_t k = 0; k < rays; ++k) {
       PathState& p = s.paths.emplace_back();
-      p.x = hits[i];
+      p.x = lobe.oriented(hits[i]);
       p.x.sampleIndex = hits[i].sampleIndex * rays + k;
       p.throughput = splat(1.0);
       p.sum = splat(0.0);
@@ -73,16 +73,21 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
   for (uint32_t bounce = 0; !s.paths.empty(); ++bounce) {
     const bool last = bounce >= std::min(depth, kMaxBounces);
     const uint32_t dim = kFirstIntegratorDim + 4 * bounce;
+    // The pass's lobe at bounce 0 (p.x is already on its side), the cosine
+    // hemisphere after.
+    const float sinThetaMax = bounce == 0 ? lobe.sinThetaMax : 1.0f;
+    const float tnear = bounce == 0 ? lobe.tnear : 0.0f;
     IntersectBatch& batch = ctx.intersectBatch(s.paths.size());
     for (PathState& p : s.paths) {
       const Sample2 u = Sampler::get2D(p.x.pixelKey, p.x.sampleIndex, dim);
-      const Vec3 w = Frame::fromNormal(p.x.ns).toWorld(squareToCosineHemisphere(u.u, u.v));
+      const Vec3 w = Frame::fromNormal(p.x.ns).toWorld(squareToCosineCone(u.u, u.v, sinThetaMax));
       float tfar = mu.tfar();
       if (estimator == Estimator::Occlusion && !mu.zeroRadius())
         tfar = mu.segment(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 1));
       p.self = intoSurface(p.x, w);
+      // A segment shorter than near (tnear > tfar) is inactive: a miss, open.
       if (tfar > 0.0f && !p.self)
-        batch.push(spawnOrigin(p.x, w), w, 0.0f, tfar, p.x.object);
+        batch.push(spawnOrigin(p.x, w), w, tnear, tfar, p.x.object);
       else  // blocked by the surface itself, or an empty segment: not traced
         batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f, p.x.object);
     }

@@ -53,6 +53,12 @@
 // Roulette needs tail=zero (a divided throughput breaks the S + A = 1 - T
 // identity the closed tail relies on).
 //
+// Lobe controls (docs/math.md §11): the path starts from the camera hit
+// turned to the lobe's side (LobeControls::oriented), so with inside=true
+// its first vertex - and a continuation from it after a direction blocked
+// by the surface itself - lies on the inside; bounce 0 draws from the cone
+// of `spread` and ignores occluders closer than `near`.
+//
 // Sample dimensions: bounce b draws its direction from the 2D pair
 // kFirstIntegratorDim + 4b, the occlusion estimator's r from the 1D
 // dimension kFirstIntegratorDim + 4b + 1 and roulette from + 4b + 2, all at
@@ -81,6 +87,10 @@ struct AmbientPaths {
   uint32_t depth = 0;          // bounces after the first segment; kUnlimited with roulette
   bool closedTail = true;      // tail=closed (ratio) or tail=zero (plain mean)
   bool roulette = false;
+  // The first bounce's lobe (inside, spread, near; core/lobe.h): the camera
+  // hit's side, cone and near clip. Later bounces sample the full cosine
+  // hemisphere from tnear 0 (they are light transport, not the pass's lobe).
+  LobeControls lobe;
 
   // Writes out[i] for every camera hit (num and den, see above).
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const;

@@ -7,9 +7,12 @@
 // the plain mean of the visibility: AO ~ (1/n) Sum_i V_R(x, w_i). Only
 // any-hit rays are traced: AO never needs the occluder itself.
 //
+// inside, spread and near shape the lobe (core/lobe.h, docs/math.md §11):
+// AO(x) = (1/(pi sin^2 thetaMax)) Int_cone V_R,near cos dw about +-n.
+//
 // Surfaces are opaque: a direction below the geometric surface (possible
 // when the shading normal tilts away from the geometric one) is blocked by
-// the surface itself, whatever the ray finds (openDirection, core/surface.h).
+// the surface itself, whatever the ray finds (LobeControls::open, core/lobe.h).
 #include <cmath>
 #include <limits>
 
@@ -21,18 +24,20 @@ namespace {
 
 class AmbientOcclusion final : public Integrator {
  public:
-  AmbientOcclusion(float distance, int rays) : distance_(distance), rays_(uint32_t(rays)) {}
+  AmbientOcclusion(float distance, int rays, LobeControls lobe)
+      : distance_(distance), rays_(uint32_t(rays)), lobe_(lobe) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
-    pushCosineRays(hits, rays_, distance_, batch);
+    pushCosineRays(hits, rays_, distance_, lobe_, batch);
     ctx.trace(batch);
-    writeMeanVisibility(hits, batch, rays_, out);
+    writeMeanVisibility(hits, batch, rays_, lobe_, out);
   }
 
  private:
   float distance_;
   uint32_t rays_;
+  LobeControls lobe_;
 };
 
 IntegratorDescriptor aoDescriptor() {
@@ -45,12 +50,13 @@ IntegratorDescriptor aoDescriptor() {
       {.name = "rays", .type = ParamType::Int, .defaultValue = "1", .min = 1, .max = 65536,
        .doc = "AO rays per camera sample"},
   };
+  addLobeParams(d.params);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const double R = p.getFloat("distance");
     // A finite R beyond float range is infinity for Embree.
     const float r = R > double(std::numeric_limits<float>::max()) ? kInfinity : float(R);
-    return std::make_unique<AmbientOcclusion>(r, p.getInt("rays"));
+    return std::make_unique<AmbientOcclusion>(r, p.getInt("rays"), lobeFromParams(p, R));
   };
   return d;
 }

@@ -62,6 +62,12 @@
 // - R must be finite (except for the exponential falloff, whose sampled r is
 //   always finite): the test points must be at finite distances.
 //
+// Lobe controls (core/lobe.h, docs/math.md §11): `spread` narrows the cosine
+// lobe about n_d to its cone; `near` ignores occluders closer than near - the
+// macro ray's tnear, and test points at r i/m < near are skipped (a segment
+// shorter than near is open). No `inside`: the hemisphere behind the
+// displaced surface starts inside the height field, every sample closed.
+//
 // Sampling: the direction of sample k of a camera sample is the Sobol' pair
 // kFirstIntegratorDim and r the 1D dimension kFirstIntegratorDim + 1, both
 // indexed by sampleIndex * rays + k - the very numbers `obscurance` draws,
@@ -108,8 +114,9 @@ class Displacement {
 
 class Containment final : public Integrator {
  public:
-  Containment(Displacement field, Membership mu, int rays, int steps, bool transfer)
-      : field_(std::move(field)), mu_(mu), rays_(uint32_t(rays)), steps_(uint32_t(steps)), transfer_(transfer) {}
+  Containment(Displacement field, Membership mu, int rays, int steps, bool transfer, LobeControls lobe)
+      : field_(std::move(field)), mu_(mu), rays_(uint32_t(rays)), steps_(uint32_t(steps)), transfer_(transfer),
+        lobe_(lobe) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const override {
     if (transfer_) return estimateTransfer(hits, ctx, W);
@@ -186,6 +193,7 @@ class Containment final : public Integrator {
     const double wa = dot(w, L.ea), wb = dot(w, L.eb), wz = dot(w, L.ez);
     for (uint32_t i = 1; i <= steps_; ++i) {
       const double t = double(r) * double(i) / double(steps_);
+      if (t < double(lobe_.tnear)) continue;  // nearer than `near`: ignored
       if (L.d0 + t * wz < field_(L.u + t * wa, L.v + t * wb)) {  // inside (I0 = 0)
         if (su) *su = L.u + t * wa, *sv = L.v + t * wb;
         return false;
@@ -213,11 +221,11 @@ class Containment final : public Integrator {
       const bool frame = localFrame(h, ctx, L);
       if (!frame) noFrame(h, ctx);
       // Without a frame, obscurance's lobe about the shading normal.
-      const Frame lobe = frame ? L.lobe : Frame::fromNormal(h.ns);
+      const Frame lobe = frame ? L.lobe : lobe_.at(h).frame;
       for (uint32_t k = 0; k < rays_; ++k, ++j) {
         const uint32_t index = h.sampleIndex * rays_ + k;
         const Sample2 s2 = Sampler::get2D(h.pixelKey, index, kFirstIntegratorDim);
-        const Vec3 w = lobe.toWorld(squareToCosineHemisphere(s2.u, s2.v));
+        const Vec3 w = lobe.toWorld(squareToCosineCone(s2.u, s2.v, lobe_.sinThetaMax));
         const float r = mu_.segment(Sampler::get1D(h.pixelKey, index, kFirstIntegratorDim + 1));
         const Vec3 o = spawnOrigin(h, w);
         double su, sv;
@@ -229,7 +237,7 @@ class Containment final : public Integrator {
           closedBy[j] = h.albedo;
           batch.push(o, w, kInfinity, 0.0f, h.object);
         } else if (r > 0.0f && !intoSurface(h, w)) {
-          batch.push(o, w, 0.0f, r, h.object);
+          batch.push(o, w, lobe_.tnear, r, h.object);
         } else {
           batch.push(o, w, kInfinity, 0.0f, h.object);  // empty segment, or below the macro plane: open
         }
@@ -259,13 +267,13 @@ class Containment final : public Integrator {
     for (uint32_t k = 0; k < rays_; ++k) {
       const uint32_t index = h.sampleIndex * rays_ + k;
       const Sample2 s = Sampler::get2D(h.pixelKey, index, kFirstIntegratorDim);
-      const Vec3 w = L.lobe.toWorld(squareToCosineHemisphere(s.u, s.v));
+      const Vec3 w = L.lobe.toWorld(squareToCosineCone(s.u, s.v, lobe_.sinThetaMax));
       const float r = mu_.segment(Sampler::get1D(h.pixelKey, index, kFirstIntegratorDim + 1));
       const Vec3 o = spawnOrigin(h, w);
       if (!outside(L, w, r))
         batch.push(o, w, kInfinity, -kInfinity, h.object);  // closed by the height field
       else if (r > 0.0f && !intoSurface(h, w))
-        batch.push(o, w, 0.0f, r, h.object);  // the macro geometry decides
+        batch.push(o, w, lobe_.tnear, r, h.object);  // the macro geometry decides (r < near: inactive, open)
       else  // empty segment, or below the macro plane: open
         batch.push(o, w, kInfinity, 0.0f, h.object);
     }
@@ -273,14 +281,14 @@ class Containment final : public Integrator {
 
   // No uv frame: obscurance's occlusion estimator on the macro geometry.
   void pushPlain(const SurfaceHit& h, OcclusionBatch& batch) const {
-    const Frame frame = Frame::fromNormal(h.ns);
+    const Lobe lobe = lobe_.at(h);
     for (uint32_t k = 0; k < rays_; ++k) {
-      const Vec3 w = cosineDirection(h, frame, rays_, k);
+      const Vec3 w = cosineDirection(h, lobe, rays_, k);
       const float r = mu_.segment(Sampler::get1D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim + 1));
-      if (intoSurface(h, w))
+      if (lobe.blocked(w))
         batch.push(spawnOrigin(h, w), w, kInfinity, -kInfinity, h.object);  // the surface itself, d = 0
       else if (r > 0.0f)
-        batch.push(spawnOrigin(h, w), w, 0.0f, r, h.object);
+        batch.push(spawnOrigin(h, w), w, lobe_.tnear, r, h.object);
       else
         batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
     }
@@ -291,6 +299,7 @@ class Containment final : public Integrator {
   Membership mu_;
   uint32_t rays_, steps_;
   bool transfer_;
+  LobeControls lobe_;  // spread and near; never inside
 };
 
 IntegratorDescriptor containmentDescriptor() {
@@ -318,6 +327,13 @@ IntegratorDescriptor containmentDescriptor() {
               "0: nothing occludes";
     d.params.push_back(std::move(s));
   }
+  addLobeParams(d.params, LobeSet::SpreadNear);
+  // What the controls mean here (no `inside`: behind the displaced surface
+  // is inside its own height field).
+  for (ParamSpec& s : d.params) {
+    if (s.name == "spread") s.doc += "; the cone is about the displaced normal (containment has no `inside`)";
+    if (s.name == "near") s.doc += "; containment test points nearer than it are skipped too";
+  }
   d.needs = [](const ParamSet& p) { return IntegratorNeeds{.albedo = p.getBool("albedo")}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const std::string& map = p.getString("map");
@@ -327,7 +343,8 @@ IntegratorDescriptor containmentDescriptor() {
       throw Error("integrator 'containment': parameter 'distance' must be finite (and within float range) for "
                   "falloff " + p.getEnum("falloff") + ": the containment test needs a bounded neighbourhood R");
     return std::make_unique<Containment>(Displacement(map, p.getFloat("scale"), p.getFloat("midlevel")), mu,
-                                         p.getInt("rays"), p.getInt("steps"), p.getBool("albedo"));
+                                         p.getInt("rays"), p.getInt("steps"), p.getBool("albedo"),
+                                         lobeFromParams(p, p.getFloat("distance")));
   };
   return d;
 }

@@ -11,6 +11,10 @@
 // converged AO value and the pixel's mean albedo (Integrator::resolvePixel),
 // not per camera sample: mapping a noisy one-ray estimate would be biased.
 // Directions below the geometric plane are blocked by the surface itself.
+// inside, spread and near shape the AO's lobe (core/lobe.h, docs/math.md
+// §11): gtao's cosine lobe within the cone, improved's uniform one within it
+// (the fraction of the cone's solid angle that is open). The mappings were
+// fitted to full-hemisphere AO; fed a narrowed lobe they are extrapolated.
 #include <limits>
 
 #include "core/plugin.h"
@@ -24,24 +28,25 @@ enum class Mapping { Gtao, Improved };
 
 class MultiBounce final : public Integrator {
  public:
-  MultiBounce(Mapping mapping, float R, uint32_t rays) : mapping_(mapping), R_(R), rays_(rays) {}
+  MultiBounce(Mapping mapping, float R, uint32_t rays, LobeControls lobe)
+      : mapping_(mapping), R_(R), rays_(rays), lobe_(lobe) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
     if (mapping_ == Mapping::Gtao) {
-      pushCosineRays(hits, rays_, R_, batch);
+      pushCosineRays(hits, rays_, R_, lobe_, batch);
     } else {
       for (const SurfaceHit& h : hits) {
-        const Frame frame = Frame::fromNormal(h.ns);
+        const Frame frame = lobe_.at(h).frame;
         for (uint32_t k = 0; k < rays_; ++k) {
           const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
-          const Vec3 w = frame.toWorld(squareToUniformHemisphere(s.u, s.v));
-          batch.push(spawnOrigin(h, w), w, 0.0f, R_, h.object);
+          const Vec3 w = frame.toWorld(squareToUniformCone(s.u, s.v, lobe_.cosThetaMax));
+          batch.push(spawnOrigin(h, w), w, lobe_.tnear, R_, h.object);
         }
       }
     }
     ctx.trace(batch);
-    writeMeanVisibility(hits, batch, rays_, out);
+    writeMeanVisibility(hits, batch, rays_, lobe_, out);
   }
 
   Vec3 resolvePixel(Vec3 W, Vec3 albedo) const override {
@@ -55,6 +60,7 @@ class MultiBounce final : public Integrator {
   Mapping mapping_;
   float R_;
   uint32_t rays_;
+  LobeControls lobe_;
 };
 
 IntegratorDescriptor multibounceDescriptor() {
@@ -69,10 +75,12 @@ IntegratorDescriptor multibounceDescriptor() {
       {.name = "rays", .type = ParamType::Int, .defaultValue = "1", .min = 1, .max = 65536,
        .doc = "AO rays per camera sample"},
   };
+  addLobeParams(d.params);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const Mapping m = p.getEnum("mapping") == "gtao" ? Mapping::Gtao : Mapping::Improved;
-    return std::make_unique<MultiBounce>(m, toRayDistance(p.getFloat("distance")), uint32_t(p.getInt("rays")));
+    return std::make_unique<MultiBounce>(m, toRayDistance(p.getFloat("distance")), uint32_t(p.getInt("rays")),
+                                         lobeFromParams(p, p.getFloat("distance")));
   };
   return d;
 }

@@ -16,6 +16,11 @@
 //              mu(d) = Int_0^inf mu'(r) [d > r] dr = P(r < d).
 //
 // Memberships, their sampling and their edge cases: integrators/membership.h.
+// inside, spread and near shape the lobe (core/lobe.h, docs/math.md §11);
+// with near, d is the distance to the first occluder beyond near (the
+// distance estimator's tnear; the occlusion estimator tests [near, r], an
+// r below near being an empty segment), and the two estimators still agree:
+// P(r < d) = mu(d) for that d.
 //
 // Conventions at the edges of the parameter space:
 // - Embree accepts a hit at t == tfar, so an occluder exactly at R counts
@@ -53,7 +58,8 @@ namespace {
 
 class Obscurance final : public Integrator {
  public:
-  Obscurance(Membership mu, Estimator estimator, int rays) : mu_(mu), estimator_(estimator), rays_(uint32_t(rays)) {}
+  Obscurance(Membership mu, Estimator estimator, int rays, LobeControls lobe)
+      : mu_(mu), estimator_(estimator), rays_(uint32_t(rays)), lobe_(lobe) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const override {
     if (mu_.zeroRadius())  // only the surface itself occludes
@@ -76,10 +82,10 @@ class Obscurance final : public Integrator {
   void estimateZeroRadius(std::span<const SurfaceHit> hits, SampleEstimate* W) const {
     for (size_t i = 0; i < hits.size(); ++i) {
       const SurfaceHit& h = hits[i];
-      const Frame frame = Frame::fromNormal(h.ns);
+      const Lobe lobe = lobe_.at(h);
       double open = 0.0;
       for (uint32_t k = 0; k < rays_; ++k)
-        open += intoSurface(h, cosineDirection(h, frame, rays_, k)) ? 0.0 : 1.0;
+        open += lobe.blocked(cosineDirection(h, lobe, rays_, k)) ? 0.0 : 1.0;
       setGrey(W[i], open, rays_);
     }
   }
@@ -87,13 +93,13 @@ class Obscurance final : public Integrator {
   void estimateDistance(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const {
     IntersectBatch& batch = ctx.intersectBatch(hits.size() * rays_);
     for (const SurfaceHit& h : hits) {
-      const Frame frame = Frame::fromNormal(h.ns);
+      const Lobe lobe = lobe_.at(h);
       for (uint32_t k = 0; k < rays_; ++k) {
-        const Vec3 w = cosineDirection(h, frame, rays_, k);
-        if (intoSurface(h, w))
+        const Vec3 w = cosineDirection(h, lobe, rays_, k);
+        if (lobe.blocked(w))
           batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
         else
-          batch.push(spawnOrigin(h, w), w, 0.0f, mu_.tfar(), h.object);
+          batch.push(spawnOrigin(h, w), w, lobe_.tnear, mu_.tfar(), h.object);
       }
     }
     ctx.trace(batch);
@@ -101,7 +107,7 @@ class Obscurance final : public Integrator {
     for (size_t i = 0; i < hits.size(); ++i) {
       double sum = 0.0;
       for (uint32_t k = 0; k < rays_; ++k, ++r) {
-        if (intoSurface(hits[i], batch.dir(r))) continue;  // mu = 0
+        if (lobe_.blocked(hits[i], batch.dir(r))) continue;  // mu = 0
         sum += batch.hit(r) ? mu_(double(batch.t(r))) : 1.0;
       }
       setGrey(W[i], sum, rays_);
@@ -111,26 +117,28 @@ class Obscurance final : public Integrator {
   void estimateOcclusion(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* W) const {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
     for (const SurfaceHit& h : hits) {
-      const Frame frame = Frame::fromNormal(h.ns);
+      const Lobe lobe = lobe_.at(h);
       for (uint32_t k = 0; k < rays_; ++k) {
-        const Vec3 w = cosineDirection(h, frame, rays_, k);
+        const Vec3 w = cosineDirection(h, lobe, rays_, k);
         // xi from its own dimension, same index as the direction.
         const double xi = Sampler::get1D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim + 1);
         const float r = mu_.segment(xi);
-        if (r > 0.0f && !intoSurface(h, w))
-          batch.push(spawnOrigin(h, w), w, 0.0f, r, h.object);
+        // A segment shorter than near (tnear > r) is inactive too: open.
+        if (r > 0.0f && !lobe.blocked(w))
+          batch.push(spawnOrigin(h, w), w, lobe_.tnear, r, h.object);
         else  // inactive (tnear > tfar): Embree skips it and leaves tfar = 0
           batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
       }
     }
     ctx.trace(batch);
     // An empty segment (r = 0) is unoccluded: its inactive ray reads so.
-    writeMeanVisibility(hits, batch, rays_, W);
+    writeMeanVisibility(hits, batch, rays_, lobe_, W);
   }
 
   Membership mu_;
   Estimator estimator_;
   uint32_t rays_;
+  LobeControls lobe_;
 };
 
 IntegratorDescriptor obscuranceDescriptor() {
@@ -138,9 +146,11 @@ IntegratorDescriptor obscuranceDescriptor() {
   d.name = "obscurance";
   d.doc = "Obscurance: cosine-weighted mean of a falloff mu(d) of the distance to the first occluder (AO with fuzzy membership).";
   d.params = membershipParams("obscurance rays per camera sample");
+  addLobeParams(d.params);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
-    return std::make_unique<Obscurance>(Membership::fromParams(p), estimatorFromParams(p), p.getInt("rays"));
+    return std::make_unique<Obscurance>(Membership::fromParams(p), estimatorFromParams(p), p.getInt("rays"),
+                                        lobeFromParams(p, p.getFloat("distance")));
   };
   return d;
 }

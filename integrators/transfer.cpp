@@ -12,7 +12,9 @@
 // test [AT 9] and a_i the albedo of the closest occluder on the segment.
 // depth = N >= 1: the recursive transfer, N bounces of the path estimator
 // closed by the closed form (tail=closed) or by 0 (tail=zero).
-// Both live in integrators/ambient_paths.h, shared with `gi`.
+// Both live in integrators/ambient_paths.h, shared with `gi`. inside,
+// spread and near shape the first bounce's lobe in both (core/lobe.h,
+// docs/math.md §11); later bounces are light transport, not the pass's lobe.
 //
 // Properties (tested): W <= 1 for albedo <= 1; W == 1 exactly when every
 // albedo is 1 (white furnace); W == obscurance bit for bit when every
@@ -37,6 +39,7 @@ IntegratorDescriptor transferDescriptor() {
                       .doc = "bounces traced before the tail; 0 = the closed form"});
   d.params.push_back({.name = "tail", .type = ParamType::Enum, .defaultValue = "closed", .choices = {"closed", "zero"},
                       .doc = "after depth bounces: closed = the closed form (local approximation), zero = truncate"});
+  addLobeParams(d.params);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     AmbientPaths paths{.mu = Membership::fromParams(p)};
@@ -45,6 +48,7 @@ IntegratorDescriptor transferDescriptor() {
     paths.depth = uint32_t(p.getInt("depth"));
     paths.closedTail = p.getEnum("tail") == "closed";
     paths.roulette = false;
+    paths.lobe = lobeFromParams(p, p.getFloat("distance"));
     return std::make_unique<AmbientPathIntegrator>(paths);
   };
   return d;

@@ -36,7 +36,7 @@ TEST(Plugin, BentNormalLoadsAndIsListed) {
   loadPlugin(OBSCURA_BENT_PLUGIN);
   loadPlugin(OBSCURA_BENT_PLUGIN);  // the same library twice is one plugin
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find("bent-normal");
-  EXPECT_EQ(d.params.size(), 2u);
+  EXPECT_EQ(d.params.size(), 5u);  // distance, rays and the lobe controls inside, spread, near
   EXPECT_NO_THROW(IntegratorRegistry::instance().find("ao"));
 }
 
@@ -187,6 +187,13 @@ TEST(Plugin, ReadmeRowMatchesThePlugin) {
 // Unoccluded plane: B = E[w] under cos/pi about n = (0,0,2/3) in the normal's
 // frame. Per-ray variances: Var(w_z) = E[z^2] - 4/9 = 1/2 - 4/9 = 1/18,
 // Var(w_x) = Var(w_y) = E[x^2] = 1/4.
+// The lobe controls (core/lobe.h, docs/math.md §11) in the plugin, which
+// inlines the core's lobe code: explicit defaults are the defaults bit for
+// bit; the inside lobe is the outside one mirrored - B_z exactly negated,
+// since both frames put the warp's z on +-z alone (the normal is exactly
+// +-z, so the tangents add zeros there) - and the cone of sin(thetaMax) = s
+// has B_z = E[cos] = 2 (1 - (1 - s^2)^(3/2)) / (3 s^2), per-ray
+// Var(z) = E[cos^2] - B_z^2 = 1 - s^2/2 - B_z^2.
 TEST(Plugin, BentNormalOfAnOpenPlane) {
   loadPlugin(OBSCURA_BENT_PLUGIN);
   Scene scene;
@@ -194,7 +201,11 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
   scene.commit();
   const Camera cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
   const int w = 32, h = 32, spp = 32, rays = 2;
-  const Film film = renderWith(scene, cam, "bent-normal", {"rays=" + std::to_string(rays)}, passSettings(w, h, spp));
+  const auto run = [&](std::vector<std::string> p) {
+    p.push_back("rays=" + std::to_string(rays));
+    return renderWith(scene, cam, "bent-normal", p, passSettings(w, h, spp));
+  };
+  const Film film = run({});
   size_t n = 0;
   const double bx = meanCovered(film, kR, &n), by = meanCovered(film, kG), bz = meanCovered(film, kB);
   ASSERT_EQ(n, size_t(w * h));
@@ -202,6 +213,16 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
   EXPECT_NEAR(bx, 0.0, 4.0 * std::sqrt(0.25 / N));
   EXPECT_NEAR(by, 0.0, 4.0 * std::sqrt(0.25 / N));
   EXPECT_NEAR(bz, 2.0 / 3.0, 4.0 * std::sqrt(1.0 / 18.0 / N));
+
+  const Film defaults = run({"inside=false", "spread=1", "near=0"}), inside = run({"inside=true"});
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      for (int c = 0; c < 4; ++c) ASSERT_EQ(defaults.at(c, x, y), film.at(c, x, y)) << x << "," << y << " c " << c;
+      ASSERT_EQ(inside.at(kB, x, y), -film.at(kB, x, y)) << x << "," << y;
+    }
+  const double s = std::sin(0.5 * M_PI / 2);
+  const double cone = 2 * (1 - std::pow(1 - s * s, 1.5)) / (3 * s * s);
+  EXPECT_NEAR(meanCovered(run({"spread=0.5"}), kB), cone, 4.0 * std::sqrt((1 - s * s / 2 - cone * cone) / N));
 }
 
 // From the wall point opposite the hole of the spherical cavity

@@ -9,6 +9,10 @@
 // It is NOT normalized: its length is the cosine-weighted "openness"
 // (2/3 on an unoccluded plane, where E[cos theta] = 2/3); the unit bent
 // normal a shader wants is normalize(RGB). Components lie in [-1, 1].
+// inside, spread and near shape the lobe (core/lobe.h, docs/math.md §11):
+// inside=true gives the mean open direction behind the surface; with spread
+// s = sin(thetaMax) < 1 an open plane's length is
+// E[cos theta] = 2 (1 - (1 - s^2)^(3/2)) / (3 s^2) (-> 1 as s -> 0).
 #include <cmath>
 #include <limits>
 
@@ -21,18 +25,18 @@ using namespace obscura;
 
 class BentNormal final : public Integrator {
  public:
-  BentNormal(float distance, uint32_t rays) : distance_(distance), rays_(rays) {}
+  BentNormal(float distance, uint32_t rays, LobeControls lobe) : distance_(distance), rays_(rays), lobe_(lobe) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
-    pushCosineRays(hits, rays_, distance_, batch);
+    pushCosineRays(hits, rays_, distance_, lobe_, batch);
     ctx.trace(batch);
     const float inv = 1.0f / float(rays_);
     size_t r = 0;
     for (size_t i = 0; i < hits.size(); ++i) {
       Vec3 sum(0, 0, 0);
       for (uint32_t k = 0; k < rays_; ++k, ++r)
-        if (openDirection(hits[i], batch, r)) sum += batch.dir(r);
+        if (lobe_.open(hits[i], batch, r)) sum += batch.dir(r);
       out[i].num = sum * inv;
     }
   }
@@ -40,6 +44,7 @@ class BentNormal final : public Integrator {
  private:
   float distance_;
   uint32_t rays_;
+  LobeControls lobe_;
 };
 
 IntegratorDescriptor bentNormalDescriptor() {
@@ -61,11 +66,12 @@ IntegratorDescriptor bentNormalDescriptor() {
   rays.max = 65536;
   rays.doc = "rays per camera sample";
   d.params = {distance, rays};
+  addLobeParams(d.params);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const double R = p.getFloat("distance");
     const float r = R > double(std::numeric_limits<float>::max()) ? INFINITY : float(R);
-    return std::make_unique<BentNormal>(r, uint32_t(p.getInt("rays")));
+    return std::make_unique<BentNormal>(r, uint32_t(p.getInt("rays")), lobeFromParams(p, R));
   };
   return d;
 }
