@@ -11,6 +11,10 @@
 //              (about half of each card open): a filter function per hit
 //              on a card
 //   blend      the cards BLEND with alpha 0.5 (no texture): a hashed coin per hit
+//   filtered   BLEND with alpha 1 - 2^-20: the filter runs on every card hit
+//              but (nearly) every hit stands, so rays do the opaque scene's
+//              traversal: the filter's own cost, apart from the longer paths
+//              of rays through cut-outs
 //   masks      roles that only set masks: the ground hidden from the
 //              camera, half the card groups not occluding
 //   scoped     every card group occlusion=others: the context filter runs
@@ -67,7 +71,7 @@ std::vector<unsigned char> leafTexturePng(int n) {
   return bytes;
 }
 
-enum class Cards { Opaque, Mask, Blend };
+enum class Cards { Opaque, Mask, Blend, Filtered };
 
 // The scene: ground (object 0) and kGroups card groups (objects 1..G).
 std::unique_ptr<Scene> foliage(int cards, Cards mode, const std::function<void(Scene&)>& roles,
@@ -79,9 +83,9 @@ std::unique_ptr<Scene> foliage(int cards, Cards mode, const std::function<void(S
     scene->textures.push_back(std::make_unique<Texture>(leaf, "leaf.png", true));
     m.texture = 0;
     m.alphaMode = AlphaMode::Mask;
-  } else if (mode == Cards::Blend) {
+  } else if (mode == Cards::Blend || mode == Cards::Filtered) {
     m.alphaMode = AlphaMode::Blend;
-    m.alpha = 0.5f;
+    m.alpha = mode == Cards::Blend ? 0.5f : 1.0f - 0x1p-20f;
   }
   scene->materials.push_back(m);
   scene->objects.push_back({"ground", {}});
@@ -145,6 +149,7 @@ int main(int argc, char** argv) {
         {"opaque", Cards::Opaque, {}},
         {"mask", Cards::Mask, {}},
         {"blend", Cards::Blend, {}},
+        {"filtered", Cards::Filtered, {}},
         {"masks", Cards::Opaque,
          [](Scene& s) {
            s.objects[0].roles.camera = false;

@@ -2,7 +2,6 @@
 
 #include <bit>
 
-#include "core/sampler.h"
 
 namespace obscura {
 
@@ -17,12 +16,26 @@ float AlphaSurface::alphaAt(uint32_t prim, float u, float v) const {
   return alpha * texture->sampleAlpha(t0[0] * w + t1[0] * u + t2[0] * v, t0[1] * w + t1[1] * u + t2[1] * v, wrapS, wrapT);
 }
 
+namespace {
+// SplitMix64's finalizer (Steele, Lea and Flood 2014): a bijection of 64-bit
+// words whose every output bit depends on every input bit.
+inline uint64_t mix64(uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+inline uint64_t pack(float a, float b) { return uint64_t(std::bit_cast<uint32_t>(a)) | uint64_t(std::bit_cast<uint32_t>(b)) << 32; }
+}  // namespace
+
 float blendSample(const float org[3], const float dir[3], uint32_t geomID, uint32_t primID, uint32_t instID) {
-  uint32_t h = 0x2c1b3c6dU;
-  for (int k = 0; k < 3; ++k) h = hashCombine(h, std::bit_cast<uint32_t>(org[k]));
-  for (int k = 0; k < 3; ++k) h = hashCombine(h, std::bit_cast<uint32_t>(dir[k]));
-  h = hashCombine(hashCombine(hashCombine(h, geomID), primID), instID);
-  return float(h >> 8) * 0x1p-24f;  // 24 bits: exactly representable, < 1
+  // The ray's six floats and the hit's three ids as four 64-bit words,
+  // chained through the finalizer (a quarter of the multiplies of hashing
+  // nine 32-bit words one by one: this runs for every candidate hit).
+  uint64_t h = mix64(pack(org[0], org[1]) ^ 0x2c1b3c6d5f7a9e13ULL);
+  h = mix64(h ^ pack(org[2], dir[0]));
+  h = mix64(h ^ pack(dir[1], dir[2]));
+  h = mix64(h ^ (uint64_t(geomID) | uint64_t(primID) << 32) ^ (uint64_t(instID) * 0x9e3779b97f4a7c15ULL));
+  return float(h >> 40) * 0x1p-24f;  // 24 bits: exactly representable, < 1
 }
 
 namespace {
