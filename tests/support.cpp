@@ -319,6 +319,18 @@ std::string writeRgbTexture(const std::string& path, int w, int h, const std::fu
   return path;
 }
 
+double cornerFormFactor(double X, double Y, double h) {
+  const double A = X / h, B = Y / h;
+  const double sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
+  return (A / sa * std::atan(B / sa) + B / sb * std::atan(A / sb)) / (2 * M_PI);
+}
+
+double rectFormFactor(double x0, double x1, double y0, double y1, double h, double px, double py) {
+  x0 -= px, x1 -= px, y0 -= py, y1 -= py;
+  return cornerFormFactor(x1, y1, h) - cornerFormFactor(x0, y1, h) - cornerFormFactor(x1, y0, h) +
+         cornerFormFactor(x0, y0, h);
+}
+
 std::string writeAlphaTexture(const std::string& path, int w, int h, const std::function<double(int, int)>& alpha) {
   std::vector<uint8_t> px(size_t(w) * size_t(h) * 4, 255);
   for (int y = 0; y < h; ++y)

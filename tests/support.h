@@ -97,6 +97,14 @@ struct PixelStats {
 };
 PixelStats pixelStats(const Film& film, int c);
 
+// Form factor from a floor point (normal +z) at the origin to the rectangle
+// [0, X] x [0, Y] parallel to the floor at height h: (1 / 2 pi) [A / sqrt(1 + A^2)
+// atan(B / sqrt(1 + A^2)) + B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = X / h,
+// B = Y / h. Odd in X and in Y, so a signed sum of four gives any rectangle.
+double cornerFormFactor(double X, double Y, double h);
+// The rectangle [x0, x1] x [y0, y1] at height h, seen from floor point (px, py).
+double rectFormFactor(double x0, double x1, double y0, double y1, double h, double px = 0, double py = 0);
+
 // Standard error of the mean of n Bernoulli(p) draws.
 inline double bernoulliStdErr(double p, double n) { return std::sqrt(std::max(p * (1 - p), 1e-12) / n); }
 

@@ -39,19 +39,9 @@
 namespace obscura::test {
 namespace {
 
-// Corner-rectangle form factor from a point at the foot of one corner of an
-// X x Y rectangle at height h, parallel to it; signed (odd in X and in Y),
-// so that signed sums give any rectangle.
-double cornerFormFactor(double X, double Y, double h) {
-  const double A = X / h, B = Y / h;
-  const double sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
-  return (A / sa * std::atan(B / sa) + B / sb * std::atan(A / sb)) / (2 * M_PI);
-}
-
 // F of the square |x|, |y| <= a at height h from the floor point (x0, y0).
 double slabFormFactor(double x0, double y0, double a, double h) {
-  return cornerFormFactor(a - x0, a - y0, h) - cornerFormFactor(-a - x0, a - y0, h) -
-         cornerFormFactor(a - x0, -a - y0, h) + cornerFormFactor(-a - x0, -a - y0, h);
+  return rectFormFactor(-a, a, -a, a, h, x0, y0);  // tests/support.h
 }
 
 // (1/pi) Int cos(theta) dw over the part of the slab seen from the floor

@@ -25,22 +25,7 @@
 namespace obscura::test {
 namespace {
 
-// Form factor from a floor point at the origin (normal +z) to the rectangle
-// [0, X] x [0, Y] at height h: (1 / 2 pi) [A / sqrt(1 + A^2) atan(B / sqrt(1 + A^2))
-// + B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = X / h, B = Y / h. It is
-// odd in X and in Y, so a rectangle anywhere is a signed sum of four.
-double cornerFormFactor(double X, double Y, double h) {
-  const double A = X / h, B = Y / h;
-  const double sa = std::sqrt(1 + A * A), sb = std::sqrt(1 + B * B);
-  return (A / sa * std::atan(B / sa) + B / sb * std::atan(A / sb)) / (2 * M_PI);
-}
-// The rectangle [x0, x1] x [y0, y1] at height h, seen from floor point (px, py).
-double rectFormFactor(double x0, double x1, double y0, double y1, double h, double px = 0, double py = 0) {
-  x0 -= px, x1 -= px, y0 -= py, y1 -= py;
-  return cornerFormFactor(x1, y1, h) - cornerFormFactor(x0, y1, h) - cornerFormFactor(x1, y0, h) +
-         cornerFormFactor(x0, y0, h);
-}
-
+// cornerFormFactor and rectFormFactor: tests/support.h.
 constexpr float kHalf = 1.0f, kHeight = 1.0f;  // slab half-size a and height h
 constexpr uint32_t kFloor = 0, kSlab = 1;
 
