@@ -1,5 +1,7 @@
 #include "core/film.h"
 
+#include "core/error.h"
+
 namespace obscura {
 
 const char* channelName(int c) {
@@ -10,11 +12,27 @@ const char* channelName(int c) {
 
 Film::Film(int width, int height, bool aovs) : width_(width), height_(height), aovs_(aovs) {
   planes_.resize(kChannelCount);
+  for (int c = 0; c < kChannelCount; ++c) names_.emplace_back(channelName(c));
   const int n = aovs ? int(kChannelCount) : 4;
   for (int c = 0; c < n; ++c) {
     channels_.push_back(c);
     planes_[c].assign(size_t(width) * size_t(height), 0.0f);
   }
+}
+
+int Film::addPlane(const std::string& name) {
+  if (find(name) >= 0) throw Error("two output channels are named '" + name + "'");
+  const int c = int(planes_.size());
+  names_.push_back(name);
+  planes_.emplace_back(size_t(width_) * size_t(height_), 0.0f);
+  channels_.push_back(c);
+  return c;
+}
+
+int Film::find(const std::string& name) const {
+  for (int c : channels_)
+    if (names_[size_t(c)] == name) return c;
+  return -1;
 }
 
 }  // namespace obscura

@@ -24,6 +24,7 @@ enum Channel : int {
   kChannelCount
 };
 
+// The name of a fixed channel (Channel); extra planes are named by the Film.
 const char* channelName(int c);
 
 // A rectangle of pixels [x0, x1) x [y0, y1): the render loops' tiles (the
@@ -54,8 +55,18 @@ class Film {
   int width() const { return width_; }
   int height() const { return height_; }
   bool hasAovs() const { return aovs_; }
-  // The channels stored, in file order (RGBA, then AOVs if enabled).
+  // The channels stored, in file order (RGBA, then AOVs if enabled, then
+  // extra planes in the order they were added).
   const std::vector<int>& channels() const { return channels_; }
+  // Adds a zero-filled plane named `name` (e.g. "ao.R" of a pass's layer,
+  // "CryptoObject00.R"), written after the fixed channels; returns its
+  // channel index (>= kChannelCount). Throws obscura::Error if the name is
+  // taken.
+  int addPlane(const std::string& name);
+  // The index of the plane called `name`, or -1.
+  int find(const std::string& name) const;
+  // The file name of channel c (a Channel or an added plane).
+  const std::string& name(int c) const { return names_[size_t(c)]; }
   float* plane(int c) { return planes_[c].data(); }
   const float* plane(int c) const { return planes_[c].data(); }
   float at(int c, int x, int y) const { return planes_[c][size_t(y) * width_ + x]; }
@@ -65,6 +76,7 @@ class Film {
   int width_ = 0, height_ = 0;
   bool aovs_ = true;
   std::vector<int> channels_;
+  std::vector<std::string> names_;
   std::vector<std::vector<float>> planes_;
 };
 

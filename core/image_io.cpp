@@ -56,7 +56,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   const int nc = int(chans.size());
   OIIO::ImageSpec spec(film.width(), film.height(), nc, options.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
   spec.channelnames.clear();
-  for (int c : chans) spec.channelnames.emplace_back(channelName(c));
+  for (int c : chans) spec.channelnames.emplace_back(film.name(c));
   spec.alpha_channel = 3;
   spec.z_channel = -1;
   for (int i = 0; i < nc; ++i)

@@ -33,10 +33,10 @@ TEST(Exr, FloatChannelsAndHeaderRoundTrip) {
   ASSERT_EQ(r.spec.nchannels, int(kChannelCount));
   EXPECT_EQ(r.spec.format, OIIO::TypeDesc::FLOAT);
   for (int c = 0; c < kChannelCount; ++c) {
-    ASSERT_TRUE(r.planes.count(channelName(c))) << channelName(c);
-    const auto& p = r.planes.at(channelName(c));
+    ASSERT_TRUE(r.planes.count(film.name(c))) << film.name(c);
+    const auto& p = r.planes.at(film.name(c));
     for (int y = 0; y < 3; ++y)
-      for (int x = 0; x < 5; ++x) EXPECT_EQ(p[size_t(y) * 5 + x], film.at(c, x, y)) << channelName(c);
+      for (int x = 0; x < 5; ++x) EXPECT_EQ(p[size_t(y) * 5 + x], film.at(c, x, y)) << film.name(c);
   }
   EXPECT_EQ(r.spec.get_string_attribute("obscura:integrator"), "ao");
   EXPECT_EQ(r.spec.get_int_attribute("obscura:spp"), 16);
@@ -53,7 +53,7 @@ TEST(Exr, HalfOutputIsWithinHalfPrecision) {
   const ReadBack r = readExr(dir + "/h.exr");
   EXPECT_EQ(r.spec.format, OIIO::TypeDesc::HALF);
   for (int c = 0; c < kChannelCount; ++c) {
-    const auto& p = r.planes.at(channelName(c));
+    const auto& p = r.planes.at(film.name(c));
     for (int y = 0; y < 3; ++y)
       for (int x = 0; x < 5; ++x) {
         const float v = film.at(c, x, y);
@@ -62,7 +62,7 @@ TEST(Exr, HalfOutputIsWithinHalfPrecision) {
           continue;
         }
         // Half has an 11-bit significand: relative rounding error <= 2^-11.
-        EXPECT_NEAR(p[size_t(y) * 5 + x], v, std::abs(v) * 0x1p-11f) << channelName(c);
+        EXPECT_NEAR(p[size_t(y) * 5 + x], v, std::abs(v) * 0x1p-11f) << film.name(c);
       }
   }
 }

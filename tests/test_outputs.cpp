@@ -75,10 +75,10 @@ TEST(Outputs, BandedExrRoundTripsEveryPixel) {
   const ReadBack r = readExr(dir + "/b.exr");
   ASSERT_TRUE(r.ok);
   for (int c : film.channels()) {
-    const std::vector<float>& p = r.planes.at(channelName(c));
+    const std::vector<float>& p = r.planes.at(film.name(c));
     for (int y = 0; y < film.height(); ++y)
       for (int x = 0; x < film.width(); ++x)
-        ASSERT_EQ(p[size_t(y) * film.width() + x], film.at(c, x, y)) << channelName(c) << " " << x << "," << y;
+        ASSERT_EQ(p[size_t(y) * film.width() + x], film.at(c, x, y)) << film.name(c) << " " << x << "," << y;
   }
 }
 
