@@ -147,6 +147,39 @@ std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string&
   return scene;
 }
 
+IntegratorSpec parseIntegratorSpec(const std::string& option, const std::string& text) {
+  IntegratorSpec c;
+  const std::string where = option + " '" + text + "': ";
+  const size_t colon = text.find(':');
+  c.integrator = text.substr(0, colon);
+  if (c.integrator.empty()) throw Error(where + "expected integrator[:key=value,...]");
+  const IntegratorDescriptor* desc = nullptr;
+  try {
+    desc = &IntegratorRegistry::instance().find(c.integrator);
+  } catch (const Error& e) {
+    throw Error(where + e.what());
+  }
+  ParamSet params(desc->params, desc->name);
+  if (colon != std::string::npos) {
+    std::stringstream ss(text.substr(colon + 1));
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      if (item.empty() || item.find('=') == std::string::npos || item.front() == '=')
+        throw Error(where + "expected key=value, got '" + item + "'");
+      try {
+        params.setAssignment(item);
+      } catch (const Error& e) {
+        throw Error(where + e.what());
+      }
+      c.assignments.push_back(item);
+    }
+    if (c.assignments.empty() || text.back() == ',') throw Error(where + "expected key=value after ':'");
+  }
+  c.canonical = c.integrator;
+  for (const auto& [k, v] : params.values()) c.canonical += ":" + k + "=" + v;
+  return c;
+}
+
 ExrOptions passHeader(const PassInfo& i) {
   ExrOptions exr;
   const auto str = [&](const std::string& k, const std::string& v) { exr.attributes.push_back({k, v}); };
@@ -161,6 +194,24 @@ ExrOptions passHeader(const PassInfo& i) {
     all += (all.empty() ? "" : ",") + k + "=" + v;
   }
   str("obscura:params", all);
+  if (!i.layers.empty()) {
+    // Each pass under its layer's name (README "Several passes in one
+    // render"); the unprefixed integrator and params above are the primary's.
+    std::string list;
+    for (const LayerInfo& l : i.layers) {
+      const std::string key = "obscura:pass:" + l.layer + ":";
+      str(key + "integrator", l.integrator->name);
+      std::string ps;
+      for (const auto& [k, v] : l.params->values()) {
+        str(key + "param:" + k, v);
+        ps += (ps.empty() ? "" : ",") + k + "=" + v;
+      }
+      str(key + "params", ps);
+      list += (list.empty() ? "" : " ") + l.layer + "=" + l.integrator->name + (ps.empty() ? "" : ":" + ps);
+    }
+    str("obscura:passes", list);
+    str("obscura:primaryPass", i.layers.front().layer);
+  }
   exr.attributes.push_back({"obscura:spp", i.settings.spp});
   exr.attributes.push_back({"obscura:seed", int(i.settings.seed)});  // stored bit pattern; see README
   str("obscura:seedText", std::to_string(i.settings.seed));

@@ -50,6 +50,23 @@ void nameSettingsAsFlags();
 // OBSCURA_PLUGIN_PATH, then each --plugin.
 void loadPlugins(const std::vector<std::string>& paths);
 
+// "integrator[:key=value,...]" as typed after `option` (-c, --pass): the
+// integrator must exist and every assignment must be a valid parameter.
+// Throws obscura::Error naming the option and the text.
+struct IntegratorSpec {
+  std::string integrator;
+  std::vector<std::string> assignments;  // key=value, as typed
+  std::string canonical;                 // integrator and every parameter's value (":key=value" each)
+};
+IntegratorSpec parseIntegratorSpec(const std::string& option, const std::string& text);
+
+// A pass of a multi-pass render as the header records it.
+struct LayerInfo {
+  std::string layer;
+  const IntegratorDescriptor* integrator = nullptr;
+  const ParamSet* params = nullptr;
+};
+
 // Everything the header of a pass records (README "The EXR pass").
 struct PassInfo {
   std::string scenePath;
@@ -63,6 +80,9 @@ struct PassInfo {
   const SceneArgs* sceneArgs = nullptr;  // subdivision and displacement options, when given
   const Scene* scene = nullptr;          // its objects' roles, when given
   double bvhSeconds = 0;
+  // A multi-pass render's passes, the primary first (integrator and params
+  // above are the primary's); empty for a single pass.
+  std::vector<LayerInfo> layers;
 };
 ExrOptions passHeader(const PassInfo& info);
 

@@ -186,37 +186,8 @@ Film filmFromPass(const PassImage& p) {
 }  // namespace
 
 CompareConfig parseCompareConfig(const std::string& text) {
-  CompareConfig c;
-  c.text = text;
-  const size_t colon = text.find(':');
-  c.integrator = text.substr(0, colon);
-  if (c.integrator.empty()) throw Error("-c '" + text + "': expected integrator[:key=value,...]");
-  const IntegratorDescriptor* desc = nullptr;
-  try {
-    desc = &IntegratorRegistry::instance().find(c.integrator);
-  } catch (const Error& e) {
-    throw Error("-c '" + text + "': " + e.what());
-  }
-  ParamSet params(desc->params, desc->name);
-  if (colon != std::string::npos) {
-    std::stringstream ss(text.substr(colon + 1));
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-      if (item.empty() || item.find('=') == std::string::npos || item.front() == '=')
-        throw Error("-c '" + text + "': expected key=value, got '" + item + "'");
-      try {
-        params.setAssignment(item);
-      } catch (const Error& e) {
-        throw Error("-c '" + text + "': " + e.what());
-      }
-      c.assignments.push_back(item);
-    }
-    if (c.assignments.empty() || text.back() == ',')
-      throw Error("-c '" + text + "': expected key=value after ':'");
-  }
-  c.canonical = c.integrator;
-  for (const auto& [k, v] : params.values()) c.canonical += ":" + k + "=" + v;
-  return c;
+  IntegratorSpec spec = parseIntegratorSpec("-c", text);
+  return CompareConfig{text, std::move(spec.integrator), std::move(spec.assignments), std::move(spec.canonical)};
 }
 
 namespace {

@@ -3,6 +3,8 @@
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -47,6 +49,9 @@ struct RenderArgs : SceneArgs {
   std::string output;
   std::string integrator = "ao";
   std::vector<std::string> params;
+  bool integratorGiven = false;      // -i or -p on the command line
+  std::vector<std::string> passes;   // --pass LAYER=integrator[:key=value,...]
+  std::string primary;               // --primary LAYER
   int spp = 16;
   std::string res = "960x540";
   std::string camera;
@@ -73,7 +78,7 @@ bool samePath(const std::string& a, const std::string& b) {
 // Fail before a long render, not after it: outputs that cannot be written,
 // outputs that would overwrite the scene or each other, and a film larger
 // than the memory the system has available.
-void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace) {
+void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers) {
   checkWritable(a.output);
   if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
   if (!a.preview.empty()) {
@@ -85,7 +90,9 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer
   // layer, the pixel sums, the estimates: core/gbuffer.h).
-  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3) +
+  // Each layer adds three planes.
+  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + uint64_t(layers) * 3 * sizeof(float) * s.width * s.height +
+                        (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3) +
                         (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0);
   const uint64_t avail = availableMemoryBytes();
   if (avail > 0 && need > avail) {
@@ -96,13 +103,69 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
   }
 }
 
+// One pass of a render as the command line set it up.
+struct PassSetup {
+  std::string layer;  // "" for a single pass given by -i/-p
+  const IntegratorDescriptor* desc;
+  ParamSet params;
+  std::unique_ptr<Integrator> integrator;
+  IntegratorNeeds needs;
+};
+
+// A layer name: a letter, then letters, digits or '_'; not a channel or
+// layer the film writes itself.
+void checkLayerName(const std::string& layer, const std::string& text) {
+  const bool ok = !layer.empty() && std::isalpha(static_cast<unsigned char>(layer[0])) &&
+                  layer.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") == std::string::npos;
+  if (!ok) throw Error("--pass '" + text + "': the layer name '" + layer + "' must be a letter followed by letters, digits or '_'");
+  for (const char* taken : {"R", "G", "B", "A", "Z", "N", "albedo", "shaded"})
+    if (layer == taken) throw Error("--pass '" + text + "': the layer name '" + layer + "' is taken by a channel Obscura writes");
+  if (layer.rfind("Crypto", 0) == 0) throw Error("--pass '" + text + "': layer names starting 'Crypto' are Cryptomatte's");
+}
+
+// The passes of a render, the primary first: --pass (with --primary), or
+// the single pass of -i/-p.
+std::vector<PassSetup> passSetups(const RenderArgs& a) {
+  std::vector<PassSetup> out;
+  const auto add = [&](std::string layer, const std::string& integrator, const std::vector<std::string>& assignments) {
+    const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(integrator);
+    ParamSet params(desc.params, desc.name);
+    for (const auto& p : assignments) params.setAssignment(p);
+    auto integ = desc.create(params);
+    const IntegratorNeeds needs = desc.needs(params);
+    out.push_back({std::move(layer), &desc, std::move(params), std::move(integ), needs});
+  };
+  if (a.passes.empty()) {
+    if (!a.primary.empty()) throw Error("--primary: names a --pass layer, but no --pass was given");
+    add("", a.integrator, a.params);
+    return out;
+  }
+  if (a.integratorGiven) throw Error("--pass: replaces -i and -p (give each pass its integrator and parameters)");
+  for (const std::string& text : a.passes) {
+    const size_t eq = text.find('=');
+    if (eq == std::string::npos) throw Error("--pass '" + text + "': expected LAYER=integrator[:key=value,...]");
+    const std::string layer = text.substr(0, eq);
+    checkLayerName(layer, text);
+    for (const PassSetup& p : out)
+      if (p.layer == layer) throw Error("--pass '" + text + "': layer '" + layer + "' is already a pass");
+    const IntegratorSpec spec = parseIntegratorSpec("--pass", text.substr(eq + 1));
+    add(layer, spec.integrator, spec.assignments);
+  }
+  if (!a.primary.empty()) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const PassSetup& p) { return p.layer == a.primary; });
+    if (it == out.end()) throw Error("--primary: no --pass has the layer '" + a.primary + "'");
+    std::rotate(out.begin(), it, it + 1);
+  }
+  return out;
+}
+
 int runRender(const RenderArgs& a) {
   const std::string notWritten = "obscura: interrupted; " + a.output + " was not written";
   interrupt::setMessage(notWritten);
   loadPlugins(a.plugins);
-  const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(a.integrator);
-  ParamSet params(desc.params, desc.name);
-  for (const auto& p : a.params) params.setAssignment(p);
+  std::vector<PassSetup> setups = passSetups(a);
+  const IntegratorDescriptor& desc = *setups.front().desc;
+  const ParamSet& params = setups.front().params;
   RenderSettings s;
   parseResolution(a.res, s.width, s.height);
   if (a.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(a.spp));
@@ -124,24 +187,30 @@ int runRender(const RenderArgs& a) {
   std::optional<tbb::global_control> limit;
   if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
 
-  checkOutputs(a, s, desc.kind == IntegratorKind::ScreenSpace);
+  const bool anyScreenSpace = std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) {
+    return p.desc->kind == IntegratorKind::ScreenSpace;
+  });
+  checkOutputs(a, s, anyScreenSpace, a.passes.size());
 
-  auto integrator = desc.create(params);
-  const IntegratorNeeds needs = desc.needs(params);
+  std::vector<RenderPass> passes;
+  for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
   Camera camera;
   std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, s.width, s.height, camera);
 
   interrupt::startPolling();
   RenderStats stats;
-  Film film = render(*scene, camera, *integrator, needs, s, stats, interrupt::flag());
+  Film film = render(*scene, camera, passes, s, stats, interrupt::flag());
   if (interrupt::flag()->load()) {
     std::fprintf(stderr, "%s\n", notWritten.c_str());
     return 130;
   }
 
+  std::vector<LayerInfo> layers;
+  if (!a.passes.empty())
+    for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
   ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
                                         .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
-                                        .scene = scene.get(), .bvhSeconds = scene->buildSeconds()});
+                                        .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
   exr.half = a.half;
   // The pass and its preview land together or not at all.
   OutputSet out;
@@ -151,10 +220,12 @@ int runRender(const RenderArgs& a) {
 
   if (!a.quiet) {
     const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
+    std::string names;
+    for (const PassSetup& p : setups) names += (names.empty() ? "" : " ") + (p.layer.empty() ? "" : p.layer + "=") + p.desc->name;
     std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
-                 s.width, s.height, s.spp, desc.name.c_str(), stats.seconds, total / stats.seconds * 1e-6,
+                 s.width, s.height, s.spp, names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
                  scene->buildSeconds());
-    if (desc.kind == IntegratorKind::ScreenSpace)
+    if (anyScreenSpace)
       std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
                    stats.gbufferSeconds, stats.screenSpaceSeconds, stats.filterSeconds);
   }
@@ -243,6 +314,10 @@ int main(int argc, char** argv) {
   render->add_option("-o,--output", r.output, "Output EXR path (written atomically)")->required();
   render->add_option("-i,--integrator", r.integrator, "Integrator (see 'obscura integrators')");
   render->add_option("-p,--param", r.params, "Integrator parameter key=value (repeatable)");
+  render->add_option("--pass", r.passes,
+                     "A pass in its own layer, LAYER=integrator[:key=value,...] (repeatable; replaces -i/-p): the passes "
+                     "share camera rays and AOVs, each is written to LAYER.R/G/B and the first also to R,G,B");
+  render->add_option("--primary", r.primary, "The --pass layer also written to R,G,B (default: the first)");
   render->add_option("--spp", r.spp, "Camera samples per pixel");
   render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT");
   render->add_option("--camera", r.camera, "Camera name or index in the file, or 'auto' (default: the first camera, else auto)");
@@ -309,7 +384,10 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (render->parsed()) return runRender(r);
+    if (render->parsed()) {
+      r.integratorGiven = render->get_option("--integrator")->count() > 0 || render->get_option("--param")->count() > 0;
+      return runRender(r);
+    }
     if (compare->parsed()) return runCompare(cmp, interrupt::flag());
     if (info->parsed()) return runInfo(infoArgs);
     return runIntegrators(listPlugins);

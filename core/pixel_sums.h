@@ -23,6 +23,12 @@ struct PixelSums {
   uint32_t hits;
 };
 
+// The sums of a pass that shares its pixel's hits, coverage and AOVs with
+// the primary pass of a multi-pass render (core/render.h).
+struct PassSums {
+  Sum3 num, den;
+};
+
 // Sum num / Sum den, one channel; 0/0 is 1 (core/integrator.h).
 inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
 
@@ -31,5 +37,11 @@ inline float resolveRatio(double num, double den) { return den != 0.0 ? float(nu
 // premultiplied by coverage.
 void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo, Vec3 sky,
                       Film& film, int fx, int fy);
+
+// Writes the layer planes layer, layer + 1, layer + 2 of pixel (fx, fy) from
+// a pass's sums, given the pixel's hits and albedo sum (PixelSums'): W
+// premultiplied by coverage, exactly as resolvePixelSums writes R,G,B.
+void resolvePassLayer(const PassSums& q, uint32_t hits, const Sum3& albedo, int spp, const Integrator& integrator,
+                      bool wantAlbedo, Film& film, int layer, int fx, int fy);
 
 }  // namespace obscura

@@ -23,7 +23,7 @@ constexpr size_t kChunk = 256;
 // One chunk's lanes (camera samples) and what each stage leaves for the
 // next, per thread, allocated once: the loop allocates nothing.
 struct ThreadScratch {
-  ThreadScratch(const Scene& scene, const Tracer& tracer) : ctx(scene, tracer) {
+  ThreadScratch(const Scene& scene, const Tracer& tracer, size_t passes) : ctx(scene, tracer), W(passes * kChunk) {
     camera.reserve(kChunk);
     hits.reserve(kChunk);
   }
@@ -34,11 +34,20 @@ struct ThreadScratch {
   int32_t laneHit[kChunk];      // index into hits, or -1
   uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
   uint32_t laneSample[kChunk];  // sample index within the pixel
-  SampleEstimate W[kChunk];     // the integrator's estimate of each hit
-  std::vector<PixelSums> sums;  // the tile's pixels
+  std::vector<SampleEstimate> W;  // pass k's estimate of hit i: W[k * kChunk + i]
+  std::vector<PixelSums> sums;  // the tile's pixels (the primary pass and the AOVs)
+  std::vector<PassSums> passSums;  // the other passes: pixel j, pass k >= 1 at j * (passes - 1) + k - 1
   RayCounters cameraCounters;
 };
 
+// A pass as the tile loop sees it: its integrator, whether a solo render of
+// it would carry albedo (so resolvePixel sees what it would see alone), and
+// the film channel of its layer's R (G, B follow), or -1.
+struct PassSlot {
+  const Integrator* integrator;
+  bool albedo;
+  int layer;
+};
 
 // Where a tile's walk through its samples stands. Pixel-major, sample-minor:
 // each pixel's samples are summed in sample order whatever the chunking. The
@@ -59,9 +68,9 @@ struct SampleCursor {
 // source of surface hits only has to fill hits, laneHit and lanePixel.
 class TileRenderer {
  public:
-  TileRenderer(const Scene& scene, const Camera& camera, const Integrator& integrator, const RenderSettings& s,
+  TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
                const Tracer& tracer, Film& film, bool wantAlbedo)
-      : scene_(scene), integrator_(integrator), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
+      : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
         wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()) {}
 
@@ -72,6 +81,7 @@ class TileRenderer {
   size_t renderTile(int tile, ThreadScratch& ts, const std::atomic<bool>* cancel) const {
     const PixelRect r = tileRect(tile);
     ts.sums.assign(r.size(), PixelSums{});
+    ts.passSums.assign(r.size() * (passes_.size() - 1), PassSums{});
     const uint64_t total = uint64_t(r.size()) * uint64_t(s_.spp);
     SampleCursor c = startCursor(r);
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
@@ -146,11 +156,15 @@ class TileRenderer {
     }
   }
 
-  // The integrator's estimate of every hit (ts.W), as one batch.
+  // Each pass's estimate of every hit (ts.W), as one batch per pass: the
+  // passes share the hits, not their samples.
   void estimate(ThreadScratch& ts) const {
     if (ts.hits.empty()) return;
-    for (size_t i = 0; i < ts.hits.size(); ++i) ts.W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
-    integrator_.estimate(ts.hits, ts.ctx, ts.W);
+    for (size_t k = 0; k < passes_.size(); ++k) {
+      SampleEstimate* W = ts.W.data() + k * kChunk;
+      for (size_t i = 0; i < ts.hits.size(); ++i) W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
+      passes_[k].integrator->estimate(ts.hits, ts.ctx, W);
+    }
   }
 
   // Each lane's estimate (and AOV values) into its pixel's sums, in lane
@@ -161,9 +175,15 @@ class TileRenderer {
       if (hi < 0) continue;
       const SurfaceHit& h = ts.hits[size_t(hi)];
       PixelSums& p = ts.sums[ts.lanePixel[l]];
-      p.num.add(ts.W[hi].num);
-      p.den.add(ts.W[hi].den);
+      p.num.add(ts.W[size_t(hi)].num);
+      p.den.add(ts.W[size_t(hi)].den);
       p.hits += 1;
+      for (size_t k = 1; k < passes_.size(); ++k) {
+        PassSums& q = ts.passSums[size_t(ts.lanePixel[l]) * (passes_.size() - 1) + k - 1];
+        const SampleEstimate& w = ts.W[k * kChunk + size_t(hi)];
+        q.num.add(w.num);
+        q.den.add(w.den);
+      }
       if (wantAlbedo_) p.albedo.add(h.albedo);
       if (s_.aovs) {
         p.N.add(h.ns);
@@ -175,14 +195,25 @@ class TileRenderer {
   // The tile's sums into the film. Each pixel belongs to exactly one tile,
   // so no locking.
   void resolve(const PixelRect& r, const ThreadScratch& ts) const {
+    const PassSlot& primary = passes_[0];
     for (int y = 0; y < r.height(); ++y)
-      for (int x = 0; x < r.width(); ++x)
-        resolvePixelSums(ts.sums[size_t(y) * size_t(r.width()) + size_t(x)], s_.spp, integrator_, wantAlbedo_, s_.sky, film_, r.x0 + x,
-                         r.y0 + y);
+      for (int x = 0; x < r.width(); ++x) {
+        const size_t j = size_t(y) * size_t(r.width()) + size_t(x);
+        const int fx = r.x0 + x, fy = r.y0 + y;
+        const PixelSums& p = ts.sums[j];
+        resolvePixelSums(p, s_.spp, *primary.integrator, primary.albedo, s_.sky, film_, fx, fy);
+        if (primary.layer >= 0)
+          for (int c = 0; c < 3; ++c) film_.at(primary.layer + c, fx, fy) = film_.at(kR + c, fx, fy);
+        for (size_t k = 1; k < passes_.size(); ++k) {
+          const PassSums& q = ts.passSums[j * (passes_.size() - 1) + k - 1];
+          resolvePassLayer(q, p.hits, p.albedo, s_.spp, *passes_[k].integrator, passes_[k].albedo, film_,
+                           passes_[k].layer, fx, fy);
+        }
+      }
   }
 
   const Scene& scene_;
-  const Integrator& integrator_;
+  const std::span<const PassSlot> passes_;
   const RenderSettings& s_;
   const Tracer& tracer_;
   Film& film_;
@@ -192,6 +223,24 @@ class TileRenderer {
   const bool wantAlbedo_;
   const bool mattes_;
 };
+
+}  // namespace
+
+namespace {
+
+// A pixel's mean albedo over its hits, or (1,1,1) for a pass whose solo
+// render would not carry albedo (hits > 0).
+Vec3 meanAlbedo(const Sum3& albedo, uint32_t hits, bool wantAlbedo) {
+  if (!wantAlbedo) return Vec3(1, 1, 1);
+  const double invHits = 1.0 / double(hits);
+  return Vec3(float(albedo.x * invHits), float(albedo.y * invHits), float(albedo.z * invHits));
+}
+
+// A pass's W at a pixel: the ratio of its sums, through resolvePixel.
+Vec3 resolvePass(const Sum3& num, const Sum3& den, const Integrator& integrator, Vec3 albedo) {
+  return integrator.resolvePixel(
+      Vec3(resolveRatio(num.x, den.x), resolveRatio(num.y, den.y), resolveRatio(num.z, den.z)), albedo);
+}
 
 }  // namespace
 
@@ -207,11 +256,8 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
   // The pass and the albedo are means over the pixel's hits, then
   // premultiplied by coverage.
   const double invHits = 1.0 / double(p.hits);
-  const Vec3 albedo = wantAlbedo ? Vec3(float(p.albedo.x * invHits), float(p.albedo.y * invHits),
-                                        float(p.albedo.z * invHits))
-                                 : Vec3(1, 1, 1);
-  const Vec3 W = integrator.resolvePixel(
-      Vec3(resolveRatio(p.num.x, p.den.x), resolveRatio(p.num.y, p.den.y), resolveRatio(p.num.z, p.den.z)), albedo);
+  const Vec3 albedo = meanAlbedo(p.albedo, p.hits, wantAlbedo);
+  const Vec3 W = resolvePass(p.num, p.den, integrator, albedo);
   film.at(kR, fx, fy) = float(double(W.x) * coverage);
   film.at(kG, fx, fy) = float(double(W.y) * coverage);
   film.at(kB, fx, fy) = float(double(W.z) * coverage);
@@ -233,20 +279,36 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
   film.at(kZ, fx, fy) = float(p.Z * invHits);
 }
 
-Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
-            const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
+
+void resolvePassLayer(const PassSums& q, uint32_t hits, const Sum3& albedo, int spp, const Integrator& integrator,
+                      bool wantAlbedo, Film& film, int layer, int fx, int fy) {
+  if (hits == 0) return;  // background: the planes' zeros
+  // The same arithmetic as resolvePixelSums' R,G,B, so a pass in a layer
+  // equals its solo render bit for bit.
+  const double coverage = double(hits) / double(spp);
+  const Vec3 W = resolvePass(q.num, q.den, integrator, meanAlbedo(albedo, hits, wantAlbedo));
+  film.at(layer + 0, fx, fy) = float(double(W.x) * coverage);
+  film.at(layer + 1, fx, fy) = float(double(W.y) * coverage);
+  film.at(layer + 2, fx, fy) = float(double(W.z) * coverage);
+}
+
+namespace {
+
+void checkSettings(const RenderSettings& s) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
   if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
-  if (const ScreenSpaceIntegrator* ss = integrator.screenSpace())
-    return renderScreenSpace(scene, camera, *ss, needs, s, stats, cancel);
-  const bool wantAlbedo = needs.albedo || s.aovs;
+}
+
+// The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the
+// camera samples, into `film`.
+void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const PassSlot> slots, bool wantAlbedo,
+                     const RenderSettings& s, Film& film, RenderStats& stats, const std::atomic<bool>* cancel) {
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();
 
-  Film film(s.width, s.height, s.aovs);
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
-  const TileRenderer tiles(scene, camera, integrator, s, tracer, film, wantAlbedo);
+  const TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
   Progress progress("render", uint64_t(s.width) * s.height, s.progress);
@@ -255,7 +317,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
   const auto renderTile = [&](int tile) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
-    if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer);
+    if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer, slots.size());
     if (const size_t pixels = tiles.renderTile(tile, *slot, cancel)) progress.advance(pixels);
   };
 
@@ -276,6 +338,89 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
     stats.rays.occlusion += ts.ctx.counters.occlusion;
     stats.rays.closest += ts.ctx.counters.closest;
   }
+}
+
+void addStats(RenderStats& total, const RenderStats& part) {
+  total.seconds += part.seconds;
+  total.rays.camera += part.rays.camera;
+  total.rays.occlusion += part.rays.occlusion;
+  total.rays.closest += part.rays.closest;
+  total.gbufferSeconds += part.gbufferSeconds;
+  total.screenSpaceSeconds += part.screenSpaceSeconds;
+  total.filterSeconds += part.filterSeconds;
+}
+
+void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int count) {
+  const size_t n = size_t(from.width()) * size_t(from.height());
+  for (int c = 0; c < count; ++c) std::copy_n(from.plane(fromChannel + c), n, to.plane(toChannel + c));
+}
+
+}  // namespace
+
+Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
+            const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
+  const RenderPass pass{&integrator, needs, ""};
+  return render(scene, camera, std::span<const RenderPass>(&pass, 1), s, stats, cancel);
+}
+
+Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass> passes, const RenderSettings& s,
+            RenderStats& stats, const std::atomic<bool>* cancel) {
+  checkSettings(s);
+  if (passes.empty()) throw Error("nothing to render: no pass");
+  for (size_t k = 1; k < passes.size(); ++k)
+    if (passes[k].layer.empty()) throw Error("every pass but the first needs a layer name");
+  stats = {};
+  const auto screenSpace = [&](size_t k) { return passes[k].integrator->screenSpace(); };
+
+  // The film: the primary pass's loop fills R,G,B,A and the AOVs.
+  RenderStats part;
+  Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
+                             : Film(s.width, s.height, s.aovs);
+  addStats(stats, part);
+  // Layer planes in pass order, after the fixed channels.
+  std::vector<int> layer(passes.size(), -1);
+  const auto addLayers = [&](Film& f) {
+    for (size_t k = 0; k < passes.size(); ++k)
+      if (!passes[k].layer.empty()) {
+        layer[k] = f.addPlane(passes[k].layer + ".R");
+        f.addPlane(passes[k].layer + ".G");
+        f.addPlane(passes[k].layer + ".B");
+      }
+  };
+  addLayers(film);
+
+  // The ray-traced passes: one shared walk over the camera samples.
+  std::vector<PassSlot> slots;
+  bool wantAlbedo = s.aovs;
+  for (size_t k = 0; k < passes.size(); ++k)
+    if (!screenSpace(k)) {
+      slots.push_back({passes[k].integrator, passes[k].needs.albedo || s.aovs, layer[k]});
+      wantAlbedo = wantAlbedo || passes[k].needs.albedo;
+    }
+  if (!slots.empty()) {
+    part = {};
+    if (!screenSpace(0)) {
+      renderRayTraced(scene, camera, slots, wantAlbedo, s, film, part, cancel);
+    } else {
+      // The first ray-traced pass lands in R,G,B of a film of its own, laid
+      // out like `film` (same planes, same indices), and is copied over.
+      Film rt(s.width, s.height, s.aovs);
+      addLayers(rt);
+      renderRayTraced(scene, camera, slots, wantAlbedo, s, rt, part, cancel);
+      for (const PassSlot& slot : slots) copyPlanes(rt, slot.layer, film, slot.layer, 3);
+    }
+    addStats(stats, part);
+  }
+
+  // Every other screen-space pass: its own G-buffer loop, its R,G,B to its layer.
+  for (size_t k = 1; k < passes.size(); ++k) {
+    if (!screenSpace(k) || (cancel && cancel->load())) continue;
+    part = {};
+    const Film f = renderScreenSpace(scene, camera, *screenSpace(k), passes[k].needs, s, part, cancel);
+    copyPlanes(f, kR, film, layer[k], 3);
+    addStats(stats, part);
+  }
+  if (screenSpace(0) && layer[0] >= 0) copyPlanes(film, kR, film, layer[0], 3);
   if (cancel && cancel->load()) stats.seconds = -1;
   return film;
 }

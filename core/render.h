@@ -5,6 +5,8 @@
 
 #include <atomic>
 #include <cstdint>
+#include <span>
+#include <string>
 
 #include "core/camera.h"
 #include "core/film.h"
@@ -36,12 +38,33 @@ struct RenderStats {
   double gbufferSeconds = 0, screenSpaceSeconds = 0, filterSeconds = 0;
 };
 
+// One pass of a render: an integrator, what it needs, and the EXR layer its
+// W is written to ("" = none: R,G,B only).
+struct RenderPass {
+  const Integrator* integrator = nullptr;
+  IntegratorNeeds needs;
+  std::string layer;
+};
+
 // Renders and returns the film. Throws obscura::Error on bad settings.
 // If `cancel` becomes true the render stops early and returns an
 // incomplete film with `stats.seconds` < 0.
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator,
             const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
             const std::atomic<bool>* cancel = nullptr);
+
+// Several passes from one render (README "Several passes in one render").
+// passes[0] is the primary pass: R,G,B and shaded.* are its W. Every pass
+// with a layer name also writes `<layer>.R/G/B` (premultiplied like R,G,B).
+// The ray-traced passes share one walk over the camera samples - camera
+// rays, surface hits, albedo and AOVs - each integrator estimating the same
+// batch of hits in turn; a screen-space pass runs its own G-buffer loop.
+// Each pass's values are bit-identical to the same pass rendered alone: the
+// integrators draw their samples from the sampler by pixel, sample and
+// dimension, never from a shared stream, and each pass's sums resolve with
+// the arithmetic of a solo render.
+Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass> passes,
+            const RenderSettings& settings, RenderStats& stats, const std::atomic<bool>* cancel = nullptr);
 
 // The layer loop render() runs for a screen-space integrator (core/gbuffer.h).
 class ScreenSpaceIntegrator;

@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/plugin.h"
+#include "core/render.h"
 #include "tests/readme_integrators.h"
 #include "tests/support.h"
 
@@ -223,6 +224,33 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
   const double s = std::sin(0.5 * M_PI / 2);
   const double cone = 2 * (1 - std::pow(1 - s * s, 1.5)) / (3 * s * s);
   EXPECT_NEAR(meanCovered(run({"spread=0.5"}), kB), cone, 4.0 * std::sqrt((1 - s * s / 2 - cone * cone) / N));
+}
+
+// A plugin takes part in a multi-pass render like a built-in (core/render.h):
+// its layer equals its solo render bit for bit, and so does the built-in's.
+TEST(Plugin, BentNormalInAMultiPassRender) {
+  loadPlugin(OBSCURA_BENT_PLUGIN);
+  Scene scene;
+  addPlane(scene, 4.0f, 0.0f);
+  addPlane(scene, 0.5f, 0.3f);  // an occluder, so the passes are not trivial
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
+  const RenderSettings s = passSettings(24, 16, 4, 5);
+  const auto make = [](const std::string& name) {
+    const IntegratorDescriptor& d = IntegratorRegistry::instance().find(name);
+    const ParamSet p(d.params, d.name);
+    return std::make_pair(d.create(p), d.needs(p));
+  };
+  const auto bent = make("bent-normal"), ao = make("ao");
+  const std::vector<RenderPass> passes = {{ao.first.get(), ao.second, "ao"}, {bent.first.get(), bent.second, "bent"}};
+  RenderStats st;
+  const Film both = render(scene, cam, passes, s, st);
+  const Film soloBent = renderWith(scene, cam, "bent-normal", {}, s), soloAo = renderWith(scene, cam, "ao", {}, s);
+  const size_t n = size_t(s.width) * size_t(s.height);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_EQ(std::memcmp(both.plane(both.find("bent.R") + c), soloBent.plane(kR + c), n * sizeof(float)), 0) << c;
+    EXPECT_EQ(std::memcmp(both.plane(both.find("ao.R") + c), soloAo.plane(kR + c), n * sizeof(float)), 0) << c;
+  }
 }
 
 // From the wall point opposite the hole of the spherical cavity

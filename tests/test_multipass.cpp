@@ -1,0 +1,187 @@
+// Several passes from one render (core/render.h, README "Several passes in
+// one render"): each pass in a combined render equals the same pass rendered
+// alone, bit for bit - the ray-traced passes share one walk over the camera
+// samples, a screen-space pass runs its own G-buffer loop - and the CLI's
+// --pass/--primary write one layer per pass with every pass's parameters in
+// the header.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "core/error.h"
+#include "core/gltf_loader.h"
+#include "core/render.h"
+#include "tests/support.h"
+
+using namespace obscura;
+using namespace obscura::test;
+
+namespace {
+
+struct PassConfig {
+  std::string layer, integrator;
+  std::vector<std::string> params;
+};
+
+struct Built {
+  std::unique_ptr<Integrator> integrator;
+  IntegratorNeeds needs;
+};
+
+Built build(const PassConfig& c) {
+  const IntegratorDescriptor& d = IntegratorRegistry::instance().find(c.integrator);
+  ParamSet p(d.params, d.name);
+  for (const auto& a : c.params) p.setAssignment(a);
+  return {d.create(p), d.needs(p)};
+}
+
+// Bitwise equality of two planes (NaN-safe: the bits, not the values).
+void expectSamePlane(const Film& a, int ca, const Film& b, int cb, const std::string& what) {
+  const size_t n = size_t(a.width()) * size_t(a.height());
+  ASSERT_EQ(n, size_t(b.width()) * size_t(b.height()));
+  ASSERT_EQ(std::memcmp(a.plane(ca), b.plane(cb), n * sizeof(float)), 0) << what;
+}
+
+// Renders `configs` combined and each alone; every layer must equal its
+// solo R,G,B, and the combined film's own channels the primary's solo film.
+void checkCombinedEqualsSolo(const Scene& scene, const Camera& cam, const std::vector<PassConfig>& configs,
+                             RenderSettings s) {
+  std::vector<Built> built;
+  std::vector<RenderPass> passes;
+  for (const PassConfig& c : configs) built.push_back(build(c));
+  for (size_t k = 0; k < configs.size(); ++k) passes.push_back({built[k].integrator.get(), built[k].needs, configs[k].layer});
+  RenderStats stats;
+  const Film combined = render(scene, cam, passes, s, stats);
+  for (size_t k = 0; k < configs.size(); ++k) {
+    const Film solo = renderWith(scene, cam, configs[k].integrator, configs[k].params, s);
+    const int layer = combined.find(configs[k].layer + ".R");
+    ASSERT_GE(layer, 0) << configs[k].layer;
+    for (int c = 0; c < 3; ++c) expectSamePlane(combined, layer + c, solo, kR + c, configs[k].layer + " channel " + std::to_string(c));
+    if (k == 0)
+      for (int c : solo.channels()) expectSamePlane(combined, c, solo, c, "primary " + solo.name(c));
+  }
+}
+
+class MultiPass : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    scene_ = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+    cam_ = scene_->cameras.at(0);
+  }
+  std::unique_ptr<Scene> scene_;
+  Camera cam_;
+};
+
+}  // namespace
+
+// Ray-traced passes with and without albedo (multibounce needs it; its
+// resolvePixel reads it), a ratio estimator (transfer at depth 1), and a
+// screen-space pass, with AOVs on and off: AOVs off is where a pass that
+// does not need albedo must still resolve as it would alone.
+TEST_F(MultiPass, EachPassEqualsItsSoloRender) {
+  const std::vector<PassConfig> configs = {
+      {"ao", "ao", {"distance=2"}},
+      {"dirt", "obscurance", {"falloff=sqrt", "distance=1"}},
+      {"tr", "transfer", {"depth=1"}},
+      {"mb", "multibounce", {}},
+      {"vo", "vo", {}},
+  };
+  RenderSettings s = passSettings(48, 27, 4, 7);
+  s.aovs = true;
+  checkCombinedEqualsSolo(*scene_, cam_, configs, s);
+  s.aovs = false;
+  checkCombinedEqualsSolo(*scene_, cam_, configs, s);
+}
+
+// A screen-space primary: the ray-traced passes render into a film of their
+// own and are copied into their layers; the film's R,G,B,A and AOVs are the
+// screen-space pass's.
+TEST_F(MultiPass, ScreenSpacePrimary) {
+  RenderSettings s = passSettings(40, 24, 2, 3);
+  s.aovs = true;
+  checkCombinedEqualsSolo(*scene_, cam_, {{"vo", "vo", {}}, {"ao", "ao", {}}, {"ssat", "ssat", {}}}, s);
+}
+
+// Thread count and tile size do not change a combined render.
+TEST_F(MultiPass, IndependentOfThreadsAndTiles) {
+  const Built ao = build({"ao", "ao", {}}), tr = build({"tr", "transfer", {"depth=1"}});
+  const std::vector<RenderPass> passes = {{ao.integrator.get(), ao.needs, "ao"}, {tr.integrator.get(), tr.needs, "tr"}};
+  RenderSettings a = passSettings(37, 23, 3, 1), b = a;
+  a.threads = 1, a.tileSize = 8;
+  b.threads = 2, b.tileSize = 64;
+  RenderStats st;
+  const Film fa = render(*scene_, cam_, passes, a, st), fb = render(*scene_, cam_, passes, b, st);
+  ASSERT_EQ(fa.channels(), fb.channels());
+  for (int c : fa.channels()) expectSamePlane(fa, c, fb, c, fa.name(c));
+}
+
+TEST_F(MultiPass, RefusesAPassWithoutALayerAfterTheFirst) {
+  const Built ao = build({"", "ao", {}});
+  const std::vector<RenderPass> passes = {{ao.integrator.get(), ao.needs, "ao"}, {ao.integrator.get(), ao.needs, ""}};
+  RenderStats st;
+  EXPECT_THROW(render(*scene_, cam_, passes, passSettings(4, 4, 1), st), Error);
+}
+
+// The CLI: one EXR with a layer per pass, the primary also in R,G,B, every
+// pass's parameters in the header, equal to the solo CLI renders; and one
+// clear error line for each malformed --pass.
+TEST(MultiPassCli, LayersHeaderAndErrors) {
+  const std::string dir = tempDir("multipass_cli");
+  const std::vector<std::string> common = {"render", "-q", "--res", "40x24", "--spp", "2"};
+  const auto args = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a = common;
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  const std::vector<CliResult> runs = runClis(
+      {args({"-o", dir + "/multi.exr", "--pass", "ao=ao:distance=2", "--pass", "dirt=obscurance:falloff=sqrt",
+             "--primary", "dirt"}),
+       args({"-o", dir + "/ao.exr", "-i", "ao", "-p", "distance=2"}),
+       args({"-o", dir + "/dirt.exr", "-i", "obscurance", "-p", "falloff=sqrt"})},
+      dir);
+  for (const CliResult& r : runs) ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  const ReadBack multi = readExr(dir + "/multi.exr"), ao = readExr(dir + "/ao.exr"), dirt = readExr(dir + "/dirt.exr");
+  for (const char* c : {"R", "G", "B"}) {
+    EXPECT_EQ(multi.planes.at(std::string("ao.") + c), ao.planes.at(c)) << c;
+    EXPECT_EQ(multi.planes.at(std::string("dirt.") + c), dirt.planes.at(c)) << c;
+    EXPECT_EQ(multi.planes.at(c), dirt.planes.at(c)) << "primary " << c;  // --primary dirt
+  }
+  EXPECT_EQ(multi.planes.at("A"), dirt.planes.at("A"));
+  EXPECT_EQ(multi.spec.get_string_attribute("obscura:integrator"), "obscurance");
+  EXPECT_EQ(multi.spec.get_string_attribute("obscura:primaryPass"), "dirt");
+  EXPECT_EQ(multi.spec.get_string_attribute("obscura:pass:ao:integrator"), "ao");
+  EXPECT_EQ(multi.spec.get_string_attribute("obscura:pass:ao:param:distance"), "2");
+  EXPECT_EQ(multi.spec.get_string_attribute("obscura:pass:dirt:param:falloff"), "sqrt");
+  EXPECT_NE(multi.spec.get_string_attribute("obscura:passes").find("ao=ao:distance=2"), std::string::npos);
+
+  struct Bad {
+    std::vector<std::string> extra;
+    std::string says;
+  };
+  const std::vector<Bad> bad = {
+      {{"--pass", "ao"}, "expected LAYER=integrator"},
+      {{"--pass", "1x=ao"}, "must be a letter"},
+      {{"--pass", "Z=ao"}, "taken by a channel"},
+      {{"--pass", "CryptoObject=ao"}, "Cryptomatte"},
+      {{"--pass", "a=ao", "--pass", "a=obscurance"}, "already a pass"},
+      {{"--pass", "a=nosuch"}, "nosuch"},
+      {{"--pass", "a=ao:distance=-1"}, "distance"},
+      {{"--pass", "a=ao", "-i", "ao"}, "replaces -i and -p"},
+      {{"--pass", "a=ao", "--primary", "b"}, "no --pass has the layer 'b'"},
+      {{"--primary", "a"}, "no --pass was given"},
+  };
+  std::vector<std::vector<std::string>> badArgs;
+  for (const Bad& b : bad) {
+    badArgs.push_back(args(b.extra));
+    badArgs.back().push_back("-o");
+    badArgs.back().push_back(dir + "/bad.exr");
+  }
+  const std::vector<CliResult> badRuns = runClis(badArgs, dir);
+  for (size_t i = 0; i < bad.size(); ++i) {
+    const Bad& b = bad[i];
+    const CliResult& r = badRuns[i];
+    EXPECT_EQ(r.exitCode, 1) << b.says;
+    EXPECT_NE(r.stderrText.find(b.says), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
+}
