@@ -36,7 +36,7 @@ namespace {
 // roughness 1 (m = 0). Evaluated in double so that roughness^4 does not
 // underflow before the float result would.
 float lobeExponent(float roughness) {
-  const double a2 = std::pow(double(roughness), 4.0);
+  const double r2 = double(roughness) * double(roughness), a2 = r2 * r2;
   return float(2.0 * a2 / (1.0 + a2));
 }
 
@@ -53,36 +53,43 @@ class ReflectionOcclusion final : public Integrator {
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
     // Only directions above the surface are traced (the others are blocked
-    // by it, core/surface.h); out[i].den counts hit i's, so the second pass
-    // knows which rays are its.
+    // by it, core/surface.h). Until the batch is traced, out[i].den holds
+    // how many of hit i's directions are above it and out[i].num how many
+    // rays represent them, so the second pass knows which rays are its.
     for (size_t i = 0; i < hits.size(); ++i) {
       const SurfaceHit& h = hits[i];
       const float e = material_ ? lobeExponent(ctx.roughnessAt(h)) : exponent_;
       const Vec3 r = mirror(h.dir, h.ns);
-      const Frame frame = Frame::fromNormal(r);
-      uint32_t above = 0;
-      for (uint32_t k = 0; k < rays_; ++k) {
-        // The mirror limit exactly: no lobe to sample (and no rounding
-        // through the frame).
-        Vec3 w = r;
-        if (e > 0.0f) {
+      uint32_t above = 0, traced = 0;
+      if (e == 0.0f) {
+        // The mirror limit exactly: every direction is r (no lobe to
+        // sample, no rounding through a frame), one ray stands for all.
+        if (!intoSurface(h, r)) {
+          batch.push(spawnOrigin(h, r), r, tnear_, distance_, h.object);
+          above = rays_, traced = 1;
+        }
+      } else {
+        const Frame frame = Frame::fromNormal(r);
+        for (uint32_t k = 0; k < rays_; ++k) {
           // Keyed like cosineDirection (core/integrator.h): a pixel's
           // (sample, ray) pairs index one sequence, jointly stratified.
           const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
-          w = frame.toWorld(squareToPowerCosine(s.u, s.v, e));
+          const Vec3 w = frame.toWorld(squareToPowerCosine(s.u, s.v, e));
+          if (intoSurface(h, w)) continue;
+          batch.push(spawnOrigin(h, w), w, tnear_, distance_, h.object);
+          ++above, ++traced;
         }
-        if (intoSurface(h, w)) continue;
-        batch.push(spawnOrigin(h, w), w, tnear_, distance_, h.object);
-        ++above;
       }
+      out[i].num = Vec3(float(traced), 0, 0);
       out[i].den = Vec3(float(above), float(above), float(above));
     }
     ctx.trace(batch);
     size_t ray = 0;
     for (size_t i = 0; i < hits.size(); ++i) {
-      const uint32_t above = uint32_t(out[i].den.x);
+      const uint32_t traced = uint32_t(out[i].num.x), above = uint32_t(out[i].den.x);
       uint32_t open = 0;
-      for (uint32_t k = 0; k < above; ++k, ++ray) open += batch.occluded(ray) ? 0U : 1U;
+      for (uint32_t k = 0; k < traced; ++k, ++ray) open += batch.occluded(ray) ? 0U : 1U;
+      if (traced == 1 && above > 1) open *= above;  // the mirror ray, for all of them
       out[i].num = Vec3(float(open), float(open), float(open));
     }
   }

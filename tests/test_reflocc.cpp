@@ -177,6 +177,36 @@ TEST(ReflOcc, OpenPlaneIsExactlyOne) {
   }
 }
 
+// 0/0: a shading normal tilted against the view sends the mirror direction
+// below the geometric surface; at roughness 0 no direction of the pixel is
+// above it, and the pixel is 1 (the core's convention, docs/math.md §12) -
+// even under the slab, which the geometric mirror direction would meet.
+TEST(ReflOcc, NoDirectionAboveTheSurfaceIsOne) {
+  const MirrorScene geometry;
+  Scene scene;
+  const Vec3 ns = normalize(Vec3(0, -1, 0.01f));
+  const float L = 50;
+  scene.addWorldPrimitive({{-L, -L, 0}, {L, -L, 0}, {L, L, 0}, {-L, L, 0}}, {0, 1, 2, 0, 2, 3}, {ns, ns, ns, ns}, {}, -1);
+  scene.addWorldPrimitive({{-1, 0.5f, 2}, {1, 0.5f, 2}, {1, 3, 2}, {-1, 3, 2}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene.commit();
+  const int w = MirrorScene::kW, h = MirrorScene::kH;
+  // Every view direction of the image mirrors to below the floor: r is
+  // linear in d, and d is a positive multiple of an affine function of the
+  // film position, so the sign of r_z over the image is decided at its corners.
+  for (float fy : {0.0f, float(h)})
+    for (float fx : {0.0f, float(w)}) {
+      const Vec3 d = geometry.rc.direction(fx, fy);
+      EXPECT_LT((d - ns * (2 * dot(d, ns))).z, -0.02f);
+    }
+  const Film f = renderWith(scene, geometry.cam, "reflocc", {"roughness=0", "rays=2"}, passSettings(w, h, 4));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) ASSERT_EQ(f.at(kR, x, y), 1.0f) << x << "," << y;
+  // A rough lobe has directions above the surface again: finite, bounded.
+  const Film g = renderWith(scene, geometry.cam, "reflocc", {"roughness=1", "rays=2"}, passSettings(w, h, 4));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) ASSERT_TRUE(g.at(kR, x, y) >= 0.0f && g.at(kR, x, y) <= 1.0f) << x << "," << y;
+}
+
 // --- an intermediate closed form: a ceiling at height H -----------------------
 //
 // A floor point below an infinite ceiling z = H: a direction w above the
@@ -484,6 +514,27 @@ TEST(ReflOccMaterial, CorruptTextureIsAnError) {
   RenderSettings withAovs = passSettings(8, 8, 1);
   withAovs.aovs = true;  // decodes the colour textures (there are none), not the data ones
   EXPECT_NO_THROW(renderWith(*scene, s.cam, "ao", {}, withAovs));
+}
+
+// Model only what is needed: the metallicRoughness image stays encoded
+// through an AO render with AOVs (which decodes the colour textures) and a
+// reflocc render with a roughness parameter; reading the material decodes it.
+TEST(ReflOccMaterial, RoughnessTexturesAreDecodedOnlyWhenRead) {
+  const std::string dir = tempDir("reflocc_needs");
+  const json textured = {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}, {"metallicRoughnessTexture", {{"index", 0}}}}}};
+  const auto scene = loadGltf(writeMirrorGltf(dir, "needs", textured, [&](GltfBuilder& g) {
+    addConstantTexture(g, dir, Vec3(0.5f, 0.5f, 0.5f), "needs.png");
+  }));
+  ASSERT_EQ(scene->dataTextures.size(), 1u);
+  const MirrorScene s;
+  RenderSettings withAovs = passSettings(8, 8, 1);
+  withAovs.aovs = true;
+  renderWith(*scene, s.cam, "ao", {}, withAovs);
+  EXPECT_TRUE(scene->textures[0]->decoded());
+  renderWith(*scene, s.cam, "reflocc", {"roughness=0.5"}, withAovs);
+  EXPECT_FALSE(scene->dataTextures[0]->decoded());
+  renderWith(*scene, s.cam, "reflocc", {}, passSettings(8, 8, 1));
+  EXPECT_TRUE(scene->dataTextures[0]->decoded());
 }
 
 // Bad material fields: one error naming the file and the field.
