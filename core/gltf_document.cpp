@@ -206,9 +206,12 @@ class JsonChecker {
                     {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}});
       if (auto pbr = m.find("pbrMetallicRoughness"); pbr != m.end()) {
         const std::string pw = w + ".pbrMetallicRoughness";
-        fields(*pbr, pw, {{"baseColorFactor", Kind::NumberArray}, {"baseColorTexture", Kind::Object}});
-        if (auto t = pbr->find("baseColorTexture"); t != pbr->end())
-          fields(*t, pw + ".baseColorTexture", {{"index", Kind::Index}, {"texCoord", Kind::Uint}});
+        fields(*pbr, pw, {{"baseColorFactor", Kind::NumberArray}, {"baseColorTexture", Kind::Object},
+                          {"roughnessFactor", Kind::Number}, {"metallicFactor", Kind::Number},
+                          {"metallicRoughnessTexture", Kind::Object}});
+        for (const char* key : {"baseColorTexture", "metallicRoughnessTexture"})
+          if (auto t = pbr->find(key); t != pbr->end())
+            fields(*t, pw + "." + key, {{"index", Kind::Index}, {"texCoord", Kind::Uint}});
       }
     });
     arr("textures", [&](const json& t, const std::string& w) { fields(t, w, {{"source", Kind::Index}, {"sampler", Kind::Index}}); });
@@ -348,17 +351,61 @@ void GltfDocument::warnUnsupported() {
 }
 
 void GltfDocument::decodeMaterials() {
-  std::map<int, int> imageToTexture;
+  // One texture per image and colour space: a base colour is sRGB (in
+  // textures_), a metallicRoughness image linear data (in dataTextures_), and
+  // one image may serve as both.
+  std::map<std::pair<int, bool>, int> imageToTexture;
+  struct TextureUse {
+    int index = -1;
+    WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+  };
+  // The texture a material's TextureInfo `ti` (at `tfield`) refers to; index
+  // -1 when it is absent or on a texture coordinate set other than 0 (warned).
+  const auto textureUse = [&](const tinygltf::TextureInfo& ti, const std::string& tfield, bool srgb) {
+    TextureUse use;
+    if (ti.index < 0) return use;
+    if (size_t(ti.index) >= model_->textures.size())
+      fail(tfield + ".index", "texture " + std::to_string(ti.index) + " does not exist");
+    if (ti.texCoord != 0) {
+      warn("textures on TEXCOORD_" + std::to_string(ti.texCoord) + " are not supported (only TEXCOORD_0; texture ignored)");
+      return use;
+    }
+    if (!ti.extensions.empty()) warn("texture transforms (KHR_texture_transform) are not supported");
+    const auto& tex = model_->textures[size_t(ti.index)];
+    if (tex.source < 0 || size_t(tex.source) >= model_->images.size())
+      fail("textures[" + std::to_string(ti.index) + "].source", "image does not exist");
+    auto it = imageToTexture.find({tex.source, srgb});
+    if (it == imageToTexture.end()) {
+      auto bytes = imageBytes_.find(tex.source);
+      const auto& img = model_->images[size_t(tex.source)];
+      const std::string src = "images[" + std::to_string(tex.source) + "]" +
+                              (img.uri.empty() || img.uri.rfind("data:", 0) == 0 ? "" : " '" + img.uri + "'");
+      if (bytes == imageBytes_.end() || bytes->second.empty()) fail(src, "image data is missing");
+      std::vector<TextureImage>& list = srgb ? textures_ : dataTextures_;
+      list.push_back({bytes->second, path_ + ": " + src});  // a copy: the image may serve both
+      it = imageToTexture.emplace(std::make_pair(tex.source, srgb), int(list.size()) - 1).first;
+    }
+    use.index = it->second;
+    if (tex.sampler >= 0 && size_t(tex.sampler) < model_->samplers.size()) {
+      const auto wrap = [](int w) {
+        return w == 33071 ? WrapMode::ClampToEdge : w == 33648 ? WrapMode::MirroredRepeat : WrapMode::Repeat;
+      };
+      use.wrapS = wrap(model_->samplers[size_t(tex.sampler)].wrapS);
+      use.wrapT = wrap(model_->samplers[size_t(tex.sampler)].wrapT);
+    }
+    return use;
+  };
   for (size_t i = 0; i < model_->materials.size(); ++i) {
     const auto& gm = model_->materials[i];
     const std::string field = "materials[" + std::to_string(i) + "]";
+    const std::string pbr = field + ".pbrMetallicRoughness";
     Material m;
     m.name = gm.name;
     const auto& f = gm.pbrMetallicRoughness.baseColorFactor;
     if (f.size() >= 3) {
       m.baseColorFactor = Vec3(float(f[0]), float(f[1]), float(f[2]));
       if (!isFinite(m.baseColorFactor) || m.baseColorFactor.x < 0 || m.baseColorFactor.y < 0 || m.baseColorFactor.z < 0)
-        fail(field + ".pbrMetallicRoughness.baseColorFactor", "must be finite and non-negative");
+        fail(pbr + ".baseColorFactor", "must be finite and non-negative");
     }
     // Coverage (core/alpha.h): alpha = baseColorFactor[3] x the texture's alpha.
     if (gm.alphaMode == "MASK") m.alphaMode = AlphaMode::Mask;
@@ -368,44 +415,23 @@ void GltfDocument::decodeMaterials() {
     if (f.size() >= 4) {
       m.alpha = float(f[3]);
       if (!(m.alpha >= 0.0f && m.alpha <= 1.0f))
-        fail(field + ".pbrMetallicRoughness.baseColorFactor", "alpha (the 4th component) must be in [0, 1]");
+        fail(pbr + ".baseColorFactor", "alpha (the 4th component) must be in [0, 1]");
     }
     m.alphaCutoff = float(gm.alphaCutoff);
     if (!(m.alphaCutoff >= 0.0f) || !std::isfinite(m.alphaCutoff)) fail(field + ".alphaCutoff", "must be a finite number >= 0");
+    // glTF 2.0 bounds roughnessFactor to [0, 1] (the reflection lobe of
+    // `reflocc` is defined there; NaN fails the test too).
+    const double roughness = gm.pbrMetallicRoughness.roughnessFactor;
+    if (!(roughness >= 0.0 && roughness <= 1.0))
+      fail(pbr + ".roughnessFactor", "must be in [0, 1], got " + number(roughness));
+    m.roughnessFactor = float(roughness);
     if (gm.emissiveFactor.size() >= 3 && (gm.emissiveFactor[0] > 0 || gm.emissiveFactor[1] > 0 || gm.emissiveFactor[2] > 0))
       warn("emission is ignored by ambient passes");
-    const auto& ti = gm.pbrMetallicRoughness.baseColorTexture;
-    if (ti.index >= 0) {
-      const std::string tfield = field + ".pbrMetallicRoughness.baseColorTexture";
-      if (size_t(ti.index) >= model_->textures.size())
-        fail(tfield + ".index", "texture " + std::to_string(ti.index) + " does not exist");
-      if (ti.texCoord != 0) {
-        warn("textures on TEXCOORD_" + std::to_string(ti.texCoord) + " are not supported (only TEXCOORD_0; texture ignored)");
-      } else {
-        if (!ti.extensions.empty()) warn("texture transforms (KHR_texture_transform) are not supported");
-        const auto& tex = model_->textures[size_t(ti.index)];
-        if (tex.source < 0 || size_t(tex.source) >= model_->images.size())
-          fail("textures[" + std::to_string(ti.index) + "].source", "image does not exist");
-        auto it = imageToTexture.find(tex.source);
-        if (it == imageToTexture.end()) {
-          auto bytes = imageBytes_.find(tex.source);
-          const auto& img = model_->images[size_t(tex.source)];
-          const std::string src = "images[" + std::to_string(tex.source) + "]" +
-                                  (img.uri.empty() || img.uri.rfind("data:", 0) == 0 ? "" : " '" + img.uri + "'");
-          if (bytes == imageBytes_.end() || bytes->second.empty()) fail(src, "image data is missing");
-          textures_.push_back({std::move(bytes->second), path_ + ": " + src});
-          it = imageToTexture.emplace(tex.source, int(textures_.size()) - 1).first;
-        }
-        m.texture = it->second;
-        if (tex.sampler >= 0 && size_t(tex.sampler) < model_->samplers.size()) {
-          const auto wrap = [](int w) {
-            return w == 33071 ? WrapMode::ClampToEdge : w == 33648 ? WrapMode::MirroredRepeat : WrapMode::Repeat;
-          };
-          m.wrapS = wrap(model_->samplers[size_t(tex.sampler)].wrapS);
-          m.wrapT = wrap(model_->samplers[size_t(tex.sampler)].wrapT);
-        }
-      }
-    }
+    const TextureUse base = textureUse(gm.pbrMetallicRoughness.baseColorTexture, pbr + ".baseColorTexture", true);
+    m.texture = base.index, m.wrapS = base.wrapS, m.wrapT = base.wrapT;
+    const TextureUse rough =
+        textureUse(gm.pbrMetallicRoughness.metallicRoughnessTexture, pbr + ".metallicRoughnessTexture", false);
+    m.roughnessTexture = rough.index, m.roughnessWrapS = rough.wrapS, m.roughnessWrapT = rough.wrapT;
     materials_.push_back(std::move(m));
   }
   imageBytes_.clear();

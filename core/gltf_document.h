@@ -46,13 +46,17 @@ class GltfDocument {
   [[noreturn]] void fail(const std::string& field, const std::string& what) const;
   void warn(const std::string& what) const;
 
-  // materials[i] as Obscura uses them; Material::texture indexes textures().
+  // materials[i] as Obscura uses them; Material::texture indexes textures()
+  // (sRGB colour), Material::roughnessTexture dataTextures().
   const std::vector<Material>& materials() const { return materials_; }
   struct TextureImage {
     std::vector<unsigned char> encoded;
     std::string name;  // "FILE: images[i] 'uri'", for errors
   };
   const std::vector<TextureImage>& textures() const { return textures_; }
+  // The images of metallicRoughness textures, linear data: Material::roughnessTexture
+  // indexes these.
+  const std::vector<TextureImage>& dataTextures() const { return dataTextures_; }
   // Perspective cameras placed by their nodes, ordered by cameras[] index.
   const std::vector<Camera>& cameras() const { return cameras_; }
 
@@ -103,7 +107,7 @@ class GltfDocument {
   std::unique_ptr<tinygltf::Model> model_;
   std::map<int, std::vector<unsigned char>> imageBytes_;  // encoded, by images[] index
   std::vector<Material> materials_;
-  std::vector<TextureImage> textures_;
+  std::vector<TextureImage> textures_, dataTextures_;
   std::vector<Camera> cameras_;
   std::vector<MeshUse> uses_;
   mutable std::map<int, std::vector<Primitive>> meshes_;

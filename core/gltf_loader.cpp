@@ -32,6 +32,8 @@ class Builder {
     scene_->sourceMeshes = doc_.model().meshes.size();
     scene_->materials = doc_.materials();
     for (const auto& t : doc_.textures()) scene_->textures.push_back(std::make_unique<Texture>(t.encoded, t.name, true));
+    for (const auto& t : doc_.dataTextures())
+      scene_->dataTextures.push_back(std::make_unique<Texture>(t.encoded, t.name, false));
     scene_->cameras = doc_.cameras();
     buildGeometry();
     applyObjectOverrides(scene_->objects, options_.objectOverrides);
@@ -223,7 +225,8 @@ class Builder {
     if (!d.uvs.empty()) {
       cage.uvs = d.uvs;
       cage.uvIndices.assign(d.indices.begin(), d.indices.end());
-      const bool textured = d.material >= 0 && doc_.materials()[size_t(d.material)].texture >= 0;
+      const Material* m = d.material >= 0 ? &doc_.materials()[size_t(d.material)] : nullptr;
+      const bool textured = m && (m->texture >= 0 || m->roughnessTexture >= 0);
       if (textured && options_.backend == SubdivisionBackend::Embree)
         warn(field + ": textures on Embree subdivision surfaces are not supported (the material's factor is used; " +
                      settingName(Setting::SubdivisionBackendOsd) + " keeps them)");

@@ -38,6 +38,10 @@ namespace obscura {
 // that (docs/architecture.md).
 struct IntegratorNeeds {
   bool albedo = false;  // SurfaceHit::albedo is read, here or at secondary hits (decodes textures)
+  // IntegratorContext::roughnessAt is called (reads the materials'
+  // metallicRoughness textures, Scene::dataTextures). Nothing else computes
+  // roughness: a render whose integrator does not set this never decodes them.
+  bool roughness = false;
 };
 
 // One camera sample's estimate of W as a ratio (see above). The render loop
@@ -96,6 +100,9 @@ class IntegratorContext {
   Vec3 albedoAt(const IntersectBatch& b, size_t i) const {
     return surfaceAlbedo(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i));
   }
+  // The material roughness at h, in [0, 1] (surfaceRoughness; needs
+  // IntegratorNeeds::roughness).
+  float roughnessAt(const SurfaceHit& h) const { return surfaceRoughness(scene_, h); }
   // The texture parametrization at a hit (see surfaceUvFrame).
   bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
   // What h's surface is called in messages (Scene::surfaceName).

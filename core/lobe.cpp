@@ -22,7 +22,7 @@ void addLobeParams(std::vector<ParamSpec>& out, LobeSet set) {
               "below `distance` (docs/math.md §11)"},
   };
   for (const ParamSpec& s : specs)
-    if (set == LobeSet::All || s.name != "inside") out.push_back(s);
+    if (set == LobeSet::All || (set == LobeSet::SpreadNear && s.name != "inside") || s.name == "near") out.push_back(s);
 }
 
 namespace {

@@ -69,8 +69,9 @@ struct LobeControls {
 };
 
 // Which controls an integrator declares: containment has no `inside` (the
-// hemisphere behind a height field is inside the field).
-enum class LobeSet { All, SpreadNear };
+// hemisphere behind a height field is inside the field); reflocc only
+// `near` (its lobe is about the mirror direction, not the normal).
+enum class LobeSet { All, SpreadNear, Near };
 
 // Appends the ParamSpecs `inside`, `spread`, `near` to `params` (names,
 // ranges, defaults and documentation in one place for every integrator).

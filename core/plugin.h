@@ -26,7 +26,8 @@
 // breaks binary compatibility (class layouts, virtual functions, inline code
 // that touches core data). 3: Primitive gained a name. 4: screen-space
 // integrators (Integrator::screenSpace, IntegratorDescriptor::kind, core/gbuffer.h).
-#define OBSCURA_PLUGIN_ABI_VERSION 6u
+// 7: SurfaceHit::dir, IntegratorNeeds::roughness, Material's roughness.
+#define OBSCURA_PLUGIN_ABI_VERSION 7u
 
 namespace obscura {
 

@@ -41,6 +41,12 @@ struct Material {
   AlphaMode alphaMode = AlphaMode::Opaque;
   float alpha = 1.0f;
   float alphaCutoff = 0.5f;
+  // Roughness (glTF pbrMetallicRoughness, read by `reflocc` only):
+  // roughnessFactor x the G channel of metallicRoughnessTexture, which holds
+  // linear data (never sRGB-decoded). glTF's default is 1.
+  float roughnessFactor = 1.0f;
+  int roughnessTexture = -1;  // index into Scene::dataTextures, -1 = none
+  WrapMode roughnessWrapS = WrapMode::Repeat, roughnessWrapT = WrapMode::Repeat;
   // Does anything a ray meets depend on alpha? (OPAQUE never; MASK and
   // BLEND unless alpha is 1 everywhere.)
   bool cutsOut(bool textureHasAlpha) const {
@@ -195,7 +201,10 @@ class Scene {
   void setUvsRunDown();
 
   std::vector<Material> materials;
-  std::vector<std::unique_ptr<Texture>> textures;
+  std::vector<std::unique_ptr<Texture>> textures;  // sRGB colour (albedo, alpha)
+  // Linear data images (metallicRoughness): decoded only when an integrator
+  // reads roughness, never by the albedo path.
+  std::vector<std::unique_ptr<Texture>> dataTextures;
   std::vector<Camera> cameras;
   std::string sourcePath;
   size_t sourceMeshes = 0;     // meshes in the source file (glTF meshes)

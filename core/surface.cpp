@@ -93,6 +93,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& 
   const float u = rh.hit.u, v = rh.hit.v;
   out.t = rh.ray.tfar;
   out.p = org + dir * out.t;
+  out.dir = normalize(dir);
   out.geomID = rh.hit.geomID, out.primID = face, out.instID = rh.hit.instID[0];
   out.object = scene.objectOf(out.geomID, out.instID);
   out.hitU = u, out.hitV = v;
@@ -179,6 +180,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   const float w = 1.0f - u - v;
   out.p = v0 * w + v1 * u + v2 * v;
   out.t = t;
+  out.dir = normalize(dir);
   out.geomID = geomID, out.primID = primID, out.instID = instID;
   out.object = scene.objectOf(geomID, instID);
   out.hitU = u, out.hitV = v;
@@ -226,6 +228,28 @@ Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v
   if (!m) return Vec3(1, 1, 1);
   if (m->texture < 0 || prim.uvs.empty()) return m->baseColorFactor;
   return materialAlbedo(scene, *m, u, prim.uvsRunDown ? 1.0f - v : v);
+}
+
+float surfaceRoughness(const Scene& scene, const SurfaceHit& h) {
+  const Affine* toWorld = nullptr;
+  const Primitive& prim = scene.primitiveOf(h.geomID, h.instID, &toWorld);
+  const Material* m = scene.materialOf(prim);
+  if (!m) return 1.0f;
+  if (m->roughnessTexture < 0 || prim.subdivision || prim.uvs.empty()) return m->roughnessFactor;
+  const Texture& tex = *scene.dataTextures[size_t(m->roughnessTexture)];
+  tex.decode();  // once (std::call_once); later calls only check that it succeeded
+  // The same uv a baseColorTexture lookup uses (primitiveAlbedo), in the
+  // file's convention (v down), as the texture is stored.
+  const uint32_t* tri = prim.indices + size_t(h.primID) * 3;
+  const float w = 1.0f - h.hitU - h.hitV;
+  const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
+  const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
+  const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
+  const float tu = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV, tv = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  // G is roughness (glTF 2.0 3.9.2); the product stays in [0, 1] (the factor
+  // is checked at load, texels are in [0, 1]) up to rounding, clamped.
+  const float r = m->roughnessFactor * tex.sample(tu, tv, m->roughnessWrapS, m->roughnessWrapT).y;
+  return std::clamp(r, 0.0f, 1.0f);
 }
 
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {

@@ -16,6 +16,7 @@ struct SurfaceHit {
   Vec3 ng;       // unit geometric normal, facing the side the ray came from
   Vec3 ns;       // unit shading normal, in the same hemisphere as ng
   Vec3 albedo;   // diffuse albedo; only filled when requested
+  Vec3 dir;      // unit direction of the ray that found p, towards p (a camera hit's view direction)
   float eps;     // robust offset distance for rays leaving p (see spawnOrigin)
   float t;       // distance along the incoming ray
   uint32_t pixelKey;     // Sampler key of the pixel
@@ -50,6 +51,13 @@ bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out);
 // the same surface, e.g. where a height field over it rises (decodes
 // textures on first use). Without a texture: the material's factor.
 Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v);
+
+// The roughness of h's material (glTF roughnessFactor x the G channel of
+// its metallicRoughnessTexture at h; a subdivision surface or a primitive
+// without uvs: the factor alone; no material: glTF's default 1), in [0, 1].
+// Decodes the texture on its first use (Texture::decode: throws
+// obscura::Error naming the image if it is corrupt).
+float surfaceRoughness(const Scene& scene, const SurfaceHit& h);
 
 // Fills `out` (all but pixelKey/sampleIndex) from an Embree hit.
 //   dir     : the incoming ray's direction (any length)

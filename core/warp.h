@@ -70,6 +70,22 @@ inline Vec3 squareToUniformCone(float u, float v, float cosThetaMax) {
 // (z = cos(theta) is uniform on [0, 1]): the cone of half-angle pi/2.
 inline Vec3 squareToUniformHemisphere(float u, float v) { return squareToUniformCone(u, v, 0.0f); }
 
+// Direction with density (m + 1)/(2 pi) cos^m(theta) over the hemisphere
+// theta < pi/2 about +z (a normalised Phong lobe, docs/math.md §12), given
+// e = 1/(m + 1) in [0, 1] rather than m, so that the mirror limit m -> inf
+// is e = 0 and nothing is infinite. The cdf of c = cos(theta) is
+// P(cos theta <= c) = c^(m+1), inverted as c = (1 - u)^e = exp(e log1p(-u));
+// sin^2 = 1 - c^2 = -expm1(2 e log1p(-u)) keeps its digits as e -> 0 (where
+// 1 - c^2 would cancel to 0 and then round). u < 1, so the log is finite:
+// e = 0 gives exactly (0, 0, 1), e = 1 (m = 0) the uniform hemisphere.
+inline Vec3 squareToPowerCosine(float u, float v, float e) {
+  const float t = e * std::log1p(-u);  // log cos(theta), in [-17, 0]
+  const float z = std::exp(t);
+  const float s = std::sqrt(std::max(0.0f, -std::expm1(2.0f * t)));
+  const float phi = 2.0f * kPi * v;
+  return {s * std::cos(phi), s * std::sin(phi), z};
+}
+
 // Pixel reconstruction by filter importance sampling: each camera sample is
 // offset from the pixel centre with a density equal to the normalised filter,
 // and weighted 1. A sample therefore belongs to exactly one pixel, which
