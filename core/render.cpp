@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "core/error.h"
@@ -371,6 +372,10 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     if (passes[k].layer.empty()) throw Error("every pass but the first needs a layer name");
   stats = {};
   const auto screenSpace = [&](size_t k) { return passes[k].integrator->screenSpace(); };
+  // Decode what the passes read, once, up front: estimate() never throws or
+  // blocks on a lazy decode (the albedo textures: in each loop).
+  if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
+    for (const auto& t : scene.dataTextures) t->decode();
 
   // The film: the primary pass's loop fills R,G,B,A and the AOVs.
   RenderStats part;

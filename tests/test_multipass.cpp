@@ -84,6 +84,7 @@ TEST_F(MultiPass, EachPassEqualsItsSoloRender) {
       {"dirt", "obscurance", {"falloff=sqrt", "distance=1"}},
       {"tr", "transfer", {"depth=1"}},
       {"mb", "multibounce", {}},
+      {"refl", "reflocc", {"distance=2"}},
       {"vo", "vo", {}},
   };
   RenderSettings s = passSettings(48, 27, 4, 7);
