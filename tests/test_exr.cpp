@@ -124,7 +124,7 @@ TEST(Exr, CliRendersDefaultSceneWithChannelsAndMetadata) {
       ASSERT_LE(v, a);  // premultiplied: W in [0,1] times coverage
     }
     if (a == 0.0f) {
-      EXPECT_TRUE(std::isinf(r.planes.at("Z")[i]));
+      EXPECT_EQ(r.planes.at("Z")[i], kBackgroundDepth);
     }
   }
 }
