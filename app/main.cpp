@@ -84,10 +84,6 @@ bool hasExtension(const std::string& path, const std::string& ext) {
 // that would overwrite the scene or each other, and a film larger than the
 // memory the system has available.
 void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace) {
-  if (!hasExtension(a.output, ".exr"))
-    throw Error("-o " + a.output + ": must end in .exr (the pass is written as OpenEXR)");
-  if (!a.preview.empty() && !hasExtension(a.preview, ".png"))
-    throw Error("--preview " + a.preview + ": must end in .png (the preview is written as PNG)");
   checkWritable(a.output);
   if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
   if (!a.preview.empty()) {
@@ -95,6 +91,11 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
     if (samePath(a.preview, a.output)) throw Error("--preview " + a.preview + ": is the same file as -o");
     if (samePath(a.preview, a.scene)) throw Error("--preview " + a.preview + ": is the scene file; refusing to overwrite it");
   }
+  // After the checks above, whose messages say more about such a path.
+  if (!hasExtension(a.output, ".exr"))
+    throw Error("-o " + a.output + ": must end in .exr (the pass is written as OpenEXR)");
+  if (!a.preview.empty() && !hasExtension(a.preview, ".png"))
+    throw Error("--preview " + a.preview + ": must end in .png (the preview is written as PNG)");
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer
