@@ -2,6 +2,7 @@
 
 #include <tbb/task_arena.h>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -67,20 +68,80 @@ Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
               "; or 'auto')");
 }
 
-// EXR/OpenImageIO matrices are row-vector form (p' = p M): the transpose of
-// the column-vector matrices used in the code.
+// The camera in the OpenEXR standard attributes (ImfStandardAttributes.h),
+// README "Depth and camera conventions". EXR/OpenImageIO matrices are
+// row-vector form (p' = p M): the transpose of the column-vector matrices
+// used in the code.
 namespace {
-std::vector<float> worldToCameraMatrix(const Camera& c) {
-  const Affine& a = c.toWorld;
-  std::vector<float> m(16, 0.0f);
+using Mat4 = std::array<std::array<double, 4>, 4>;
+
+// worldToCamera: OpenEXR's (and RenderMan's) camera space is left-handed,
+// +X right, +Y up and +Z the viewing direction (points in front have z > 0).
+// glTF's camera looks down its -Z, so the third axis is the negated one.
+Mat4 worldToCamera(const Camera& c) {
   const Vec3 t = c.position();
-  for (int r = 0; r < 3; ++r) {
-    const Vec3 axis(a.m[0][r], a.m[1][r], a.m[2][r]);  // camera axis r in world
-    for (int k = 0; k < 3; ++k) m[size_t(k * 4 + r)] = axis[k];  // row-vector form: column r
-    m[size_t(12 + r)] = -dot(axis, t);
+  const Vec3 axes[3] = {c.toWorld.vector(Vec3(1, 0, 0)), c.toWorld.vector(Vec3(0, 1, 0)),
+                        c.toWorld.vector(Vec3(0, 0, -1))};
+  Mat4 m{};
+  for (int r = 0; r < 3; ++r) {  // row-vector form: camera axis r is column r
+    for (int k = 0; k < 3; ++k) m[size_t(k)][size_t(r)] = double(axes[r][k]);
+    m[3][size_t(r)] = -(double(axes[r].x) * t.x + double(axes[r].y) * t.y + double(axes[r].z) * t.z);
   }
-  m[15] = 1.0f;
+  m[3][3] = 1.0;
   return m;
+}
+
+// Camera space -> NDC (row-vector form), for an image of aspect w/h:
+// NDC (0, 0) is the image's top-left corner and (1, 1) its bottom-right,
+// after the divide by w = z; x_ndc = (x / (z tan(fovx/2)) + 1) / 2, y_ndc =
+// (1 - y / (z tan(fovy/2))) / 2. The discarded z maps the clip range [n, f]
+// to [0, 1] (f = far), as a perspective depth.
+Mat4 cameraToNdc(const Camera& c, double aspect, double far) {
+  const double ty = std::tan(0.5 * double(c.yfov)), tx = ty * aspect, n = double(c.znear);
+  const double k = far > n ? far / (far - n) : 1.0;
+  Mat4 p{};
+  p[0][0] = 0.5 / tx;
+  p[1][1] = -0.5 / ty;
+  p[2][0] = 0.5, p[2][1] = 0.5, p[2][2] = k, p[2][3] = 1.0;
+  p[3][2] = -k * n;
+  return p;
+}
+
+std::vector<float> toAttribute(const Mat4& m) {
+  std::vector<float> v;
+  for (const auto& row : m)
+    for (double x : row) v.push_back(float(x));
+  return v;
+}
+
+Mat4 multiply(const Mat4& a, const Mat4& b) {
+  Mat4 r{};
+  for (size_t i = 0; i < 4; ++i)
+    for (size_t j = 0; j < 4; ++j)
+      for (size_t k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
+  return r;
+}
+
+void addCameraAttributes(const Camera& c, int width, int height, bool aovs, std::vector<HeaderAttribute>& out) {
+  const double aspect = double(width) / double(height);
+  // No far clip (glTF's infinite projection): the background's depth, the
+  // farthest Z the file holds.
+  const double far = std::isfinite(c.zfar) ? double(c.zfar) : double(kBackgroundDepth);
+  const Mat4 w2c = worldToCamera(c);
+  out.push_back({"worldToCamera", toAttribute(w2c)});
+  out.push_back({"worldToNDC", toAttribute(multiply(w2c, cameraToNdc(c, aspect, far)))});
+  const double ty = std::tan(0.5 * double(c.yfov));
+  const double degrees = 180.0 / 3.14159265358979323846;
+  out.push_back({"obscura:fovHorizontal", float(2.0 * std::atan(ty * aspect) * degrees)});
+  out.push_back({"obscura:fovVertical", float(double(c.yfov) * degrees)});
+  // Obscura clips along each camera ray (glTF znear/zfar as distances).
+  out.push_back({"obscura:clipNear", c.znear});
+  out.push_back({"obscura:clipFar", float(far)});
+  out.push_back({"obscura:upAxis", std::string("+Y")});
+  if (!aovs) return;
+  out.push_back({"obscura:N", std::string("world-space unit shading normal; world right-handed, +Y up (glTF)")});
+  out.push_back({"obscura:Z", std::string("camera-plane depth: distance along the view axis (mean over the pixel's hits)")});
+  out.push_back({"obscura:backgroundZ", kBackgroundDepth});
 }
 
 }  // namespace
@@ -249,7 +310,7 @@ ExrOptions passHeader(const PassInfo& i) {
   str("obscura:rays:occlusion", std::to_string(i.stats.rays.occlusion));
   str("obscura:rays:closest", std::to_string(i.stats.rays.closest));
   str("obscura:rays:total", std::to_string(i.stats.rays.camera + i.stats.rays.occlusion + i.stats.rays.closest));
-  exr.attributes.push_back({"worldToCamera", worldToCameraMatrix(i.camera)});
+  addCameraAttributes(i.camera, i.settings.width, i.settings.height, i.settings.aovs, exr.attributes);
   return exr;
 }
 

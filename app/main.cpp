@@ -75,9 +75,19 @@ bool samePath(const std::string& a, const std::string& b) {
   return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
 }
 
-// Fail before a long render, not after it: outputs that cannot be written,
-// outputs that would overwrite the scene or each other, and a film larger
-// than the memory the system has available.
+// True when `path` ends in `ext` (".exr"), ignoring case.
+bool hasExtension(const std::string& path, const std::string& ext) {
+  if (path.size() < ext.size()) return false;
+  for (size_t i = 0; i < ext.size(); ++i)
+    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
+  return true;
+}
+
+// Fail before a long render, not after it: outputs whose extension is not
+// the format written (an EXR under a .tif name, a PNG under .jpg: viewers
+// and pipelines go by the name), outputs that cannot be written, outputs
+// that would overwrite the scene or each other, and a film larger than the
+// memory the system has available.
 void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers) {
   checkWritable(a.output);
   if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
@@ -86,6 +96,11 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
     if (samePath(a.preview, a.output)) throw Error("--preview " + a.preview + ": is the same file as -o");
     if (samePath(a.preview, a.scene)) throw Error("--preview " + a.preview + ": is the scene file; refusing to overwrite it");
   }
+  // After the checks above, whose messages say more about such a path.
+  if (!hasExtension(a.output, ".exr"))
+    throw Error("-o " + a.output + ": must end in .exr (the pass is written as OpenEXR)");
+  if (!a.preview.empty() && !hasExtension(a.preview, ".png"))
+    throw Error("--preview " + a.preview + ": must end in .png (the preview is written as PNG)");
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer

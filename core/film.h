@@ -24,6 +24,13 @@ enum Channel : int {
   kChannelCount
 };
 
+// Z where nothing was hit: large and finite, so a compositor's filters
+// (negative lobes times +inf give NaN) and range nodes stay finite. 1e10 is
+// what Cycles writes for its Depth pass's background, and above the range
+// Blender's Normalize node takes into account (|v| <= 10000). README "Depth
+// and camera conventions".
+constexpr float kBackgroundDepth = 1e10f;
+
 // The name of a fixed channel (Channel); extra planes are named by the Film.
 const char* channelName(int c);
 

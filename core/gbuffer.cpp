@@ -49,7 +49,7 @@ uint64_t screenSpaceWorkingBytes(int w, int h) {
   const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) +
                               sizeof(std::array<float, 2>) + 2 * sizeof(uint32_t));
   const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
-  // Sums: num, den, hits, and the AOVs' albedo, normal and distance.
+  // Sums: num, den, hits, and the AOVs' albedo, normal and depth.
   return layer + moments + n * (2 * sizeof(Vec3) + sizeof(uint32_t) + 2 * sizeof(Vec3) + sizeof(float) + sizeof(SampleEstimate));
 }
 
@@ -266,7 +266,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   // Allocated here, zeroed in parallel in the arena below.
   LargeVector<LayerSums> sums(n);
   LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0);
-  LargeVector<float> distanceSums(s.aovs ? n : 0);
+  LargeVector<float> depthSums(s.aovs ? n : 0);
   GBufferLayer g;
   // The layer's estimates as a whole image only for the depth-aware filter;
   // otherwise each tile's go from a per-thread buffer into the sums.
@@ -285,7 +285,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     parallelFill(sums, LayerSums{});
     parallelFill(albedoSums, Vec3(0, 0, 0));
     parallelFill(normalSums, Vec3(0, 0, 0));
-    parallelFill(distanceSums, 0.0f);
+    parallelFill(depthSums, 0.0f);
     for (int si = 0; si < s.spp; ++si) {
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
       auto t = std::chrono::steady_clock::now();
@@ -301,9 +301,9 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         p.hits += 1;
         if (wantAlbedo) albedoSums[i] += g.albedo[i];
         if (s.aovs) {
-          // The ray-traced loop's AOVs: world normal, distance along the ray.
+          // The ray-traced loop's AOVs: world normal, camera-plane depth.
           normalSums[i] += g.view.vectorToWorld(g.normal[i]);
-          distanceSums[i] += length(g.position[i]);
+          depthSums[i] += g.depth[i];
         }
       };
       t = std::chrono::steady_clock::now();
@@ -352,7 +352,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       p.den.add(sums[i].den);
       p.hits = sums[i].hits;
       if (wantAlbedo) p.albedo.add(albedoSums[i]);
-      if (s.aovs) p.N.add(normalSums[i]), p.Z = double(distanceSums[i]);
+      if (s.aovs) p.N.add(normalSums[i]), p.Z = double(depthSums[i]);
       return p;
     };
     parallelRows(s.height, [&](int y0, int y1) {

@@ -57,12 +57,28 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   OIIO::ImageSpec spec(film.width(), film.height(), nc, options.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
   spec.channelnames.clear();
   for (int c : chans) spec.channelnames.emplace_back(film.name(c));
+  if (options.half) {
+    // Per-channel pixel types: OIIO converts the float bands below to each.
+    bool mixed = false;
+    for (int c : chans) {
+      const bool keep = c < kChannelCount ? exrKeepsFloat(c)
+                                          : std::find(options.floatPlanes.begin(), options.floatPlanes.end(),
+                                                      film.name(c)) != options.floatPlanes.end();
+      spec.channelformats.push_back(keep ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
+      mixed |= keep;
+    }
+    if (!mixed) spec.channelformats.clear();
+  }
   spec.alpha_channel = 3;
   spec.z_channel = -1;
   for (int i = 0; i < nc; ++i)
     if (chans[size_t(i)] == kZ) spec.z_channel = i;
   spec.attribute("compression", "zip");
   spec.attribute("oiio:ColorSpace", "Linear");
+  // CIE xy of the Rec.709 / sRGB primaries R, G, B and of the D65 white
+  // (ITU-R BT.709): what linear sRGB textures and a grey sky make.
+  static const float rec709[8] = {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
+  spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), rec709);
   for (const HeaderAttribute& a : options.attributes) {
     if (auto* s = std::get_if<std::string>(&a.value)) spec.attribute(a.name, *s);
     else if (auto* i = std::get_if<int>(&a.value)) spec.attribute(a.name, *i);
@@ -109,6 +125,8 @@ std::vector<unsigned char> previewPixels(const Film& film) {
 }
 
 }  // namespace
+
+bool exrKeepsFloat(int channel) { return channel == kNX || channel == kNY || channel == kNZ || channel == kZ; }
 
 void checkWritable(const std::string& path) {
   const fs::path p(path);

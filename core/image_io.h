@@ -22,13 +22,27 @@ struct HeaderAttribute {
 };
 
 struct ExrOptions {
-  bool half = false;  // 16-bit half floats instead of 32-bit floats
+  // 16-bit half floats instead of 32-bit floats for the pass, alpha, albedo,
+  // shaded and the extra planes; N.X/Y/Z and Z stay 32-bit (exrKeepsFloat).
+  bool half = false;
+  // Extra planes written 32-bit even with `half` (values that are not
+  // colours, e.g. ID mattes' hashes, which half would destroy).
+  std::vector<std::string> floatPlanes;
   std::vector<HeaderAttribute> attributes;
 };
 
+// True for the fixed channels written 32-bit float even under --half: the
+// normal (half's 11-bit significand leaves ~5e-4 of a unit vector) and the
+// depth (half overflows at 65504 and quantizes depths of a few hundred
+// units to a fraction of a unit).
+bool exrKeepsFloat(int channel);
+
 // Throws obscura::Error naming the path on failure (nothing is left behind).
 // The EXR is written in bands of scanlines straight from the film's planes,
-// so writing needs no second copy of the film.
+// so writing needs no second copy of the film. Its channels may mix half
+// and float (OpenEXR stores a pixel type per channel). The header also
+// carries the standard `chromaticities` (Rec.709 primaries, D65 white: the
+// film is linear Rec.709).
 void writeExr(const std::string& path, const Film& film, const ExrOptions& options);
 
 // Files written together: each add*() writes a temporary sibling of its

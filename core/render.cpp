@@ -72,7 +72,7 @@ class TileRenderer {
   TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
                const Tracer& tracer, Film& film, bool wantAlbedo)
       : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
-        sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
+        sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar), forward_(camera.toWorld.vector(Vec3(0, 0, -1))),
         wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()) {}
 
   int tileCount() const { return PixelRect::tileCount(s_.tileSize, s_.width, s_.height); }
@@ -188,7 +188,10 @@ class TileRenderer {
       if (wantAlbedo_) p.albedo.add(h.albedo);
       if (s_.aovs) {
         p.N.add(h.ns);
-        p.Z += double(h.t);
+        // Z is camera-plane depth: the hit's distance along the view axis,
+        // t times the cosine between the (unit) ray and that axis.
+        const RTCRay& ray = ts.camera.data()[l].ray;
+        p.Z += double(h.t) * double(dot(Vec3(ray.dir_x, ray.dir_y, ray.dir_z), forward_));
       }
     }
   }
@@ -221,6 +224,7 @@ class TileRenderer {
   const RasterCamera raster_;
   const Sampler sampler_;
   const float tnear_, tfar_;
+  const Vec3 forward_;  // the camera's view axis (world, unit)
   const bool wantAlbedo_;
   const bool mattes_;
 };
@@ -250,8 +254,8 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
   const bool aovs = film.hasAovs();
   const double coverage = double(p.hits) / double(spp);
   film.at(kA, fx, fy) = float(coverage);
-  if (p.hits == 0) {  // background: zero (premultiplied), Z = inf
-    if (aovs) film.at(kZ, fx, fy) = kInfinity;
+  if (p.hits == 0) {  // background: zero (premultiplied), Z far but finite
+    if (aovs) film.at(kZ, fx, fy) = kBackgroundDepth;
     return;
   }
   // The pass and the albedo are means over the pixel's hits, then

@@ -549,11 +549,15 @@ TEST(GltfCameras, NoCameraInFileRendersWithAutoCameraFramingEverything) {
   EXPECT_EQ(spec.get_string_attribute("obscura:camera"), "auto");
   const OIIO::ParamValue* w2c = spec.find_attribute("worldToCamera", OIIO::TypeMatrix44);
   ASSERT_NE(w2c, nullptr);
-  const float* m = static_cast<const float*>(w2c->data());
+  // The header's matrix is OpenEXR's (+Z ahead, tests/test_exr_conventions.cpp):
+  // back to glTF's camera frame (-Z ahead) by negating its third column.
+  std::array<float, 16> m;
+  std::copy_n(static_cast<const float*>(w2c->data()), 16, m.begin());
+  for (int k = 0; k < 4; ++k) m[size_t(k * 4 + 2)] = -m[size_t(k * 4 + 2)];
   const Camera cam = makeAutoCamera(b, 2.0f);
   const auto expected = worldToCamera(cam);
   for (int i = 0; i < 16; ++i) EXPECT_NEAR(m[i], expected[size_t(i)], 1e-4 * (1 + std::abs(expected[size_t(i)]))) << i;
-  expectBoundsInView(m, cam.yfov, 2.0, b);
+  expectBoundsInView(m.data(), cam.yfov, 2.0, b);
   // And the render saw geometry.
   ASSERT_TRUE(image.planes.count("A"));
   double coverage = 0;

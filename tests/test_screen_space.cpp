@@ -34,7 +34,7 @@ struct FloorView {
 // --- the seam ---------------------------------------------------------------------
 
 // The G-buffer layers are the ray-traced loop's camera samples: coverage,
-// albedo, normal and distance AOVs agree with `ao`'s for every pixel (same
+// albedo, normal and depth AOVs agree with `ao`'s for every pixel (same
 // rays: coverage exactly; albedo to float summation, N and Z to the
 // view-space round trip, a few ulps), and
 // the camera ray count is width x height x spp.
@@ -63,7 +63,7 @@ TEST(ScreenSpaceSeam, LayersAreTheCameraSamples) {
         for (int c : {kAlbedoR, kAlbedoG, kAlbedoB}) EXPECT_NEAR(ao.at(c, x, y), vo.at(c, x, y), 5.0f * 0x1p-24f);
         for (int c : {kNX, kNY, kNZ}) EXPECT_NEAR(ao.at(c, x, y), vo.at(c, x, y), 1e-5f);
         if (ao.at(kA, x, y) > 0.0f) EXPECT_NEAR(ao.at(kZ, x, y), vo.at(kZ, x, y), 1e-5f * ao.at(kZ, x, y));
-        else EXPECT_EQ(vo.at(kZ, x, y), kInfinity);
+        else EXPECT_EQ(vo.at(kZ, x, y), kBackgroundDepth);
       }
     EXPECT_GT(partial, 10);  // the comparison covered pixel edges
   }
