@@ -57,6 +57,14 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   OIIO::ImageSpec spec(film.width(), film.height(), nc, options.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
   spec.channelnames.clear();
   for (int c : chans) spec.channelnames.emplace_back(film.name(c));
+  if (options.half && !options.floatChannelPrefixes.empty()) {
+    for (int c : chans) {
+      const std::string& n = film.name(c);
+      const bool keep = std::any_of(options.floatChannelPrefixes.begin(), options.floatChannelPrefixes.end(),
+                                    [&](const std::string& p) { return n.compare(0, p.size(), p) == 0; });
+      spec.channelformats.push_back(keep ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
+    }
+  }
   spec.alpha_channel = 3;
   spec.z_channel = -1;
   for (int i = 0; i < nc; ++i)

@@ -23,6 +23,9 @@ struct HeaderAttribute {
 
 struct ExrOptions {
   bool half = false;  // 16-bit half floats instead of 32-bit floats
+  // Channels whose name starts with one of these stay 32-bit floats with
+  // `half` (Cryptomatte ids are float bit patterns: README "Cryptomatte").
+  std::vector<std::string> floatChannelPrefixes;
   std::vector<HeaderAttribute> attributes;
 };
 
