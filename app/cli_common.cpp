@@ -199,6 +199,7 @@ ExrOptions passHeader(const PassInfo& i) {
   str("obscura:rays:closest", std::to_string(i.stats.rays.closest));
   str("obscura:rays:total", std::to_string(i.stats.rays.camera + i.stats.rays.occlusion + i.stats.rays.closest));
   exr.attributes.push_back({"worldToCamera", worldToCameraMatrix(i.camera)});
+  if (i.scene && i.settings.cryptomatte.any()) addCryptomatteHeader(*i.scene, i.settings.cryptomatte, exr);
   return exr;
 }
 

@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include <chrono>
+#include <optional>
 
 #include "core/error.h"
 #include "core/gbuffer.h"
@@ -37,6 +38,7 @@ struct ThreadScratch {
   SampleEstimate W[kChunk];     // the integrator's estimate of each hit
   std::vector<PixelSums> sums;  // the tile's pixels
   RayCounters cameraCounters;
+  CryptomatteFilm::Tile crypto;  // empty unless Cryptomatte is on
 };
 
 
@@ -60,10 +62,10 @@ struct SampleCursor {
 class TileRenderer {
  public:
   TileRenderer(const Scene& scene, const Camera& camera, const Integrator& integrator, const RenderSettings& s,
-               const Tracer& tracer, Film& film, bool wantAlbedo)
+               const Tracer& tracer, Film& film, bool wantAlbedo, const CryptomatteFilm* crypto = nullptr)
       : scene_(scene), integrator_(integrator), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar),
-        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()) {}
+        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto) {}
 
   int tileCount() const { return PixelRect::tileCount(s_.tileSize, s_.width, s_.height); }
 
@@ -74,16 +76,19 @@ class TileRenderer {
     ts.sums.assign(r.size(), PixelSums{});
     const uint64_t total = uint64_t(r.size()) * uint64_t(s_.spp);
     SampleCursor c = startCursor(r);
+    if (crypto_) crypto_->beginTile(r, ts.crypto);
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
       const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
       cameraRays(r, c, n, ts);
       traceCamera(n, ts);
       surfaceHits(n, ts);
+      if (crypto_) cryptomatteHits(n, ts);
       estimate(ts);
       accumulate(n, ts);
     }
     resolve(r, ts);
+    if (crypto_) crypto_->endTile(ts.crypto);
     return r.size();
   }
 
@@ -146,6 +151,13 @@ class TileRenderer {
     }
   }
 
+  // The chunk's camera hits, in lane order (pixel-major, sample-minor),
+  // into the Cryptomatte counts; holdouts and misses have no id.
+  void cryptomatteHits(size_t n, ThreadScratch& ts) const {
+    for (size_t l = 0; l < n; ++l)
+      if (ts.laneHit[l] >= 0) crypto_->addHit(ts.crypto, ts.lanePixel[l], ts.hits[size_t(ts.laneHit[l])]);
+  }
+
   // The integrator's estimate of every hit (ts.W), as one batch.
   void estimate(ThreadScratch& ts) const {
     if (ts.hits.empty()) return;
@@ -191,6 +203,7 @@ class TileRenderer {
   const float tnear_, tfar_;
   const bool wantAlbedo_;
   const bool mattes_;
+  const CryptomatteFilm* crypto_;  // null: Cryptomatte off
 };
 
 }  // namespace
@@ -238,6 +251,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
   if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
+  if (s.cryptomatte.any()) checkCryptomatteRanks(s.cryptomatte.ranks);
   if (const ScreenSpaceIntegrator* ss = integrator.screenSpace())
     return renderScreenSpace(scene, camera, *ss, needs, s, stats, cancel);
   const bool wantAlbedo = needs.albedo || s.aovs;
@@ -246,7 +260,9 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
 
   Film film(s.width, s.height, s.aovs);
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
-  const TileRenderer tiles(scene, camera, integrator, s, tracer, film, wantAlbedo);
+  std::optional<CryptomatteFilm> crypto;
+  if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
+  const TileRenderer tiles(scene, camera, integrator, s, tracer, film, wantAlbedo, crypto ? &*crypto : nullptr);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
   Progress progress("render", uint64_t(s.width) * s.height, s.progress);
