@@ -311,6 +311,7 @@ ExrOptions passHeader(const PassInfo& i) {
   str("obscura:rays:closest", std::to_string(i.stats.rays.closest));
   str("obscura:rays:total", std::to_string(i.stats.rays.camera + i.stats.rays.occlusion + i.stats.rays.closest));
   addCameraAttributes(i.camera, i.settings.width, i.settings.height, i.settings.aovs, exr.attributes);
+  if (i.scene && i.settings.cryptomatte.any()) addCryptomatteHeader(*i.scene, i.settings.cryptomatte, exr);
   return exr;
 }
 

@@ -65,6 +65,8 @@ struct RenderArgs : SceneArgs {
   bool noAovs = false;
   bool quiet = false;
   std::vector<std::string> plugins;
+  std::string cryptomatte = "none";
+  int cryptomatteRanks = kDefaultCryptomatteRanks;
 };
 
 // True when a and b name the same file (existing or not).
@@ -108,7 +110,8 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
   // Each layer adds three planes.
   const uint64_t need = filmBytes(s.width, s.height, s.aovs) + uint64_t(layers) * 3 * sizeof(float) * s.width * s.height +
                         (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3) +
-                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0);
+                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
+                        cryptomatteBytes(s.cryptomatte, s.width, s.height);
   const uint64_t avail = availableMemoryBytes();
   if (avail > 0 && need > avail) {
     char msg[160];
@@ -197,6 +200,7 @@ int runRender(const RenderArgs& a) {
   s.sky = parseSky(a.sky);
   s.aovs = !a.noAovs;
   s.progress = !a.quiet;
+  s.cryptomatte = parseCryptomatte(a.cryptomatte, a.cryptomatteRanks);
   if (a.output.empty()) throw Error("-o: an output .exr path is required");
 
   std::optional<tbb::global_control> limit;
@@ -346,6 +350,8 @@ int main(int argc, char** argv) {
   render->add_flag("--no-aovs", r.noAovs, "Write only R,G,B,A (skips albedo, N, Z, shaded)");
   render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
   render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");
+  render->add_option("--cryptomatte", r.cryptomatte, "Cryptomatte ID matte layers: object, material, object,material or none");
+  render->add_option("--cryptomatte-ranks", r.cryptomatteRanks, "Cryptomatte: ids (id, coverage pairs) kept per pixel, 1..32");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
   addSceneOptions(render, r);
 

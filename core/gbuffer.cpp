@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 
 #include "core/error.h"
 #include "core/pixel_sums.h"
@@ -253,6 +254,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
 
   Film film(s.width, s.height, s.aovs);
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
+  std::optional<CryptomatteFilm> crypto;  // its own pass, after the layers
+  if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
   const size_t n = size_t(s.width) * size_t(s.height);
   // Whole-image state: the pixel sums, one layer (and its estimates when
   // the integrator interleaves). The sums are float and
@@ -360,6 +363,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         for (int x = 0; x < s.width; ++x)
           resolvePixelSums(pixelSums(y, x), s.spp, integrator, wantAlbedo, s.sky, film, x, y);
     });
+    if (crypto && !(cancel && cancel->load(std::memory_order_relaxed)))
+      renderCryptomatteSamples(scene, tracer, camera, s, *crypto, cameraRays);
   });
   stats.seconds = secondsSince(t0);
   progress.finish();

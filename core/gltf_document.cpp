@@ -484,7 +484,9 @@ void GltfDocument::visit(int index, const Matrix4d& parent, std::vector<int>& st
   if (n.skin >= 0) warn("skinned meshes render in their bind pose");
   if (n.mesh >= 0) {
     if (size_t(n.mesh) >= model_->meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
-    uses_.push_back({n.mesh, world, n.name.empty() ? field : n.name, index, stack});
+    // Named by the node, else by its mesh (what exporters name), else by its place.
+    const std::string& meshName = model_->meshes[size_t(n.mesh)].name;
+    uses_.push_back({n.mesh, world, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index, stack});
   }
   if (n.camera >= 0) addCamera(index, n.camera, world, field);
   stack.push_back(index);

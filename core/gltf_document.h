@@ -64,7 +64,7 @@ class GltfDocument {
   struct MeshUse {
     int mesh;
     Matrix4d world;
-    std::string node;  // its name, else "nodes[i]"
+    std::string node;  // its name, else its mesh's name, else "nodes[i]"
     int nodeIndex;
     std::vector<int> ancestors;  // the node's ancestors, root first (their extras are inherited)
   };

@@ -61,9 +61,10 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
     // Per-channel pixel types: OIIO converts the float bands below to each.
     bool mixed = false;
     for (int c : chans) {
+      const std::string& n = film.name(c);
       const bool keep = c < kChannelCount ? exrKeepsFloat(c)
-                                          : std::find(options.floatPlanes.begin(), options.floatPlanes.end(),
-                                                      film.name(c)) != options.floatPlanes.end();
+                                          : std::any_of(options.floatChannelPrefixes.begin(), options.floatChannelPrefixes.end(),
+                                                        [&](const std::string& p) { return n.compare(0, p.size(), p) == 0; });
       spec.channelformats.push_back(keep ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
       mixed |= keep;
     }

@@ -25,9 +25,9 @@ struct ExrOptions {
   // 16-bit half floats instead of 32-bit floats for the pass, alpha, albedo,
   // shaded and the extra planes; N.X/Y/Z and Z stay 32-bit (exrKeepsFloat).
   bool half = false;
-  // Extra planes written 32-bit even with `half` (values that are not
-  // colours, e.g. ID mattes' hashes, which half would destroy).
-  std::vector<std::string> floatPlanes;
+  // Extra planes whose name starts with one of these stay 32-bit floats with
+  // `half` (Cryptomatte ids are float bit patterns: README "Cryptomatte").
+  std::vector<std::string> floatChannelPrefixes;
   std::vector<HeaderAttribute> attributes;
 };
 

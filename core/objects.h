@@ -80,7 +80,7 @@ ObjectOverride parseObjectOverride(const std::string& text);
 bool matches(const ObjectOverride& o, const std::string& name);
 
 struct SceneObject {
-  std::string name;  // the glTF node's name (else "nodes[i]"), or the OBJ file's name
+  std::string name;  // the glTF node's name (else its mesh's, else "nodes[i]"), or the OBJ file's name
   ObjectRoles roles;
 };
 

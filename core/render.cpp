@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 
 #include "core/error.h"
 #include "core/gbuffer.h"
@@ -39,6 +40,7 @@ struct ThreadScratch {
   std::vector<PixelSums> sums;  // the tile's pixels (the primary pass and the AOVs)
   std::vector<PassSums> passSums;  // the other passes: pixel j, pass k >= 1 at j * (passes - 1) + k - 1
   RayCounters cameraCounters;
+  CryptomatteFilm::Tile crypto;  // empty unless Cryptomatte is on
 };
 
 // A pass as the tile loop sees it: its integrator, whether a solo render of
@@ -70,10 +72,10 @@ struct SampleCursor {
 class TileRenderer {
  public:
   TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
-               const Tracer& tracer, Film& film, bool wantAlbedo)
+               const Tracer& tracer, Film& film, bool wantAlbedo, const CryptomatteFilm* crypto = nullptr)
       : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar), forward_(camera.toWorld.vector(Vec3(0, 0, -1))),
-        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()) {}
+        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto) {}
 
   int tileCount() const { return PixelRect::tileCount(s_.tileSize, s_.width, s_.height); }
 
@@ -85,16 +87,19 @@ class TileRenderer {
     ts.passSums.assign(r.size() * (passes_.size() - 1), PassSums{});
     const uint64_t total = uint64_t(r.size()) * uint64_t(s_.spp);
     SampleCursor c = startCursor(r);
+    if (crypto_) crypto_->beginTile(r, ts.crypto);
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
       const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
       cameraRays(r, c, n, ts);
       traceCamera(n, ts);
       surfaceHits(n, ts);
+      if (crypto_) cryptomatteHits(n, ts);
       estimate(ts);
       accumulate(n, ts);
     }
     resolve(r, ts);
+    if (crypto_) crypto_->endTile(ts.crypto);
     return r.size();
   }
 
@@ -155,6 +160,13 @@ class TileRenderer {
       h.pixelKey = ts.laneKey[l];
       h.sampleIndex = ts.laneSample[l];
     }
+  }
+
+  // The chunk's camera hits, in lane order (pixel-major, sample-minor),
+  // into the Cryptomatte counts; holdouts and misses have no id.
+  void cryptomatteHits(size_t n, ThreadScratch& ts) const {
+    for (size_t l = 0; l < n; ++l)
+      if (ts.laneHit[l] >= 0) crypto_->addHit(ts.crypto, ts.lanePixel[l], ts.hits[size_t(ts.laneHit[l])]);
   }
 
   // Each pass's estimate of every hit (ts.W), as one batch per pass: the
@@ -227,6 +239,7 @@ class TileRenderer {
   const Vec3 forward_;  // the camera's view axis (world, unit)
   const bool wantAlbedo_;
   const bool mattes_;
+  const CryptomatteFilm* crypto_;  // null: Cryptomatte off
 };
 
 }  // namespace
@@ -303,17 +316,20 @@ void checkSettings(const RenderSettings& s) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
   if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
+  if (s.cryptomatte.any()) checkCryptomatteRanks(s.cryptomatte.ranks);
 }
 
 // The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the
-// camera samples, into `film`.
+// camera samples, into `film` (with its Cryptomatte layers if s asks).
 void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const PassSlot> slots, bool wantAlbedo,
                      const RenderSettings& s, Film& film, RenderStats& stats, const std::atomic<bool>* cancel) {
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();
 
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
-  const TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo);
+  std::optional<CryptomatteFilm> crypto;
+  if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
+  const TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo, crypto ? &*crypto : nullptr);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
   Progress progress("render", uint64_t(s.width) * s.height, s.progress);
@@ -386,37 +402,47 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
                              : Film(s.width, s.height, s.aovs);
   addStats(stats, part);
-  // Layer planes in pass order, after the fixed channels.
-  std::vector<int> layer(passes.size(), -1);
+  // Layer planes in pass order, after the fixed channels (and the
+  // Cryptomatte layers of a screen-space primary).
   const auto addLayers = [&](Film& f) {
+    std::vector<int> layer(passes.size(), -1);
     for (size_t k = 0; k < passes.size(); ++k)
       if (!passes[k].layer.empty()) {
         layer[k] = f.addPlane(passes[k].layer + ".R");
         f.addPlane(passes[k].layer + ".G");
         f.addPlane(passes[k].layer + ".B");
       }
+    return layer;
   };
-  addLayers(film);
+  const std::vector<int> layer = addLayers(film);
+  // The loops after the primary's leave the ID mattes to it.
+  RenderSettings others = s;
+  others.cryptomatte = {};
 
   // The ray-traced passes: one shared walk over the camera samples.
-  std::vector<PassSlot> slots;
+  std::vector<size_t> rayTraced;
   bool wantAlbedo = s.aovs;
   for (size_t k = 0; k < passes.size(); ++k)
     if (!screenSpace(k)) {
-      slots.push_back({passes[k].integrator, passes[k].needs.albedo || s.aovs, layer[k]});
+      rayTraced.push_back(k);
       wantAlbedo = wantAlbedo || passes[k].needs.albedo;
     }
-  if (!slots.empty()) {
+  const auto slotsFor = [&](const std::vector<int>& layerOf) {
+    std::vector<PassSlot> slots;
+    for (size_t k : rayTraced) slots.push_back({passes[k].integrator, passes[k].needs.albedo || s.aovs, layerOf[k]});
+    return slots;
+  };
+  if (!rayTraced.empty()) {
     part = {};
     if (!screenSpace(0)) {
-      renderRayTraced(scene, camera, slots, wantAlbedo, s, film, part, cancel);
+      renderRayTraced(scene, camera, slotsFor(layer), wantAlbedo, s, film, part, cancel);
     } else {
-      // The first ray-traced pass lands in R,G,B of a film of its own, laid
-      // out like `film` (same planes, same indices), and is copied over.
+      // The first ray-traced pass lands in R,G,B of a film of its own; every
+      // ray-traced pass's layer is copied over.
       Film rt(s.width, s.height, s.aovs);
-      addLayers(rt);
-      renderRayTraced(scene, camera, slots, wantAlbedo, s, rt, part, cancel);
-      for (const PassSlot& slot : slots) copyPlanes(rt, slot.layer, film, slot.layer, 3);
+      const std::vector<int> rtLayer = addLayers(rt);
+      renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel);
+      for (size_t k : rayTraced) copyPlanes(rt, rtLayer[k], film, layer[k], 3);
     }
     addStats(stats, part);
   }
@@ -425,7 +451,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   for (size_t k = 1; k < passes.size(); ++k) {
     if (!screenSpace(k) || (cancel && cancel->load())) continue;
     part = {};
-    const Film f = renderScreenSpace(scene, camera, *screenSpace(k), passes[k].needs, s, part, cancel);
+    const Film f = renderScreenSpace(scene, camera, *screenSpace(k), passes[k].needs, others, part, cancel);
     copyPlanes(f, kR, film, layer[k], 3);
     addStats(stats, part);
   }

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/camera.h"
+#include "core/cryptomatte.h"
 #include "core/film.h"
 #include "core/integrator.h"
 #include "core/scene.h"
@@ -26,6 +27,7 @@ struct RenderSettings {
   Vec3 sky{1, 1, 1};       // La of docs/math.md §1 (only scales shaded.*)
   bool aovs = true;        // write albedo/N/Z/shaded channels
   bool progress = false;   // progress bar on stderr
+  CryptomatteSettings cryptomatte;  // ID matte layers (core/cryptomatte.h); off by default
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
 };
 

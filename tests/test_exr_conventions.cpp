@@ -211,7 +211,7 @@ TEST(ExrConventions, ZIsCameraPlaneDepthAndTheBackgroundIsFinite) {
 }
 
 // --half keeps N and Z 32-bit and everything else half, extra planes too
-// unless listed in floatPlanes; the float channels round-trip exactly (a
+// unless listed in floatChannelPrefixes; the float channels round-trip exactly (a
 // depth of 1234.5678 and the 1e10 background have no half: 1234 or 1235,
 // and +inf).
 TEST(ExrConventions, HalfKeepsDepthAndNormalsFloat) {
@@ -228,7 +228,7 @@ TEST(ExrConventions, HalfKeepsDepthAndNormalsFloat) {
   film.at(id, 3, 1) = 3.0e-20f;  // an ID-like value far below half's range
   ExrOptions o;
   o.half = true;
-  o.floatPlanes = {"ids.R"};
+  o.floatChannelPrefixes = {"ids.R"};
   writeExr(dir + "/h.exr", film, o);
   const ReadBack r = readExr(dir + "/h.exr");
   ASSERT_TRUE(r.ok);
