@@ -253,6 +253,42 @@ TEST(Plugin, BentNormalInAMultiPassRender) {
   }
 }
 
+// Issue 15's whole file: one `obscura render` writes ao + transfer +
+// bent-normal (a plugin) + reflocc layers and Cryptomatte into one EXR; each
+// layer equals its solo CLI render bit for bit, and the ID mattes do not
+// change any pass.
+TEST(Plugin, OneRenderWritesEveryCompositingLayer) {
+  const std::string dir = tempDir("plugin_compositing");
+  const std::vector<std::string> common = {"render", "-q", "--res", "48x27", "--spp", "4", "--plugin", OBSCURA_BENT_PLUGIN};
+  const auto args = [&](const std::string& out, std::vector<std::string> extra) {
+    std::vector<std::string> a = common;
+    a.push_back("-o");
+    a.push_back(dir + "/" + out);
+    a.insert(a.end(), extra.begin(), extra.end());
+    return a;
+  };
+  const std::vector<std::pair<std::string, std::vector<std::string>>> solo = {
+      {"ao", {"-i", "ao", "-p", "distance=2"}},
+      {"transfer", {"-i", "transfer", "-p", "depth=1"}},
+      {"bent", {"-i", "bent-normal"}},
+      {"refl", {"-i", "reflocc", "-p", "roughness=0.3"}},
+  };
+  std::vector<std::vector<std::string>> runs = {
+      args("all.exr", {"--pass", "ao=ao:distance=2", "--pass", "transfer=transfer:depth=1", "--pass", "bent=bent-normal",
+                       "--pass", "refl=reflocc:roughness=0.3", "--cryptomatte", "object,material"})};
+  for (const auto& [layer, extra] : solo) runs.push_back(args(layer + ".exr", extra));
+  for (const CliResult& r : runClis(runs, dir)) ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  const ReadBack all = readExr(dir + "/all.exr");
+  ASSERT_TRUE(all.ok);
+  for (const auto& [layer, extra] : solo) {
+    const ReadBack one = readExr(dir + "/" + layer + ".exr");
+    for (const char* c : {"R", "G", "B"}) EXPECT_EQ(all.planes.at(layer + "." + c), one.planes.at(c)) << layer << c;
+  }
+  for (const char* c : {"CryptoObject00.R", "CryptoObject00.G", "CryptoMaterial00.R", "CryptoMaterial00.G"})
+    EXPECT_EQ(all.planes.count(c), 1u) << c;
+  EXPECT_FALSE(all.spec.get_string_attribute("obscura:pass:bent:integrator").empty());
+}
+
 // From the wall point opposite the hole of the spherical cavity
 // (docs/math.md §7), the open directions are the cone theta < alpha/2 about the
 // normal n = +z:  B = n (2/3)(1 - c0^3), c0 = cos(alpha/2); per ray
