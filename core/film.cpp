@@ -10,13 +10,17 @@ const char* channelName(int c) {
   return names[c];
 }
 
-Film::Film(int width, int height, bool aovs) : width_(width), height_(height), aovs_(aovs) {
+Film::Film(int width, int height, bool aovs) : Film(PixelRect{0, 0, width, height}, width, height, aovs) {}
+
+Film::Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs)
+    : width_(window.width()), height_(window.height()), x0_(window.x0), y0_(window.y0), fullWidth_(fullWidth),
+      fullHeight_(fullHeight), aovs_(aovs) {
   planes_.resize(kChannelCount);
   for (int c = 0; c < kChannelCount; ++c) names_.emplace_back(channelName(c));
   const int n = aovs ? int(kChannelCount) : 4;
   for (int c = 0; c < n; ++c) {
     channels_.push_back(c);
-    planes_[c].assign(size_t(width) * size_t(height), 0.0f);
+    planes_[c].assign(size_t(width_) * size_t(height_), 0.0f);
   }
 }
 

@@ -55,12 +55,27 @@ struct PixelRect {
   }
 };
 
+// A film holds the planes of a window of the image (README "Regions and
+// merging"): the whole frame, or a region [x0, x1) x [y0, y1) of a
+// fullWidth x fullHeight frame. Pixels are addressed by their image
+// coordinates (at(c, x, y) with x in [x0, x1)), so the render loops write a
+// region's pixels where a full render writes them; plane(c) is the window's
+// pixels row-major from (x0, y0).
 class Film {
  public:
   Film() = default;
   Film(int width, int height, bool aovs);
+  // A film of `window` inside a fullWidth x fullHeight frame.
+  Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs);
   int width() const { return width_; }
   int height() const { return height_; }
+  // The window's origin in the frame, and the frame (the EXR's data and
+  // display windows).
+  int originX() const { return x0_; }
+  int originY() const { return y0_; }
+  int fullWidth() const { return fullWidth_; }
+  int fullHeight() const { return fullHeight_; }
+  PixelRect window() const { return {x0_, y0_, x0_ + width_, y0_ + height_}; }
   bool hasAovs() const { return aovs_; }
   // The channels stored, in file order (RGBA, then AOVs if enabled, then
   // extra planes in the order they were added).
@@ -76,11 +91,12 @@ class Film {
   const std::string& name(int c) const { return names_[size_t(c)]; }
   float* plane(int c) { return planes_[c].data(); }
   const float* plane(int c) const { return planes_[c].data(); }
-  float at(int c, int x, int y) const { return planes_[c][size_t(y) * width_ + x]; }
-  float& at(int c, int x, int y) { return planes_[c][size_t(y) * width_ + x]; }
+  float at(int c, int x, int y) const { return planes_[c][size_t(y - y0_) * width_ + size_t(x - x0_)]; }
+  float& at(int c, int x, int y) { return planes_[c][size_t(y - y0_) * width_ + size_t(x - x0_)]; }
 
  private:
   int width_ = 0, height_ = 0;
+  int x0_ = 0, y0_ = 0, fullWidth_ = 0, fullHeight_ = 0;
   bool aovs_ = true;
   std::vector<int> channels_;
   std::vector<std::string> names_;

@@ -55,6 +55,10 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   const std::vector<int>& chans = film.channels();
   const int nc = int(chans.size());
   OIIO::ImageSpec spec(film.width(), film.height(), nc, options.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
+  // The data window is the film's window, the display window the frame
+  // (equal but for a --region render; README "Regions and merging").
+  spec.x = film.originX(), spec.y = film.originY();
+  spec.full_x = 0, spec.full_y = 0, spec.full_width = film.fullWidth(), spec.full_height = film.fullHeight();
   spec.channelnames.clear();
   for (int c : chans) spec.channelnames.emplace_back(film.name(c));
   if (options.half) {
@@ -103,7 +107,8 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
         float* dst = rows.data() + size_t(y - y0) * w * size_t(nc) + size_t(i);
         for (size_t x = 0; x < w; ++x) dst[x * size_t(nc)] = src[x];
       }
-    ok = out->write_scanlines(y0, y1, 0, OIIO::TypeDesc::FLOAT, rows.data());
+    // Scanlines are numbered in the frame: the data window starts at spec.y.
+    ok = out->write_scanlines(spec.y + y0, spec.y + y1, 0, OIIO::TypeDesc::FLOAT, rows.data());
   }
   closeOutput(*out, ok, path, tmp);
 }
@@ -121,7 +126,7 @@ std::vector<unsigned char> previewPixels(const Film& film) {
   std::vector<unsigned char> px(size_t(w) * h * 3);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c) px[(size_t(y) * w + x) * 3 + c] = linearToSrgb8(film.at(kR + c, x, y));
+      for (int c = 0; c < 3; ++c) px[(size_t(y) * w + x) * 3 + c] = linearToSrgb8(film.plane(kR + c)[size_t(y) * w + x]);
   return px;
 }
 
@@ -169,6 +174,18 @@ void OutputSet::addExr(const std::string& path, const Film& film, const ExrOptio
 void OutputSet::addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
   Staged s{path, siblingPath(path, ".tmp")};
   writePngFile(path, s.tmp, width, height, rgb);
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addFile(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
+  checkWritable(path);
+  Staged s{path, siblingPath(path, ".tmp")};
+  try {
+    write(s.tmp);
+  } catch (...) {
+    std::remove(s.tmp.c_str());
+    throw;
+  }
   staged_.push_back(std::move(s));
 }
 

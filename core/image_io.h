@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -61,6 +62,10 @@ class OutputSet {
   void addPreviewPng(const std::string& path, const Film& film);
   // An 8-bit sRGB PNG from interleaved RGB bytes, row-major, top row first.
   void addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb);
+  // A file written by `write`, which writes the temporary path it is given
+  // or throws (the temporary is then removed): for writers of their own,
+  // such as `obscura merge`.
+  void addFile(const std::string& path, const std::function<void(const std::string& tmp)>& write);
   void commit();
 
  private:

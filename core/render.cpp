@@ -75,9 +75,10 @@ class TileRenderer {
                const Tracer& tracer, Film& film, bool wantAlbedo, const CryptomatteFilm* crypto = nullptr)
       : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar), forward_(camera.toWorld.vector(Vec3(0, 0, -1))),
-        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto) {}
+        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto), window_(renderWindow(s)) {}
 
-  int tileCount() const { return PixelRect::tileCount(s_.tileSize, s_.width, s_.height); }
+  // The tiles cut from the render's window (the frame, or --region).
+  int tileCount() const { return PixelRect::tileCount(s_.tileSize, window_.width(), window_.height()); }
 
   // Renders one tile into the film; returns its pixel count, or 0 when
   // cancelled (checked once per chunk: a relaxed load per kChunk samples).
@@ -104,7 +105,13 @@ class TileRenderer {
   }
 
  private:
-  PixelRect tileRect(int tile) const { return PixelRect::tile(tile, s_.tileSize, s_.width, s_.height); }
+  // Tile `tile` of the window, in image coordinates: every sample is keyed
+  // by its pixel's place in the frame, whatever window it is rendered in.
+  PixelRect tileRect(int tile) const {
+    PixelRect r = PixelRect::tile(tile, s_.tileSize, window_.width(), window_.height());
+    r.x0 += window_.x0, r.x1 += window_.x0, r.y0 += window_.y0, r.y1 += window_.y0;
+    return r;
+  }
 
   SampleCursor startCursor(const PixelRect& r) const {
     SampleCursor c;
@@ -240,6 +247,7 @@ class TileRenderer {
   const bool wantAlbedo_;
   const bool mattes_;
   const CryptomatteFilm* crypto_;  // null: Cryptomatte off
+  const PixelRect window_;
 };
 
 }  // namespace
@@ -310,6 +318,21 @@ void resolvePassLayer(const PassSums& q, uint32_t hits, const Sum3& albedo, int 
   film.at(layer + 2, fx, fy) = float(double(W.z) * coverage);
 }
 
+void checkRegion(const PixelRect& r, int width, int height) {
+  const std::string text = "--region " + std::to_string(r.x0) + "," + std::to_string(r.y0) + "," + std::to_string(r.x1) +
+                           "," + std::to_string(r.y1) + ": ";
+  if (r.x1 <= r.x0 || r.y1 <= r.y0) throw Error(text + "empty: X1 must exceed X0 and Y1 must exceed Y0");
+  if (r.x0 < 0 || r.y0 < 0 || r.x1 > width || r.y1 > height)
+    throw Error(text + "outside the " + std::to_string(width) + "x" + std::to_string(height) +
+                " image (pixels [0," + std::to_string(width) + ") x [0," + std::to_string(height) + "))");
+}
+
+void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace) {
+  if (hasRegion(s) && anyScreenSpace)
+    throw Error("--region: not available with a screen-space pass (it reads neighbouring pixels of the G-buffer); "
+                "render the full frame");
+}
+
 namespace {
 
 void checkSettings(const RenderSettings& s) {
@@ -317,6 +340,7 @@ void checkSettings(const RenderSettings& s) {
   if (s.spp <= 0) throw Error(settingName(Setting::Spp) + " must be at least 1");
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
   if (s.cryptomatte.any()) checkCryptomatteRanks(s.cryptomatte.ranks);
+  if (hasRegion(s)) checkRegion(s.region, s.width, s.height);
 }
 
 // The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the
@@ -332,7 +356,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
   const TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo, crypto ? &*crypto : nullptr);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
-  Progress progress("render", uint64_t(s.width) * s.height, s.progress);
+  Progress progress("render", uint64_t(renderWindow(s).size()), s.progress);
   const auto t0 = std::chrono::steady_clock::now();
 
   const auto renderTile = [&](int tile) {
@@ -392,6 +416,10 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     if (passes[k].layer.empty()) throw Error("every pass but the first needs a layer name");
   stats = {};
   const auto screenSpace = [&](size_t k) { return passes[k].integrator->screenSpace(); };
+  // A screen-space pass reads its neighbours in the G-buffer: a region's
+  // pixels would differ from the full render's near the region's edges.
+  checkRegionPasses(s, std::any_of(passes.begin(), passes.end(),
+                                   [](const RenderPass& p) { return p.integrator->screenSpace() != nullptr; }));
   // Decode what the passes read, once, up front: estimate() never throws or
   // blocks on a lazy decode (the albedo textures: in each loop).
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
@@ -400,7 +428,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   // The film: the primary pass's loop fills R,G,B,A and the AOVs.
   RenderStats part;
   Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
-                             : Film(s.width, s.height, s.aovs);
+                             : Film(renderWindow(s), s.width, s.height, s.aovs);
   addStats(stats, part);
   // Layer planes in pass order, after the fixed channels (and the
   // Cryptomatte layers of a screen-space primary).
@@ -439,7 +467,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     } else {
       // The first ray-traced pass lands in R,G,B of a film of its own; every
       // ray-traced pass's layer is copied over.
-      Film rt(s.width, s.height, s.aovs);
+      Film rt(renderWindow(s), s.width, s.height, s.aovs);
       const std::vector<int> rtLayer = addLayers(rt);
       renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel);
       for (size_t k : rayTraced) copyPlanes(rt, rtLayer[k], film, layer[k], 3);

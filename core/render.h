@@ -28,8 +28,24 @@ struct RenderSettings {
   bool aovs = true;        // write albedo/N/Z/shaded channels
   bool progress = false;   // progress bar on stderr
   CryptomatteSettings cryptomatte;  // ID matte layers (core/cryptomatte.h); off by default
+  // --region: the window of the frame rendered, [x0, x1) x [y0, y1) in
+  // pixels; empty (the default) = the whole frame. Its pixels equal the same
+  // pixels of the full render bit for bit (samples are keyed by the pixel's
+  // image coordinates). Ray-traced passes only (README "Regions and merging").
+  PixelRect region;
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
 };
+
+// The window a render fills: s.region, or the whole frame when it is empty.
+inline bool hasRegion(const RenderSettings& s) { return s.region.x0 || s.region.y0 || s.region.x1 || s.region.y1; }
+inline PixelRect renderWindow(const RenderSettings& s) { return hasRegion(s) ? s.region : PixelRect{0, 0, s.width, s.height}; }
+// Throws obscura::Error naming --region unless `r` is a non-empty window
+// inside a width x height frame.
+void checkRegion(const PixelRect& r, int width, int height);
+// Throws naming --region if s has one and a pass is screen-space: such a
+// pass reads its neighbours in the G-buffer, so a region's pixels near its
+// edges would differ from the full render's.
+void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace);
 
 struct RenderStats {
   double seconds = 0;  // wall time of the render loop
