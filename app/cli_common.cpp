@@ -3,6 +3,7 @@
 #include <tbb/task_arena.h>
 
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +14,24 @@
 #include "core/settings.h"
 
 namespace obscura {
+
+PixelRect parseRegion(const std::string& s) {
+  PixelRect r;
+  int* v[4] = {&r.x0, &r.y0, &r.x1, &r.y1};
+  size_t pos = 0;
+  for (int i = 0; i < 4; ++i) {
+    const size_t end = i < 3 ? s.find(',', pos) : s.size();
+    const std::string part = end == std::string::npos ? "" : s.substr(pos, end - pos);
+    char* stop = nullptr;
+    errno = 0;
+    const long x = part.empty() ? 0 : std::strtol(part.c_str(), &stop, 10);
+    if (part.empty() || *stop != '\0' || errno != 0 || x < 0 || x > 65536)
+      throw Error("--region " + s + ": expected X0,Y0,X1,Y1 (four pixel coordinates in [0, 65536])");
+    *v[i] = int(x);
+    pos = end + 1;
+  }
+  return r;
+}
 
 void parseResolution(const std::string& s, int& w, int& h) {
   const size_t x = s.find('x');
@@ -277,6 +296,11 @@ ExrOptions passHeader(const PassInfo& i) {
   exr.attributes.push_back({"obscura:seed", int(i.settings.seed)});  // stored bit pattern; see README
   str("obscura:seedText", std::to_string(i.settings.seed));
   str("obscura:resolution", std::to_string(i.settings.width) + "x" + std::to_string(i.settings.height));
+  {
+    const PixelRect w = renderWindow(i.settings);  // --region, or the whole frame
+    str("obscura:region", std::to_string(w.x0) + "," + std::to_string(w.y0) + "," + std::to_string(w.x1) + "," +
+                              std::to_string(w.y1));
+  }
   str("obscura:filter", i.filterName);
   exr.attributes.push_back({"obscura:robust", int(i.robust)});
   if (const SceneArgs* a = i.sceneArgs) {

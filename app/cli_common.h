@@ -17,6 +17,9 @@ namespace obscura {
 
 // "WIDTHxHEIGHT", each in [1, 65536]; throws obscura::Error naming --res.
 void parseResolution(const std::string& s, int& w, int& h);
+// "X0,Y0,X1,Y1" (--region, pixels, half-open); throws naming --region on a
+// malformed text (core/render.h checkRegion checks it against the frame).
+PixelRect parseRegion(const std::string& s);
 // "R,G,B" or one value, finite and non-negative; throws naming --sky.
 Vec3 parseSky(const std::string& s);
 // --camera: a name, an index into the file's cameras, "auto", or empty

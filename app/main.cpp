@@ -1,4 +1,4 @@
-// obscura: the command-line front end (render, integrators, info).
+// obscura: the command-line front end (render, merge, integrators, info).
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
@@ -22,6 +22,7 @@
 #include "app/cli_common.h"
 #include "app/compare.h"
 #include "app/interrupt.h"
+#include "app/merge.h"
 
 using namespace obscura;
 
@@ -67,6 +68,7 @@ struct RenderArgs : SceneArgs {
   std::vector<std::string> plugins;
   std::string cryptomatte = "none";
   int cryptomatteRanks = kDefaultCryptomatteRanks;
+  std::string region;  // --region X0,Y0,X1,Y1; empty = the whole frame
 };
 
 // True when a and b name the same file (existing or not).
@@ -108,10 +110,12 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
   // A screen-space integrator also keeps whole-image state (a G-buffer
   // layer, the pixel sums, the estimates: core/gbuffer.h).
   // Each layer adds three planes.
-  const uint64_t need = filmBytes(s.width, s.height, s.aovs) + uint64_t(layers) * 3 * sizeof(float) * s.width * s.height +
-                        (a.preview.empty() ? 0 : uint64_t(s.width) * s.height * 3) +
+  // A --region film holds the region only.
+  const PixelRect win = renderWindow(s);
+  const uint64_t need = filmBytes(win.width(), win.height(), s.aovs) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
+                        (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
                         (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
-                        cryptomatteBytes(s.cryptomatte, s.width, s.height);
+                        cryptomatteBytes(s.cryptomatte, win.width(), win.height());
   const uint64_t avail = availableMemoryBytes();
   if (avail > 0 && need > avail) {
     char msg[160];
@@ -201,6 +205,10 @@ int runRender(const RenderArgs& a) {
   s.aovs = !a.noAovs;
   s.progress = !a.quiet;
   s.cryptomatte = parseCryptomatte(a.cryptomatte, a.cryptomatteRanks);
+  if (!a.region.empty()) {
+    s.region = parseRegion(a.region);
+    checkRegion(s.region, s.width, s.height);
+  }
   if (a.output.empty()) throw Error("-o: an output .exr path is required");
 
   std::optional<tbb::global_control> limit;
@@ -209,6 +217,7 @@ int runRender(const RenderArgs& a) {
   const bool anyScreenSpace = std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) {
     return p.desc->kind == IntegratorKind::ScreenSpace;
   });
+  checkRegionPasses(s, anyScreenSpace);  // before loading the scene
   checkOutputs(a, s, anyScreenSpace, a.passes.size());
 
   std::vector<RenderPass> passes;
@@ -352,6 +361,9 @@ int main(int argc, char** argv) {
   render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");
   render->add_option("--cryptomatte", r.cryptomatte, "Cryptomatte ID matte layers: object, material, object,material or none");
   render->add_option("--cryptomatte-ranks", r.cryptomatteRanks, "Cryptomatte: ids (id, coverage pairs) kept per pixel, 1..32");
+  render->add_option("--region", r.region,
+                     "Render only the pixels [X0,X1) x [Y0,Y1) of the frame, as X0,Y0,X1,Y1: the EXR's data window (its display "
+                     "window is the frame); equal to the same pixels of the full render (ray-traced passes only; see 'merge')");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
   addSceneOptions(render, r);
 
@@ -380,6 +392,18 @@ int main(int argc, char** argv) {
   compare->add_flag("--robust", cmp.robust, "Watertight Embree traversal");
   addSceneOptions(compare, cmp);
   compare->add_option("--plugin", cmp.plugins, "Load an integrator plugin; repeatable");
+
+  std::string mergeOutput;
+  std::vector<std::string> mergeTiles;
+  CLI::App* merge = app.add_subcommand("merge", "Assemble region renders (render --region) into the full frame");
+  merge->add_option("output", mergeOutput, "The full-frame EXR to write (atomically)")->required();
+  merge->add_option("tiles", mergeTiles, "Region EXRs of one render that together cover the frame exactly once")->required();
+  merge->footer(
+      "The result equals a single full render bit for bit: every channel, the data window the frame, the header the "
+      "tiles' with obscura:region the frame, obscura:rays:*, renderTime and bvhBuildTime summed over the tiles and "
+      "obscura:threads dropped unless all tiles agree, DateTime the merge's. Refused, with one line naming the file and why: tiles whose headers "
+      "differ in any other attribute (settings, camera, Cryptomatte manifests), whose display windows or channels differ, "
+      "that overlap, or that leave a gap.\n");
 
   std::vector<std::string> listPlugins;
   CLI::App* integrators = app.add_subcommand("integrators", "List integrators with their parameters");
@@ -411,6 +435,10 @@ int main(int argc, char** argv) {
     }
     if (compare->parsed()) return runCompare(cmp, interrupt::flag());
     if (info->parsed()) return runInfo(infoArgs);
+    if (merge->parsed()) {
+      mergeRegions(mergeOutput, mergeTiles);
+      return 0;
+    }
     return runIntegrators(listPlugins);
   } catch (const Error& e) {
     std::fprintf(stderr, "obscura: error: %s\n", e.what());
