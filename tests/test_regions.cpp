@@ -20,9 +20,11 @@ namespace {
 // nor the merge's tiles line up with anything.
 constexpr int kW = 37, kH = 23;
 const std::vector<std::string> kCommon = {"render", "-q", "--res", "37x23", "--spp", "2"};
-// A ratio estimator (transfer) alone; and two ray-traced passes in layers,
-// the first a ratio estimator too, with the Cryptomatte object layers.
-const std::vector<std::string> kTransfer = {"-i", "transfer"};
+// A ratio estimator (transfer) alone, through the Gaussian pixel filter
+// (whose samples land beyond their pixel's square); and two ray-traced
+// passes in layers, the first a ratio estimator too, with the Cryptomatte
+// object layers.
+const std::vector<std::string> kTransfer = {"-i", "transfer", "--filter", "gaussian"};
 const std::vector<std::string> kLayers = {"--pass", "tr=transfer", "--pass", "ao=ao:distance=2", "--cryptomatte", "object"};
 
 // kCommon, the config, and `extra`, whose --res or --spp replaces kCommon's.
@@ -156,7 +158,7 @@ TEST(Regions, MergeRefusesTilesThatDoNotBelongTogether) {
   const std::string tile1 = regionText(kTiles[1][0], kTiles[1][1], kTiles[1][2], kTiles[1][3]);
   runs.push_back(args(dir + "/spp.exr", kTransfer, {"--region", tile1, "--spp", "3"}));
   runs.push_back(args(dir + "/seed.exr", kTransfer, {"--region", tile1, "--seed", "7"}));
-  runs.push_back(args(dir + "/integrator.exr", {"-i", "ao"}, {"--region", tile1}));
+  runs.push_back(args(dir + "/integrator.exr", {"-i", "ao", "--filter", "gaussian"}, {"--region", tile1}));
   runs.push_back(args(dir + "/res.exr", kTransfer, {"--region", tile1, "--res", "38x23"}));
   runs.push_back(args(dir + "/overlap.exr", kTransfer, {"--region", "10,5,20,12"}));
   for (const CliResult& r : runClis(runs, dir)) ASSERT_EQ(r.exitCode, 0) << r.stderrText;
