@@ -161,6 +161,7 @@ TEST(Regions, MergeRefusesTilesThatDoNotBelongTogether) {
   runs.push_back(args(dir + "/integrator.exr", {"-i", "ao", "--filter", "gaussian"}, {"--region", tile1}));
   runs.push_back(args(dir + "/res.exr", kTransfer, {"--region", tile1, "--res", "38x23"}));
   runs.push_back(args(dir + "/overlap.exr", kTransfer, {"--region", "10,5,20,12"}));
+  runs.push_back(args(dir + "/channels.exr", kTransfer, {"--region", tile1, "--no-aovs"}));
   for (const CliResult& r : runClis(runs, dir)) ASSERT_EQ(r.exitCode, 0) << r.stderrText;
 
   struct Case {
@@ -176,6 +177,7 @@ TEST(Regions, MergeRefusesTilesThatDoNotBelongTogether) {
       {with1(dir + "/seed.exr"), dir + "/seed.exr", "header: obscura:seed"},
       {with1(dir + "/integrator.exr"), dir + "/integrator.exr", "header: obscura:integrator is ao, but transfer in " + tiles[0]},
       {with1(dir + "/res.exr"), dir + "/res.exr", "display window 38x23 at (0,0) differs"},
+      {with1(dir + "/channels.exr"), dir + "/channels.exr", "channels R,G,B,A differ from " + tiles[0] + "'s"},
       {with1(dir + "/missing.exr"), dir + "/missing.exr", "cannot open"},
   };
   std::vector<std::vector<std::string>> merges;
