@@ -169,7 +169,7 @@ CryptomatteFilm::CryptomatteFilm(const Scene& scene, const CryptomatteSettings& 
     : scene_(scene), film_(film), ranks_(s.ranks), spp_(spp), types_(s.types()) {
   for (size_t k = 0; k < types_.size(); ++k) {
     for (int layer = 0; layer < layersFor(ranks_); ++layer) {
-      char n[8];
+      char n[16];  // room for any int, so the compiler sees no truncation
       std::snprintf(n, sizeof n, "%02d", layer);
       for (const char* c : kChannelSuffix) {
         planes_[k].push_back(film.addPlane(std::string(cryptomatteLayerName(types_[k])) + n + c));
