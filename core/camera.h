@@ -3,8 +3,10 @@
 // follows the image's aspect ratio.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "core/math.h"
 
@@ -31,6 +33,10 @@ struct Camera {
   float yfov = 0.8f;    // radians
   float znear = 0.0f;   // rays start here (along the ray, not depth)
   float zfar = kInfinity;
+  // Motion blur: camera-to-world at steps k = 0..n-1, at times k / (n - 1)
+  // across the shutter (rigid each, interpolated linearly in between as a
+  // moving instance is: core/scene.h Instance); empty when still.
+  std::vector<Affine> motion;
 
   // Primary ray through film position (fx, fy) in pixels, y down, for an
   // image of w x h pixels. Direction is unit length.
@@ -57,8 +63,45 @@ struct RasterCamera {
     dx = right;
     dy = down;
     d0 = c.toWorld.vector(Vec3(-tanHalf * aspect, tanHalf, -1.0f));
+    axis = c.toWorld.vector(Vec3(0, 0, -1));
   }
   Vec3 direction(float fx, float fy) const { return normalize(d0 + dx * fx + dy * fy); }
+  Vec3 axis;  // the view axis, camera-to-world of (0, 0, -1)
+};
+
+// A RasterCamera over the shutter: a moving camera's at each motion step,
+// blended linearly at a sample's time (every field is linear in the
+// camera-to-world matrix, so this is the raster of the blended matrix).
+class ShutterCamera {
+ public:
+  ShutterCamera(const Camera& c, int w, int h) {
+    if (c.motion.size() < 2) {
+      steps_.emplace_back(c, w, h);
+      return;
+    }
+    for (const Affine& m : c.motion) {
+      Camera at = c;
+      at.toWorld = m;
+      steps_.emplace_back(at, w, h);
+    }
+  }
+  bool moves() const { return steps_.size() > 1; }
+  const RasterCamera& still() const { return steps_[0]; }
+  RasterCamera at(float time) const {
+    if (steps_.size() == 1) return steps_[0];
+    const float x = std::clamp(time, 0.0f, 1.0f) * float(steps_.size() - 1);
+    const size_t k = std::min(size_t(x), steps_.size() - 2);
+    const float f = x - float(k), g = 1.0f - f;
+    RasterCamera r = steps_[k];
+    const RasterCamera& b = steps_[k + 1];
+    r.org = r.org * g + b.org * f, r.dx = r.dx * g + b.dx * f;
+    r.dy = r.dy * g + b.dy * f, r.d0 = r.d0 * g + b.d0 * f;
+    r.axis = r.axis * g + b.axis * f;
+    return r;
+  }
+
+ private:
+  std::vector<RasterCamera> steps_;
 };
 
 // A camera framing the whole scene from above and to the side, used when the

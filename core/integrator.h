@@ -137,7 +137,7 @@ inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, floa
     const Lobe lobe = controls.at(h);
     for (uint32_t k = 0; k < rays; ++k) {
       const Vec3 w = cosineDirection(h, lobe, rays, k);
-      batch.push(spawnOrigin(h, w), w, controls.tnear, R, h.object);
+      batch.push(spawnOrigin(h, w), w, controls.tnear, R, h);
     }
   }
 }

@@ -27,7 +27,8 @@
 // that touches core data). 3: Primitive gained a name. 4: screen-space
 // integrators (Integrator::screenSpace, IntegratorDescriptor::kind, core/gbuffer.h).
 // 7: SurfaceHit::dir, IntegratorNeeds::roughness, Material's roughness.
-#define OBSCURA_PLUGIN_ABI_VERSION 7u
+// 8: SurfaceHit::time, RayBatch::push(..., const SurfaceHit&), Instance::motion.
+#define OBSCURA_PLUGIN_ABI_VERSION 8u
 
 namespace obscura {
 

@@ -73,7 +73,7 @@ class TileRenderer {
  public:
   TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
                const Tracer& tracer, Film& film, bool wantAlbedo, const CryptomatteFilm* crypto = nullptr)
-      : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), raster_(camera, s.width, s.height),
+      : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), shutter_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar), forward_(camera.toWorld.vector(Vec3(0, 0, -1))),
         wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto), window_(renderWindow(s)) {}
 
@@ -129,7 +129,17 @@ class TileRenderer {
     for (size_t l = 0; l < n; ++l) {
       float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
       cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx, fy);
-      cam.pushCamera(raster_.org, raster_.direction(fx, fy), tnear_, tfar_);
+      if (!s_.motionBlur) {
+        const RasterCamera& raster = shutter_.still();
+        cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_);
+      } else {
+        // The sample's moment in the shutter, from a dimension of its own:
+        // the other dimensions - and so a still scene's image - are those
+        // of a render without motion blur.
+        const float time = Sampler::get1D(c.key, c.si, kDimShutterTime);
+        const RasterCamera raster = shutter_.at(time);
+        cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_, time);
+      }
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key;
       ts.laneSample[l] = c.si;
@@ -210,7 +220,8 @@ class TileRenderer {
         // Z is camera-plane depth: the hit's distance along the view axis,
         // t times the cosine between the (unit) ray and that axis.
         const RTCRay& ray = ts.camera.data()[l].ray;
-        p.Z += double(h.t) * double(dot(Vec3(ray.dir_x, ray.dir_y, ray.dir_z), forward_));
+        const Vec3 forward = shutter_.moves() ? normalize(shutter_.at(ray.time).axis) : forward_;
+        p.Z += double(h.t) * double(dot(Vec3(ray.dir_x, ray.dir_y, ray.dir_z), forward));
       }
     }
   }
@@ -240,7 +251,7 @@ class TileRenderer {
   const RenderSettings& s_;
   const Tracer& tracer_;
   Film& film_;
-  const RasterCamera raster_;
+  const ShutterCamera shutter_;
   const Sampler sampler_;
   const float tnear_, tfar_;
   const Vec3 forward_;  // the camera's view axis (world, unit)
@@ -331,6 +342,12 @@ void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace) {
   if (hasRegion(s) && anyScreenSpace)
     throw Error("--region: not available with a screen-space pass (it reads neighbouring pixels of the G-buffer); "
                 "render the full frame");
+  // A G-buffer holds one instant of the scene per pixel layer, and its
+  // passes compare depths across pixels: samples at different times in the
+  // shutter would be compared as if they were one surface.
+  if (s.motionBlur && anyScreenSpace)
+    throw Error("--shutter: motion blur is not available with a screen-space pass (its G-buffer holds one instant); "
+                "render it without --shutter or use a ray-traced pass");
 }
 
 namespace {

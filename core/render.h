@@ -33,6 +33,12 @@ struct RenderSettings {
   // pixels of the full render bit for bit (samples are keyed by the pixel's
   // image coordinates). Ray-traced passes only (README "Regions and merging").
   PixelRect region;
+  // Motion blur (--shutter): each camera sample gets a time in [0, 1)
+  // across the shutter from its own sample dimension, which every ray of the
+  // sample carries; moving instances (Scene::hasMotion) and a moving camera
+  // (Camera::motion) are placed at it. Off: every ray at time 0. A still
+  // scene renders bit-identically either way. Ray-traced passes only.
+  bool motionBlur = false;
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
 };
 

@@ -169,6 +169,7 @@ class Sampler {
 // kFirstIntegratorDim upward, so core and integrator streams never collide.
 enum : uint32_t {
   kDimPixelFilter = 0,
+  kDimShutterTime = 1,  // 1D: a camera sample's moment in the shutter (motion blur)
   kFirstIntegratorDim = 8,
 };
 

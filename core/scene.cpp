@@ -210,25 +210,38 @@ void Scene::addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions, con
 }
 
 void Scene::addInstance(int mesh, const Affine& toWorld, std::string node) {
+  addMovingInstance(mesh, std::span<const Affine>(&toWorld, 1), std::move(node));
+}
+
+void Scene::addMovingInstance(int mesh, std::span<const Affine> steps, std::string node) {
   const InstancedMesh& m = meshes_.at(size_t(mesh));
+  if (steps.empty() || steps.size() > 129) throw Error("internal: an instance needs 1 to 129 transform steps");
   RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
   rtcSetGeometryInstancedScene(g, m.rtcScene);
-  rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &toWorld.m[0][0]);
+  // Embree interpolates the steps' matrices linearly at the ray's time
+  // (time range [0, 1] = the shutter): Instance::toWorldAt does the same.
+  rtcSetGeometryTimeStepCount(g, unsigned(steps.size()));
+  for (size_t k = 0; k < steps.size(); ++k)
+    rtcSetGeometryTransform(g, unsigned(k), RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &steps[k].m[0][0]);
   rtcCommitGeometry(g);
   const unsigned id = rtcAttachGeometry(top_, g);
   rtcReleaseGeometry(g);
   if (topLevel_.size() <= id) topLevel_.resize(id + 1);
   topLevel_[id].instance = int(instances_.size());
   topLevel_[id].object = currentObject_;
-  instances_.push_back({mesh, toWorld, std::move(node)});
-  if (!m.objectBounds.empty()) {
-    for (int c = 0; c < 8; ++c) {
-      const Vec3 corner(c & 1 ? m.objectBounds.hi.x : m.objectBounds.lo.x,
-                        c & 2 ? m.objectBounds.hi.y : m.objectBounds.lo.y,
-                        c & 4 ? m.objectBounds.hi.z : m.objectBounds.lo.z);
-      bounds_.extend(toWorld.point(corner));
-    }
-  }
+  Instance inst{mesh, steps[0], std::move(node), {}};
+  if (steps.size() > 1) inst.motion.assign(steps.begin(), steps.end()), ++moving_;
+  instances_.push_back(std::move(inst));
+  // The bounds hold the object over the whole shutter: the steps' boxes
+  // (a linear blend of two transforms stays inside their corners' hull).
+  if (!m.objectBounds.empty())
+    for (const Affine& toWorld : steps)
+      for (int c = 0; c < 8; ++c) {
+        const Vec3 corner(c & 1 ? m.objectBounds.hi.x : m.objectBounds.lo.x,
+                          c & 2 ? m.objectBounds.hi.y : m.objectBounds.lo.y,
+                          c & 4 ? m.objectBounds.hi.z : m.objectBounds.lo.z);
+        bounds_.extend(toWorld.point(corner));
+      }
 }
 
 void Scene::setUvsRunDown() {

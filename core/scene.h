@@ -10,10 +10,12 @@
 
 #include <embree3/rtcore.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -102,8 +104,25 @@ struct InstancedMesh {
 
 struct Instance {
   int mesh = -1;  // index into Scene::instancedMeshes
-  Affine toWorld;
+  Affine toWorld;  // a moving instance: its transform at shutter open
   std::string node;
+  // A moving instance (motion blur, docs/architecture.md "Motion blur"):
+  // its transform at steps k = 0..n-1, at times k / (n - 1) across the
+  // shutter; empty for a still one.
+  std::vector<Affine> motion;
+  // The transform at ray time `time` in [0, 1]: as Embree places the
+  // instance, linear in the matrix between the two steps around `time`.
+  Affine toWorldAt(float time) const {
+    if (motion.empty()) return toWorld;
+    const float segments = float(motion.size() - 1);
+    const float x = std::clamp(time, 0.0f, 1.0f) * segments;
+    const size_t k = std::min(size_t(x), motion.size() - 2);
+    const float f = x - float(k);
+    Affine a;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) a.m[r][c] = (1.0f - f) * motion[k].m[r][c] + f * motion[k + 1].m[r][c];
+    return a;
+  }
 };
 
 // What the top-level Embree geomID refers to.
@@ -192,6 +211,11 @@ class Scene {
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
                           std::vector<float> uvs, int material);
   void addInstance(int mesh, const Affine& toWorld, std::string node);
+  // A moving instance: `steps` are its transforms at uniformly spaced times
+  // across the shutter (2..129 of them, Embree's limit; Instance::motion).
+  void addMovingInstance(int mesh, std::span<const Affine> steps, std::string node);
+  // Does anything move within the shutter (a moving instance)?
+  bool hasMotion() const { return moving_ > 0; }
   // Names world primitive `primitive` (addWorldPrimitive's result) for messages.
   void setPrimitiveName(int primitive, std::string name) { worldPrimitives_.at(size_t(primitive)).name = std::move(name); }
   // What a hit's surface is called in messages: its mesh's name (and node,
@@ -227,6 +251,16 @@ class Scene {
     *toWorld = &inst.toWorld;
     return meshes_[inst.mesh].primitives[geomID];
   }
+  // The same with the transform where a ray at `time` met it: a moving
+  // instance's is interpolated into `moved` (*toWorld then points to it).
+  const Primitive& primitiveAt(unsigned geomID, unsigned instID, float time, Affine& moved, const Affine** toWorld) const {
+    const Primitive& p = primitiveOf(geomID, instID, toWorld);
+    if (instID != RTC_INVALID_GEOMETRY_ID) {
+      const Instance& inst = instances_[topLevel_[instID].instance];
+      if (!inst.motion.empty()) moved = inst.toWorldAt(time), *toWorld = &moved;
+    }
+    return p;
+  }
   const Material* materialOf(const Primitive& p) const {
     return p.material >= 0 ? &materials[p.material] : nullptr;
   }
@@ -258,6 +292,7 @@ class Scene {
   bool committed_ = false;
   bool robust_ = false;
   bool hasSubdivision_ = false;
+  size_t moving_ = 0;  // moving instances
   uint32_t currentObject_ = kNoObject;
   std::vector<uint8_t> matte_;           // per object, when any is a matte
   std::vector<uint32_t> objectOfTop_;    // per top-level geomID, when scopes are on

@@ -97,6 +97,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& 
   out.geomID = rh.hit.geomID, out.primID = face, out.instID = rh.hit.instID[0];
   out.object = scene.objectOf(out.geomID, out.instID);
   out.hitU = u, out.hitV = v;
+  out.time = rh.ray.time;
   // o + t d errs by ulps of |o| and of t|d|; the grid test by ulps of |p|.
   const float mag = std::max(absMax(out.p), absMax(org) + out.t * absMax(dir));
   out.eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
@@ -160,9 +161,10 @@ Vec3 surfaceAlbedo(const Scene& scene, unsigned geomID, unsigned primID, unsigne
 }
 
 void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID, float u,
-                       float v, float t, Vec3 dir, bool albedo, SurfaceHit& out) {
+                       float v, float t, Vec3 dir, float time, bool albedo, SurfaceHit& out) {
+  Affine moved;
   const Affine* toWorld = nullptr;
-  const Primitive& prim = scene.primitiveOf(geomID, instID, &toWorld);
+  const Primitive& prim = scene.primitiveAt(geomID, instID, time, moved, &toWorld);
   if (prim.subdivision)  // its hit point needs the ray's origin: the RTCRayHit form
     throw Error("internal: computeSurfaceHit from barycentrics on a subdivision surface");
   const uint32_t* tri = prim.indices + size_t(primID) * 3;
@@ -184,6 +186,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   out.geomID = geomID, out.primID = primID, out.instID = instID;
   out.object = scene.objectOf(geomID, instID);
   out.hitU = u, out.hitV = v;
+  out.time = time;
 
   // Offset scale from the magnitudes that bound the hit point's error.
   const float mag = std::max(absMax(out.p), std::max(absMax(v0), std::max(absMax(v1), absMax(v2))));
@@ -218,7 +221,7 @@ void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, Sur
   const Primitive& prim = scene.primitiveOf(rh.hit.geomID, rh.hit.instID[0], &toWorld);
   if (prim.subdivision) return subdivisionHit(scene, prim, rh, albedo, out);
   computeSurfaceHit(scene, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar,
-                    Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), albedo, out);
+                    Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), rh.ray.time, albedo, out);
 }
 
 Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v) {
@@ -253,8 +256,9 @@ float surfaceRoughness(const Scene& scene, const SurfaceHit& h) {
 }
 
 bool surfaceUvFrame(const Scene& scene, const SurfaceHit& h, UvFrame& out) {
+  Affine moved;
   const Affine* toWorld = nullptr;
-  const Primitive& prim = scene.primitiveOf(h.geomID, h.instID, &toWorld);
+  const Primitive& prim = scene.primitiveAt(h.geomID, h.instID, h.time, moved, &toWorld);
   if (prim.subdivision) return subdivisionUvFrame(prim, h, out);
   if (prim.uvs.empty() || !prim.indices) return false;
   const uint32_t* tri = prim.indices + size_t(h.primID) * 3;

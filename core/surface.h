@@ -29,6 +29,10 @@ struct SurfaceHit {
   // The object (Scene::objects) the surface belongs to, kNoObject if none:
   // rays leaving the hit carry it (RayBatch::push's `from`).
   uint32_t object;
+  // The moment of the camera sample in the shutter, in [0, 1) (0 without
+  // motion blur): the time of the ray that found p, which every ray leaving
+  // p carries on (RayBatch::push), so a sample sees one instant of the scene.
+  float time;
 };
 
 // The surface's texture parametrization at a hit: uv, and the world-space
@@ -61,10 +65,11 @@ float surfaceRoughness(const Scene& scene, const SurfaceHit& h);
 
 // Fills `out` (all but pixelKey/sampleIndex) from an Embree hit.
 //   dir     : the incoming ray's direction (any length)
+//   time    : the incoming ray's time (places a moving instance)
 //   u, v    : Embree barycentrics, p = (1-u-v) v0 + u v1 + v v2
 //   albedo  : also evaluate the material (decodes textures on first use)
 void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID,
-                       float u, float v, float t, Vec3 dir, bool albedo, SurfaceHit& out);
+                       float u, float v, float t, Vec3 dir, float time, bool albedo, SurfaceHit& out);
 // The same from a traced RTCRayHit, for every kind of primitive (triangle
 // lists and Embree subdivision surfaces, whose hit point is the ray's).
 void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, SurfaceHit& out);

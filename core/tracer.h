@@ -11,6 +11,7 @@
 #include <embree3/rtcore.h>
 
 #include <cstdint>
+#include <concepts>
 #include <cstdlib>
 #include <new>
 #include <type_traits>
@@ -63,21 +64,34 @@ class RayBatch {
   size_t size() const { return size_; }
 
   // Appends a secondary ray from org along unit dir over (tnear, tfar),
-  // leaving from a surface of object `from` (SurfaceHit::object; kNoObject
-  // for none): what objects' occlusion scopes test. Returns its index.
-  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar, uint32_t from = kNoObject) {
-    return push(org, dir, tnear, tfar, from, kRayMaskSecondary);
+  // leaving the surface hit `from` (a SurfaceHit, core/surface.h): the ray
+  // carries its object (what objects' occlusion scopes test) and its time
+  // (the camera sample's moment in the shutter, so it meets the scene as
+  // that sample saw it; 0 without motion blur). Returns its index.
+  template <class Hit>
+    requires requires(const Hit& h) {
+      { h.object } -> std::convertible_to<uint32_t>;
+      { h.time } -> std::convertible_to<float>;
+    }
+  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar, const Hit& from) {
+    return push(org, dir, tnear, tfar, from.object, kRayMaskSecondary, from.time);
   }
-  // A camera ray: sees the objects whose `camera` role is on.
-  size_t pushCamera(Vec3 org, Vec3 dir, float tnear, float tfar) {
-    return push(org, dir, tnear, tfar, kNoObject, kRayMaskCamera);
+  // A secondary ray that leaves no surface (a screen-space query from the
+  // camera): no object, time 0.
+  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar) {
+    return push(org, dir, tnear, tfar, kNoObject, kRayMaskSecondary, 0.0f);
   }
-  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar, uint32_t from, uint32_t mask) {
+  // A camera ray at `time` in [0, 1) across the shutter (0 without one):
+  // sees the objects whose `camera` role is on.
+  size_t pushCamera(Vec3 org, Vec3 dir, float tnear, float tfar, float time = 0.0f) {
+    return push(org, dir, tnear, tfar, kNoObject, kRayMaskCamera, time);
+  }
+  size_t push(Vec3 org, Vec3 dir, float tnear, float tfar, uint32_t from, uint32_t mask, float time) {
     const size_t i = size_++;
     Ray& r = rays_.data()[i];
     RTCRay& p = ray(r);
     p.org_x = org.x; p.org_y = org.y; p.org_z = org.z; p.tnear = tnear;
-    p.dir_x = dir.x; p.dir_y = dir.y; p.dir_z = dir.z; p.time = 0.0f;
+    p.dir_x = dir.x; p.dir_y = dir.y; p.dir_z = dir.z; p.time = time;
     p.tfar = tfar; p.mask = mask; p.id = from; p.flags = 0;
     if constexpr (std::is_same_v<Ray, RTCRayHit>) {
       r.hit.geomID = RTC_INVALID_GEOMETRY_ID;

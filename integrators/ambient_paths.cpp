@@ -87,9 +87,9 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
       p.self = intoSurface(p.x, w);
       // A segment shorter than near (tnear > tfar) is inactive: a miss, open.
       if (tfar > 0.0f && !p.self)
-        batch.push(spawnOrigin(p.x, w), w, tnear, tfar, p.x.object);
+        batch.push(spawnOrigin(p.x, w), w, tnear, tfar, p.x);
       else  // blocked by the surface itself, or an empty segment: not traced
-        batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f, p.x.object);
+        batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f, p.x);
     }
     ctx.trace(batch);
 

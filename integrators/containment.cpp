@@ -232,14 +232,14 @@ class Containment final : public Integrator {
         closedBy[j] = none;
         if (frame && !outside(L, w, r, &su, &sv)) {
           closedBy[j] = ctx.albedoAtUv(h, float(su), float(sv));
-          batch.push(o, w, kInfinity, 0.0f, h.object);  // inactive
+          batch.push(o, w, kInfinity, 0.0f, h);  // inactive
         } else if (!frame && intoSurface(h, w)) {
           closedBy[j] = h.albedo;
-          batch.push(o, w, kInfinity, 0.0f, h.object);
+          batch.push(o, w, kInfinity, 0.0f, h);
         } else if (r > 0.0f && !intoSurface(h, w)) {
-          batch.push(o, w, lobe_.tnear, r, h.object);
+          batch.push(o, w, lobe_.tnear, r, h);
         } else {
-          batch.push(o, w, kInfinity, 0.0f, h.object);  // empty segment, or below the macro plane: open
+          batch.push(o, w, kInfinity, 0.0f, h);  // empty segment, or below the macro plane: open
         }
       }
     }
@@ -271,11 +271,11 @@ class Containment final : public Integrator {
       const float r = mu_.segment(Sampler::get1D(h.pixelKey, index, kFirstIntegratorDim + 1));
       const Vec3 o = spawnOrigin(h, w);
       if (!outside(L, w, r))
-        batch.push(o, w, kInfinity, -kInfinity, h.object);  // closed by the height field
+        batch.push(o, w, kInfinity, -kInfinity, h);  // closed by the height field
       else if (r > 0.0f && !intoSurface(h, w))
-        batch.push(o, w, lobe_.tnear, r, h.object);  // the macro geometry decides (r < near: inactive, open)
+        batch.push(o, w, lobe_.tnear, r, h);  // the macro geometry decides (r < near: inactive, open)
       else  // empty segment, or below the macro plane: open
-        batch.push(o, w, kInfinity, 0.0f, h.object);
+        batch.push(o, w, kInfinity, 0.0f, h);
     }
   }
 
@@ -286,11 +286,11 @@ class Containment final : public Integrator {
       const Vec3 w = cosineDirection(h, lobe, rays_, k);
       const float r = mu_.segment(Sampler::get1D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim + 1));
       if (lobe.blocked(w))
-        batch.push(spawnOrigin(h, w), w, kInfinity, -kInfinity, h.object);  // the surface itself, d = 0
+        batch.push(spawnOrigin(h, w), w, kInfinity, -kInfinity, h);  // the surface itself, d = 0
       else if (r > 0.0f)
-        batch.push(spawnOrigin(h, w), w, lobe_.tnear, r, h.object);
+        batch.push(spawnOrigin(h, w), w, lobe_.tnear, r, h);
       else
-        batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
+        batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h);
     }
   }
 

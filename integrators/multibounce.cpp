@@ -41,7 +41,7 @@ class MultiBounce final : public Integrator {
         for (uint32_t k = 0; k < rays_; ++k) {
           const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
           const Vec3 w = frame.toWorld(squareToUniformCone(s.u, s.v, lobe_.cosThetaMax));
-          batch.push(spawnOrigin(h, w), w, lobe_.tnear, R_, h.object);
+          batch.push(spawnOrigin(h, w), w, lobe_.tnear, R_, h);
         }
       }
     }

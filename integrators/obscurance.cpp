@@ -97,9 +97,9 @@ class Obscurance final : public Integrator {
       for (uint32_t k = 0; k < rays_; ++k) {
         const Vec3 w = cosineDirection(h, lobe, rays_, k);
         if (lobe.blocked(w))
-          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
+          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h);
         else
-          batch.push(spawnOrigin(h, w), w, lobe_.tnear, mu_.tfar(), h.object);
+          batch.push(spawnOrigin(h, w), w, lobe_.tnear, mu_.tfar(), h);
       }
     }
     ctx.trace(batch);
@@ -125,9 +125,9 @@ class Obscurance final : public Integrator {
         const float r = mu_.segment(xi);
         // A segment shorter than near (tnear > r) is inactive too: open.
         if (r > 0.0f && !lobe.blocked(w))
-          batch.push(spawnOrigin(h, w), w, lobe_.tnear, r, h.object);
+          batch.push(spawnOrigin(h, w), w, lobe_.tnear, r, h);
         else  // inactive (tnear > tfar): Embree skips it and leaves tfar = 0
-          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h.object);
+          batch.push(spawnOrigin(h, w), w, kInfinity, 0.0f, h);
       }
     }
     ctx.trace(batch);

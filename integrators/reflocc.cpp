@@ -65,7 +65,7 @@ class ReflectionOcclusion final : public Integrator {
         // The mirror limit exactly: every direction is r (no lobe to
         // sample, no rounding through a frame), one ray stands for all.
         if (!intoSurface(h, r)) {
-          batch.push(spawnOrigin(h, r), r, tnear_, distance_, h.object);
+          batch.push(spawnOrigin(h, r), r, tnear_, distance_, h);
           above = rays_, traced = 1;
         }
       } else {
@@ -76,7 +76,7 @@ class ReflectionOcclusion final : public Integrator {
           const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
           const Vec3 w = frame.toWorld(squareToPowerCosine(s.u, s.v, e));
           if (intoSurface(h, w)) continue;
-          batch.push(spawnOrigin(h, w), w, tnear_, distance_, h.object);
+          batch.push(spawnOrigin(h, w), w, tnear_, distance_, h);
           ++above, ++traced;
         }
       }

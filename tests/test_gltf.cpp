@@ -226,7 +226,7 @@ TEST(GltfTransforms, HierarchyWithTrsAndMatrixIsBakedIntoWorldSpace) {
     // The shading normal is the file's normal under the inverse transpose.
     SurfaceHit sh{};
     computeSurfaceHit(*scene, h.geomID, h.primID, h.instID, h.u, h.v, h.t,
-                      Vec3(float(-n[0]), float(-n[1]), float(-n[2])), false, sh);
+                      Vec3(float(-n[0]), float(-n[1]), float(-n[2])), 0.0f, false, sh);
     expectNear3(toD(sh.p), c, 1e-5, "hit point");
     D3 ns = world.normal(toD(nLocal));
     if (dotD(ns, n) < 0) ns = mulS(ns, -1.0);  // facing the ray's side
@@ -287,7 +287,7 @@ TEST(GltfTransforms, MeshUsedByThreeNodesIsInstancedOnce) {
     EXPECT_EQ(toWorld, &scene->instances()[size_t(k)].toWorld) << "the hit belongs to another instance";
     SurfaceHit sh{};
     computeSurfaceHit(*scene, h.geomID, h.primID, h.instID, h.u, h.v, h.t,
-                      Vec3(float(-n[0]), float(-n[1]), float(-n[2])), false, sh);
+                      Vec3(float(-n[0]), float(-n[1]), float(-n[2])), 0.0f, false, sh);
     expectNear3(toD(sh.p), in, 1e-5, "hit point");
     const D3 out = xf[size_t(k)].point({0.6, 0.0, 0});
     EXPECT_FALSE(traceRay(*scene, add(out, mulS(n, 5.0)), mulS(n, -1.0)).hit);
