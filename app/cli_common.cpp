@@ -172,6 +172,8 @@ void nameSettingsAsFlags() {
   setSettingName(Setting::SubdivisionBackendOsd, "--subdiv-backend osd");
   setSettingName(Setting::Displacement, "--displace");
   setSettingName(Setting::DisplacementScale, "--displace-scale");
+  setSettingName(Setting::Time, "--frame");
+  setSettingName(Setting::Animations, "--animation");
 }
 
 void loadPlugins(const std::vector<std::string>& paths) {

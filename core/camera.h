@@ -33,6 +33,7 @@ struct Camera {
   float yfov = 0.8f;    // radians
   float znear = 0.0f;   // rays start here (along the ray, not depth)
   float zfar = kInfinity;
+  bool animated = false;  // placed by a node that an animation moves (at the time loaded)
   // Motion blur: camera-to-world at steps k = 0..n-1, at times k / (n - 1)
   // across the shutter (rigid each, interpolated linearly in between as a
   // moving instance is: core/scene.h Instance); empty when still.
