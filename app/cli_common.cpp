@@ -174,6 +174,7 @@ void nameSettingsAsFlags() {
   setSettingName(Setting::DisplacementScale, "--displace-scale");
   setSettingName(Setting::Time, "--frame");
   setSettingName(Setting::Animations, "--animation");
+  setSettingName(Setting::Shutter, "--shutter");
 }
 
 void loadPlugins(const std::vector<std::string>& paths) {

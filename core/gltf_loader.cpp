@@ -11,6 +11,7 @@
 
 #include "core/cage.h"
 #include "core/error.h"
+#include "core/motion.h"
 #include "core/settings.h"
 
 namespace obscura {
@@ -38,7 +39,9 @@ class Builder {
     // static pose without one); the hierarchy itself does not move.
     pose_ = doc_.pose(options_.time, options_.animations);
     scene_->cameras = pose_.cameras;
+    sampleShutter();
     buildGeometry();
+    moveCameras();
     applyObjectOverrides(scene_->objects, options_.objectOverrides);
     scene_->setUvsRunDown();  // glTF's v = 0 is the top row of an image
     scene_->setRobust(options_.robust);
@@ -330,10 +333,40 @@ class Builder {
     for (const auto& u : pose_.uses)
       if (subdivisionOf(u.mesh)) useCount[key(u)] = 1;
     std::map<std::pair<int, int>, int> instanced;  // (glTF mesh, node) -> Scene instanced mesh
-    for (const auto& u : pose_.uses) {
+    // The object-space mesh of key k, built on its first use (-1: no triangles).
+    const auto instancedMesh = [&](const GltfDocument::MeshUse& u, const std::pair<int, int>& k) {
+      auto it = instanced.find(k);
+      if (it == instanced.end()) {
+        std::vector<PrimData> prims = primitives(u.mesh, k.second);
+        const int m = prims.empty() ? -1 : scene_->addInstancedMesh(doc_.model().meshes[size_t(u.mesh)].name);
+        for (PrimData& p : prims)
+          scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
+        it = instanced.emplace(k, m).first;
+      }
+      return it->second;
+    };
+    for (size_t i = 0; i < pose_.uses.size(); ++i) {
+      const GltfDocument::MeshUse& u = pose_.uses[i];
       scene_->setCurrentObject(addObject(u));
-      const Affine xf = Affine::fromColumnMajor4x4(u.world.data());
+      Affine xf = Affine::fromColumnMajor4x4(u.world.data());
       const auto k = key(u);
+      if (!useGrid_.empty() && !useGrid_[i].empty()) {
+        // Animated, with a shutter: keyed as finely as its path needs
+        // (core/motion.h). Moving, it is an instance whose transform Embree
+        // blends at each ray's time; still over the shutter, it is placed
+        // like any other use.
+        const std::vector<Affine> steps = shutterSteps(useGrid_[i], meshBox(u.mesh));
+        if (steps.size() > 1) {
+          if (subdivisionOf(u.mesh))
+            fail("nodes[" + std::to_string(u.nodeIndex) + "]",
+                 "moves within the shutter, and motion blur of subdivided meshes is not supported; render without " +
+                     settingName(Setting::Shutter));
+          const int m = instancedMesh(u, k);
+          if (m >= 0) scene_->addMovingInstance(m, steps, u.node);
+          continue;
+        }
+        xf = steps[0];
+      }
       if (useCount[k] == 1) {
         // Used once: bake into world space; no instance traversal at render.
         std::vector<PrimData> prims = primitives(u.mesh, k.second);
@@ -351,15 +384,8 @@ class Builder {
         if (!prims.empty()) ++scene_->flattenedMeshes;
         continue;
       }
-      auto it = instanced.find(k);
-      if (it == instanced.end()) {
-        std::vector<PrimData> prims = primitives(u.mesh, k.second);
-        const int m = prims.empty() ? -1 : scene_->addInstancedMesh(doc_.model().meshes[size_t(u.mesh)].name);
-        for (PrimData& p : prims)
-          scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
-        it = instanced.emplace(k, m).first;
-      }
-      if (it->second >= 0) scene_->addInstance(it->second, xf, u.node);
+      const int m = instancedMesh(u, k);
+      if (m >= 0) scene_->addInstance(m, xf, u.node);
     }
     scene_->setCurrentObject(kNoObject);
     if (!options_.displacementMap.empty() && !cliDisplacementUsed_)
@@ -367,9 +393,67 @@ class Builder {
            "none here (height map unused)");
   }
 
+  // Motion blur (LoadOptions::shutter): the placement of every animated
+  // mesh use and camera at the kMotionGrid + 1 evenly spaced times of the
+  // shutter (core/motion.h), from which their steps are chosen. Nothing is
+  // sampled without a shutter, or when nothing is animated.
+  void sampleShutter() {
+    if (!options_.shutter || options_.unrefined) return;
+    const auto isAnimated = [](const auto& x) { return x.animated; };
+    if (std::none_of(pose_.uses.begin(), pose_.uses.end(), isAnimated) &&
+        std::none_of(pose_.cameras.begin(), pose_.cameras.end(), isAnimated))
+      return;
+    const auto [open, close] = *options_.shutter;
+    useGrid_.assign(pose_.uses.size(), {});
+    cameraGrid_.assign(pose_.cameras.size(), {});
+    for (int j = 0; j <= kMotionGrid; ++j) {
+      const GltfDocument::Pose p = doc_.pose(open + (close - open) * double(j) / kMotionGrid, options_.animations);
+      for (size_t i = 0; i < p.uses.size(); ++i)
+        if (p.uses[i].animated) useGrid_[i].push_back(Affine::fromColumnMajor4x4(p.uses[i].world.data()));
+      for (size_t c = 0; c < p.cameras.size(); ++c)
+        if (p.cameras[c].animated) cameraGrid_[c].push_back(p.cameras[c].toWorld);
+    }
+  }
+
+  // The steps of a placement sampled on the grid, with the tolerance
+  // relative to the placed box's size (kMotionTolerance).
+  static std::vector<Affine> shutterSteps(const std::vector<Affine>& grid, const Bounds3& box) {
+    if (box.empty()) return {grid[0]};
+    const double size = placedDiagonal(grid, box);
+    return motionSteps(grid, box, kMotionTolerance * (size > 0 ? size : 1.0));
+  }
+
+  // meshes[index]'s bounds in object space (its triangles, or its cage).
+  Bounds3 meshBox(int index) const {
+    Bounds3 b;
+    for (const GltfDocument::Primitive& p : doc_.mesh(index))
+      for (const Vec3& v : p.positions) b.extend(v);
+    return b;
+  }
+
+  // A camera animated within the shutter gets its motion steps; the box
+  // it is tested with spans the scene's radius around it, so its rotation
+  // is followed to kMotionTolerance of what it sees at that distance.
+  void moveCameras() {
+    if (cameraGrid_.empty()) return;
+    const Bounds3& b = scene_->bounds();
+    float r = b.empty() ? 1.0f : 0.5f * length(b.diagonal());
+    if (!(r > 0.0f) || !std::isfinite(r)) r = 1.0f;
+    Bounds3 box;
+    box.extend(Vec3(-r, -r, -r));
+    box.extend(Vec3(r, r, r));
+    for (size_t c = 0; c < cameraGrid_.size(); ++c) {
+      if (cameraGrid_[c].empty()) continue;
+      std::vector<Affine> steps = shutterSteps(cameraGrid_[c], box);
+      if (steps.size() > 1) scene_->cameras[c].motion = std::move(steps);
+      else scene_->cameras[c].toWorld = steps[0];
+    }
+  }
+
   const GltfDocument& doc_;
   LoadOptions options_;
   GltfDocument::Pose pose_;
+  std::vector<std::vector<Affine>> useGrid_, cameraGrid_;  // by use / camera; empty: not sampled
   std::unique_ptr<Scene> scene_;
   std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstddef>
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -48,6 +49,11 @@ struct LoadOptions {
   std::optional<double> time;
   // The animations played at `time`: names or indices; empty = all of them.
   std::vector<std::string> animations;
+  // Motion blur: the shutter, [open, close] in seconds (absolute times of
+  // the animation), or none. Animated nodes that move within it become
+  // moving instances, an animated camera a moving camera (core/motion.h);
+  // the rest is placed at `time` as without a shutter.
+  std::optional<std::array<double, 2>> shutter;
 };
 
 }  // namespace obscura

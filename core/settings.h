@@ -19,6 +19,7 @@ enum class Setting {
   DisplacementScale,      // LoadOptions::displacementScale
   Time,                   // LoadOptions::time
   Animations,             // LoadOptions::animations
+  Shutter,                // LoadOptions::shutter, RenderSettings::motionBlur
   Count
 };
 

@@ -1,0 +1,183 @@
+// Motion blur: the step rule (core/motion.h), and renders whose time
+// average has a closed form.
+//
+// The closed form: a point x on the ground plane z = 0 (normal +z) at
+// distance d from an infinite vertical wall (the plane x = d). A
+// cosine-distributed direction projects to a point uniform on the unit disk;
+// it meets the wall within R exactly when that point's x-coordinate exceeds
+// a = d / R, so classical AO with radius R is
+//   V(d) = 1 - (acos(a) - a sqrt(1 - a^2)) / pi,  a = min(d / R, 1)
+// (one minus the area of the circular segment x > a, over pi). When the wall
+// slides (or the camera does, so the point seen moves) at constant speed
+// across the shutter, d = d0 + (d1 - d0) u for the sample's time u uniform in
+// [0, 1), and the pass is the time average of V, integrated here by Simpson's
+// rule - independently of the renderer.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "core/error.h"
+#include "core/motion.h"
+#include "core/render.h"
+#include "core/scene.h"
+#include "support.h"
+
+namespace obscura {
+namespace {
+
+using namespace obscura::test;
+
+double wallVisibility(double d, double R) {
+  const double a = std::min(d / R, 1.0);
+  return 1.0 - (std::acos(a) - a * std::sqrt(1.0 - a * a)) / kPi;
+}
+
+// (1/(d1 - d0)) Int_{d0}^{d1} V, Simpson's rule on 20000 intervals.
+double averageVisibility(double d0, double d1, double R) {
+  const int n = 20000;
+  double s = wallVisibility(d0, R) + wallVisibility(d1, R);
+  for (int i = 1; i < n; ++i) s += (i % 2 ? 4.0 : 2.0) * wallVisibility(d0 + (d1 - d0) * i / n, R);
+  return s / (3.0 * n);
+}
+
+Affine translation(float x) {
+  Affine a;
+  a.m[0][3] = x;
+  return a;
+}
+
+// The ground, and a wall (the plane x = 0 in its own space, 10 high, 100
+// long: beyond any AO ray of R = 1) placed by `wallSteps` (one: still).
+std::unique_ptr<Scene> wallScene(std::span<const Affine> wallSteps) {
+  auto scene = std::make_unique<Scene>();
+  addPlane(*scene, 50.0f);
+  const int wall = scene->addInstancedMesh("wall");
+  scene->addPrimitiveToMesh(wall, {{0, -50, 0}, {0, 50, 0}, {0, 50, 10}, {0, -50, 10}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene->addMovingInstance(wall, wallSteps, "wall");
+  scene->commit();
+  return scene;
+}
+
+// Looking straight down at (x, 0, 0) from 3 above, with a field of view so
+// narrow that every pixel sees that point (to 1.5e-3).
+Camera downAt(float x) { return makeLookAtCamera(Vec3(x, 0, 3), Vec3(x, 0, 0), Vec3(0, 1, 0), 1e-3f, "down"); }
+
+RenderSettings blurSettings(bool motionBlur) {
+  RenderSettings s = passSettings(16, 16, 64);
+  s.motionBlur = motionBlur;
+  return s;
+}
+
+constexpr double kRadius = 1.0, kD0 = 0.05, kD1 = 1.5;
+
+// Every pixel is its own estimate of the same time average (own scrambles).
+void expectAverage(const Film& film, double expected) {
+  const PixelStats st = pixelStats(film, kR);
+  EXPECT_NEAR(st.mean, expected, 4.0 * st.se + 1e-6) << "se " << st.se;
+}
+
+TEST(MotionBlur, SlidingWallAveragesTheClosedForm) {
+  const Affine steps[2] = {translation(float(kD0)), translation(float(kD1))};
+  const auto scene = wallScene(steps);
+  ASSERT_TRUE(scene->hasMotion());
+  const Film blurred = renderWith(*scene, downAt(0), "ao", {"distance=1"}, blurSettings(true));
+  const double expected = averageVisibility(kD0, kD1, kRadius);
+  expectAverage(blurred, expected);
+  // Without a shutter every ray is at time 0: the wall stands at d0.
+  const Film still = renderWith(*scene, downAt(0), "ao", {"distance=1"}, blurSettings(false));
+  expectAverage(still, wallVisibility(kD0, kRadius));
+  // The two differ by far more than the noise: the test tells them apart.
+  ASSERT_GT(std::abs(expected - wallVisibility(kD0, kRadius)), 0.2);
+}
+
+TEST(MotionBlur, MovingCameraAveragesTheClosedForm) {
+  // The wall stands at x = d0; the camera slides away from it, so the point
+  // it sees is at distance d0 .. d1 from the wall.
+  const Affine still[1] = {translation(float(kD0))};
+  const auto scene = wallScene(still);
+  ASSERT_FALSE(scene->hasMotion());
+  Camera cam = downAt(0);
+  cam.motion = {downAt(0).toWorld, downAt(float(kD0 - kD1)).toWorld};
+  const Film blurred = renderWith(*scene, cam, "ao", {"distance=1"}, blurSettings(true));
+  expectAverage(blurred, averageVisibility(kD0, kD1, kRadius));
+}
+
+TEST(MotionBlur, StillSceneWithShutterEqualsTheStill) {
+  // Nothing moves: the samples' times change nothing, and the time's own
+  // sample dimension leaves every other dimension as it was.
+  const Affine still[1] = {translation(0.4f)};
+  const auto scene = wallScene(still);
+  for (const char* integrator : {"ao", "transfer", "reflocc"}) {
+    RenderSettings on = blurSettings(true), off = blurSettings(false);
+    on.aovs = off.aovs = true;
+    const Film a = renderWith(*scene, downAt(0.1f), integrator, {}, on);
+    const Film b = renderWith(*scene, downAt(0.1f), integrator, {}, off);
+    const size_t n = size_t(a.width()) * size_t(a.height());
+    ASSERT_EQ(a.channels(), b.channels());
+    for (const int c : a.channels())
+      EXPECT_EQ(std::memcmp(a.plane(c), b.plane(c), n * sizeof(float)), 0) << integrator << " " << a.name(c);
+  }
+}
+
+TEST(MotionBlur, ScreenSpacePassesRefuseAShutter) {
+  const Affine still[1] = {translation(0.4f)};
+  const auto scene = wallScene(still);
+  EXPECT_THROW(renderWith(*scene, downAt(0), "vo", {}, blurSettings(true)), Error);
+}
+
+// --- the step rule -----------------------------------------------------------
+
+Affine rotationZ(double angle) {
+  Affine a;
+  a.m[0][0] = float(std::cos(angle)), a.m[0][1] = float(-std::sin(angle));
+  a.m[1][0] = float(std::sin(angle)), a.m[1][1] = float(std::cos(angle));
+  return a;
+}
+
+Bounds3 unitBox() {
+  Bounds3 b;
+  b.extend(Vec3(-1, -1, -1));
+  b.extend(Vec3(1, 1, 1));
+  return b;
+}
+
+TEST(MotionSteps, StillAndLinearPathsNeedNoMoreThanOneSegment) {
+  std::vector<Affine> still(kMotionGrid + 1, translation(2.0f));
+  EXPECT_EQ(motionSteps(still, unitBox(), 1e-6).size(), 1u);
+  std::vector<Affine> slide;
+  for (int j = 0; j <= kMotionGrid; ++j) slide.push_back(translation(float(j) / kMotionGrid * 8.0f));
+  const auto steps = motionSteps(slide, unitBox(), 1e-5);
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_EQ(steps[1].m[0][3], 8.0f);
+}
+
+TEST(MotionSteps, ARotationGetsTheSegmentsItsChordErrorNeeds) {
+  // A quarter turn about z across the shutter. Blending the ends of a
+  // segment of angle theta misses the arc by at most r (1 - cos(theta / 2))
+  // (at its middle), r = sqrt(2) for the unit box's corners: the rule must
+  // pick the fewest power-of-two segments meeting the tolerance.
+  const double turn = kPi / 2;
+  std::vector<Affine> grid;
+  for (int j = 0; j <= kMotionGrid; ++j) grid.push_back(rotationZ(turn * j / kMotionGrid));
+  for (const double tol : {1e-2, 1e-3, 1e-4}) {
+    int expected = 1;
+    while (std::sqrt(2.0) * (1 - std::cos(turn / expected / 2)) > tol) expected *= 2;
+    const auto steps = motionSteps(grid, unitBox(), tol * (1 + 1e-6));
+    EXPECT_EQ(int(steps.size()) - 1, expected) << "tolerance " << tol;
+    // And the blend of the chosen steps follows the turn within tol at
+    // times off the grid.
+    const int n = int(steps.size()) - 1;
+    for (double u : {0.013, 0.377, 0.5001, 0.93}) {
+      Instance inst;
+      inst.motion = steps;
+      const Affine blended = inst.toWorldAt(float(u));
+      const Affine exact = rotationZ(turn * u);
+      const Vec3 c(1, 1, 1);
+      EXPECT_LE(length(blended.point(c) - exact.point(c)), tol * 1.01 + 1e-6) << "u " << u << " n " << n;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace obscura
