@@ -221,6 +221,16 @@ class JsonChecker {
       fields(i, w, {{"uri", Kind::String}, {"bufferView", Kind::Index}, {"mimeType", Kind::String}});
     });
     arr("samplers", [&](const json& s, const std::string& w) { fields(s, w, {{"wrapS", Kind::Int}, {"wrapT", Kind::Int}}); });
+    arr("animations", [&](const json& a, const std::string& w) {
+      fields(a, w, {{"name", Kind::String}});
+      each(a, w, "channels", [&](const json& c, const std::string& cw) {
+        fields(c, cw, {{"sampler", Kind::Index}, {"target", Kind::Object}});
+        if (auto t = c.find("target"); t != c.end()) fields(*t, cw + ".target", {{"node", Kind::Index}, {"path", Kind::String}});
+      });
+      each(a, w, "samplers", [&](const json& s, const std::string& sw) {
+        fields(s, sw, {{"input", Kind::Index}, {"output", Kind::Index}, {"interpolation", Kind::String}});
+      });
+    });
     arr("cameras", [&](const json& c, const std::string& w) {
       fields(c, w, {{"type", Kind::String}, {"name", Kind::String}, {"perspective", Kind::Object}});
       if (auto p = c.find("perspective"); p != c.end())
@@ -538,6 +548,11 @@ void GltfDocument::decodeNodes() {
   Pose p = pose(std::nullopt, {});
   uses_ = std::move(p.uses);
   cameras_ = std::move(p.cameras);
+}
+
+std::string GltfDocument::nodeLabel(int node) const {
+  const std::string& name = model_->nodes.at(size_t(node)).name;
+  return name.empty() ? "nodes[" + std::to_string(node) + "]" : name;
 }
 
 std::vector<size_t> GltfDocument::selectAnimations(const std::vector<std::string>& selection) const {

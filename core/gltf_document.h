@@ -82,6 +82,8 @@ class GltfDocument {
     std::vector<int> nodes;  // the nodes its (supported) channels target, ascending
   };
   const std::vector<AnimationInfo>& animations() const { return animationInfo_; }
+  // nodes[i]'s name, else "nodes[i]".
+  std::string nodeLabel(int node) const;
 
   // The mesh uses and cameras with the selected animations applied at
   // `seconds` (animations played together: a later animation in the file
