@@ -217,7 +217,32 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   for (const std::string& name : a.animations)
     if (name.empty()) throw Error("--animation: an empty name in the list");
   o.animations = a.animations;
+  if (!a.shutter.empty()) {
+    const std::array<double, 2> sh = parseShutter(a.shutter);
+    if (a.frame.empty()) throw Error("--shutter: motion blur opens the shutter around a frame; give --frame (or, for render, --frames)");
+    const double f = parseFrame(a.frame);
+    o.shutter = std::array<double, 2>{(f + sh[0]) / a.fps, (f + sh[1]) / a.fps};
+  }
   return o;
+}
+
+std::array<double, 2> parseShutter(const std::string& text) {
+  const std::string why = "--shutter: expected OPEN,CLOSE in frames relative to the frame, OPEN < CLOSE "
+                          "(e.g. -0.25,0.25 for a 180-degree shutter centred on the frame), got '" + text + "'";
+  const size_t comma = text.find(',');
+  if (comma == std::string::npos || text.find(',', comma + 1) != std::string::npos) throw Error(why);
+  std::array<double, 2> v{};
+  for (int k = 0; k < 2; ++k) {
+    const std::string part = k == 0 ? text.substr(0, comma) : text.substr(comma + 1);
+    char* end = nullptr;
+    errno = 0;
+    v[size_t(k)] = std::strtod(part.c_str(), &end);
+    if (part.empty() || *end != '\0' || errno != 0 || !std::isfinite(v[size_t(k)]) || std::abs(v[size_t(k)]) > 1e6 ||
+        part.find_first_of("xXpPnN") != std::string::npos)
+      throw Error(why);
+  }
+  if (!(v[0] < v[1])) throw Error(why);
+  return v;
 }
 
 double parseFrame(const std::string& text) {
@@ -408,6 +433,12 @@ ExrOptions passHeader(const PassInfo& i) {
     std::string list;
     for (const std::string& n : a->animations) list += (list.empty() ? "" : ",") + n;
     str("obscura:animations", list.empty() ? "all" : list);
+    if (!a->shutter.empty()) {
+      // The shutter in frames relative to the frame, and what moves in it.
+      const std::array<double, 2> sh = parseShutter(a->shutter);
+      str("obscura:shutter", formatFloat(sh[0]) + "," + formatFloat(sh[1]));
+      if (i.scene) exr.attributes.push_back({"obscura:movingObjects", int(i.scene->stats().movingInstances)});
+    }
   }
   if (i.sceneArgs && !i.sceneArgs->objects.empty()) {
     std::string all;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -41,12 +42,18 @@ struct SceneArgs {
   std::string frame;
   double fps = 24;
   std::vector<std::string> animations;
+  // --shutter OPEN,CLOSE: motion blur over [frame + OPEN, frame + CLOSE]
+  // (frames); empty = none (README "Motion blur").
+  std::string shutter;
 };
 // Checks them; throws obscura::Error naming the option.
 LoadOptions sceneOptions(const SceneArgs& a);
 
 // --frame's text as a number (fractional allowed, finite); throws naming --frame.
 double parseFrame(const std::string& text);
+// --shutter "OPEN,CLOSE": frames relative to the frame, OPEN < CLOSE, each
+// finite and within +-1e6; throws naming --shutter.
+std::array<double, 2> parseShutter(const std::string& text);
 // --frames "A-B[:STEP]": whole frames A <= B (either may be negative), STEP >= 1.
 std::vector<long long> parseFrameRange(const std::string& text);
 // The run of '#' in the file name of `path` (an output pattern,

@@ -198,7 +198,7 @@ struct ComparePlan {
   std::vector<CompareConfig> configs;
   std::vector<int> spps;
   std::vector<double> targets;
-  RenderSettings base;  // resolution, sky, threads; spp and seed per render
+  RenderSettings base;  // resolution, sky, threads, motion blur; spp and seed per render
   fs::path dir;
   std::optional<PassImage> givenReference;
 };
@@ -217,6 +217,7 @@ ComparePlan planCompare(const CompareArgs& a) {
   parseResolution(a.res, p.base.width, p.base.height);
   p.base.sky = parseSky(a.sky);
   p.base.threads = a.threads;
+  p.base.motionBlur = !a.shutter.empty();
   p.base.aovs = false;
   p.base.progress = !a.quiet;
   if (a.output.empty()) throw Error("-o: an output directory is required");
@@ -258,6 +259,7 @@ class CompareRun {
       std::string anims;
       for (const std::string& n : a.animations) anims += "," + n;
       viewHash_.add("frame/" + formatFloat(parseFrame(a.frame) / a.fps) + anims);
+      if (!a.shutter.empty()) viewHash_.add("shutter/" + a.shutter);
     }
   }
 

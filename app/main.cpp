@@ -49,6 +49,9 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--fps", a.fps, "Frames per second of --frame and --frames (> 0)");
   cmd->add_option("--animation", a.animations, "Animations a frame plays: names or indices, comma-separated (default: all)")
       ->delimiter(',');
+  cmd->add_option("--shutter", a.shutter,
+                  "Motion blur: the shutter OPEN,CLOSE in frames relative to the frame (e.g. -0.25,0.25); needs --frame "
+                  "or --frames; ray-traced passes only (default: off)");
 }
 
 struct RenderArgs : SceneArgs {
@@ -253,6 +256,7 @@ int runRender(const RenderArgs& args) {
   s.aovs = !args.noAovs;
   s.progress = !args.quiet;
   s.cryptomatte = parseCryptomatte(args.cryptomatte, args.cryptomatteRanks);
+  s.motionBlur = !args.shutter.empty();
   if (!args.region.empty()) {
     s.region = parseRegion(args.region);
     checkRegion(s.region, s.width, s.height);

@@ -369,6 +369,7 @@ SceneStats Scene::stats() const {
   s.meshes = sourceMeshes;
   s.flattenedMeshes = flattenedMeshes;
   s.instances = instances_.size();
+  s.movingInstances = moving_;
   s.primitives = worldPrimitives_.size();
   for (const auto& p : worldPrimitives_) {
     s.subdivisionFaces += p.faceCount;

@@ -139,7 +139,8 @@ struct AlphaSurface;
 // Counts for `obscura info` and the EXR header.
 struct SceneStats {
   size_t meshes = 0, primitives = 0, uniqueTriangles = 0, renderedTriangles = 0,
-         instances = 0, flattenedMeshes = 0, subdivisionFaces = 0;
+         instances = 0, flattenedMeshes = 0, subdivisionFaces = 0,
+         movingInstances = 0;  // instances that move within the shutter (motion blur)
 };
 
 class Scene {

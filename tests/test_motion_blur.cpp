@@ -14,13 +14,17 @@
 // rule - independently of the renderer.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <cstring>
 
 #include "core/error.h"
 #include "core/motion.h"
+#include "core/params.h"
 #include "core/render.h"
 #include "core/scene.h"
+#include "gltf_builder.h"
 #include "support.h"
 
 namespace obscura {
@@ -124,6 +128,102 @@ TEST(MotionBlur, ScreenSpacePassesRefuseAShutter) {
   const Affine still[1] = {translation(0.4f)};
   const auto scene = wallScene(still);
   EXPECT_THROW(renderWith(*scene, downAt(0), "vo", {}, blurSettings(true)), Error);
+}
+
+// --- through the CLI: a glTF shot --------------------------------------------
+
+// The wall scene as a glTF file: the ground, the wall node animated from x =
+// d0 at t = 0 to x = d1 at t = 1 (`interpolation`), and a camera 3 above the
+// origin looking down (-Z, glTF's view axis).
+std::string writeWallShot(const std::string& dir, const std::string& name, const std::string& interpolation) {
+  GltfBuilder b;
+  const int ground = b.quadMesh(50.0f);
+  const int wallPos = b.positions({{0, -50, 0}, {0, 50, 0}, {0, 50, 10}, {0, -50, 10}});
+  const int wallIdx = b.indices(std::vector<uint32_t>{0, 1, 2, 0, 2, 3});
+  const int wall = b.push("meshes", {{"primitives", json::array({{{"attributes", {{"POSITION", wallPos}}}, {"indices", wallIdx}}})}});
+  b.push("cameras", {{"type", "perspective"}, {"perspective", {{"yfov", 1e-3}, {"znear", 0.01}}}});
+  const int groundNode = b.node({{"mesh", ground}, {"name", "ground"}});
+  const int wallNode = b.node({{"mesh", wall}, {"name", "wall"}});
+  const int camNode = b.node({{"camera", 0}, {"name", "camera"}, {"translation", {0, 0, 3}}});
+  b.scene({groundNode, wallNode, camNode});
+  b.animation("slide", {{wallNode, "translation", {0.0f, interpolation == "STEP" ? 10.0f : 1.0f},
+                         {float(kD0), 0, 0, float(kD1), 0, 0}, interpolation}});
+  return b.writeGltf(dir, name);
+}
+
+// Mean and standard error of R over the pixels of an EXR (each pixel its
+// own estimate).
+std::pair<double, double> meanSe(const std::string& exr) {
+  const ReadBack r = readExr(exr);
+  EXPECT_TRUE(r.ok) << exr;
+  if (!r.ok) return {0, 1};
+  const std::vector<float>& R = r.planes.at("R");
+  double s = 0, s2 = 0;
+  for (const float v : R) s += v, s2 += double(v) * v;
+  const double n = double(R.size()), mean = s / n;
+  return {mean, std::sqrt(std::max(s2 / n - mean * mean, 0.0) / (n - 1))};
+}
+
+TEST(MotionBlurCli, AnimatedWallBlursToTheClosedForm) {
+  const std::string dir = tempDir("motion_cli");
+  const std::string shot = writeWallShot(dir, "shot", "LINEAR");
+  const std::vector<std::string> base = {"render", shot, "-q", "-i", "ao", "-p", "distance=1", "--res", "16x16",
+                                         "--spp", "64", "--no-aovs", "--fps", "1", "--frame", "0"};
+  auto with = [&](std::vector<std::string> extra, const std::string& out) {
+    std::vector<std::string> a = base;
+    a.insert(a.end(), extra.begin(), extra.end());
+    a.insert(a.end(), {"-o", dir + "/" + out});
+    return a;
+  };
+  const std::vector<CliResult> runs =
+      runClis({with({"--shutter", "0,1"}, "blur.exr"), with({}, "still.exr")}, dir);
+  for (const CliResult& r : runs) ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  const auto [blur, blurSe] = meanSe(dir + "/blur.exr");
+  EXPECT_NEAR(blur, averageVisibility(kD0, kD1, kRadius), 4 * blurSe + 1e-6);
+  const auto [still, stillSe] = meanSe(dir + "/still.exr");
+  EXPECT_NEAR(still, wallVisibility(kD0, kRadius), 4 * stillSe + 1e-6);
+  const ReadBack h = readExr(dir + "/blur.exr");
+  EXPECT_EQ(h.spec.get_string_attribute("obscura:shutter"), "0,1");
+  EXPECT_EQ(h.spec.get_int_attribute("obscura:movingObjects", -1), 1);
+}
+
+TEST(MotionBlurCli, ANodeThatHoldsStillInTheShutterRendersAsTheStill) {
+  // STEP keys at 0 and 10 s: the wall is animated but does not move within
+  // [0, 1]; the shutter changes nothing, bit for bit, AOVs included.
+  const std::string dir = tempDir("motion_cli_still");
+  const std::string shot = writeWallShot(dir, "shot", "STEP");
+  const std::vector<std::string> base = {"render", shot, "-q", "--res", "12x8", "--spp", "8", "--fps", "1", "--frame", "0"};
+  std::vector<std::string> blur = base, still = base;
+  blur.insert(blur.end(), {"--shutter", "0,1", "-o", dir + "/blur.exr"});
+  still.insert(still.end(), {"-o", dir + "/still.exr"});
+  const std::vector<CliResult> runs = runClis({blur, still}, dir);
+  for (const CliResult& r : runs) ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  const ReadBack a = readExr(dir + "/blur.exr"), b = readExr(dir + "/still.exr");
+  ASSERT_TRUE(a.ok && b.ok);
+  for (const auto& [name, plane] : a.planes) EXPECT_EQ(plane, b.planes.at(name)) << name;
+  EXPECT_EQ(a.spec.get_int_attribute("obscura:movingObjects", -1), 0);
+}
+
+TEST(MotionBlurCli, BadShuttersAreOneLine) {
+  const std::string dir = tempDir("motion_cli_bad");
+  const std::string shot = writeWallShot(dir, "shot", "LINEAR");
+  for (const auto& [args, why] : std::vector<std::pair<std::vector<std::string>, std::string>>{
+           {{"--frame", "0", "--shutter", "0.5,0.5"}, "OPEN < CLOSE"},
+           {{"--frame", "0", "--shutter", "0.5"}, "OPEN,CLOSE"},
+           {{"--frame", "0", "--shutter", "a,1"}, "OPEN,CLOSE"},
+           {{"--frame", "0", "--shutter", "0,inf"}, "OPEN,CLOSE"},
+           {{"--shutter", "0,1"}, "give --frame"},
+           {{"--frame", "0", "--shutter", "0,1", "-i", "vo"}, "screen-space"},
+       }) {
+    std::vector<std::string> a = {"render", shot, "-q", "--res", "8x8", "--spp", "1"};
+    a.insert(a.end(), args.begin(), args.end());
+    a.insert(a.end(), {"-o", dir + "/bad.exr"});
+    const CliResult r = runCli(a, dir + "/err.txt");
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.stderrText.find(why), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/bad.exr"));
+  }
 }
 
 // --- the step rule -----------------------------------------------------------
