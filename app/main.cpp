@@ -5,12 +5,17 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
+#include <variant>
 
+#include "core/checkpoint.h"
 #include "core/error.h"
 #include "core/gbuffer.h"
 #include "core/gltf_loader.h"
@@ -69,7 +74,87 @@ struct RenderArgs : SceneArgs {
   std::string cryptomatte = "none";
   int cryptomatteRanks = kDefaultCryptomatteRanks;
   std::string region;  // --region X0,Y0,X1,Y1; empty = the whole frame
+  double checkpoint = 0;  // --checkpoint SECONDS
+  bool checkpointGiven = false;
 };
+
+// FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
+std::string fileHash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "";
+  uint64_t h = 1469598103934665603ull, size = 0;
+  std::vector<char> buf(1 << 20);
+  while (in) {
+    in.read(buf.data(), std::streamsize(buf.size()));
+    const size_t n = size_t(in.gcount());
+    for (size_t i = 0; i < n; ++i) h = (h ^ (unsigned char)buf[i]) * 1099511628211ull;
+    size += n;
+  }
+  char text[64];
+  std::snprintf(text, sizeof text, "%016llx, %llu bytes", (unsigned long long)h, (unsigned long long)size);
+  return text;
+}
+
+// Size and modification time of a file (the files a scene refers to: they
+// may be large, and are not hashed).
+std::string fileStamp(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return "missing";
+  const auto time = std::filesystem::last_write_time(path, ec);
+  return std::to_string(size) + " bytes, mtime " + std::to_string(time.time_since_epoch().count());
+}
+
+// A header value as text, floats exactly (hex).
+std::string attributeText(const HeaderAttribute& h) {
+  const auto hex = [](float f) {
+    char t[32];
+    std::snprintf(t, sizeof t, "%a", double(f));
+    return std::string(t);
+  };
+  if (const auto* v = std::get_if<std::string>(&h.value)) return *v;
+  if (const auto* v = std::get_if<int>(&h.value)) return std::to_string(*v);
+  if (const auto* v = std::get_if<float>(&h.value)) return hex(*v);
+  std::string all;
+  for (float f : std::get<std::vector<float>>(h.value)) all += (all.empty() ? "" : ",") + hex(f);
+  return all;
+}
+
+// What a --checkpoint file must match to be resumed (README "Checkpoints"):
+// the EXR header's record of the render but for what differs between runs
+// (threads, times, ray counts), the tile size and AOV switch, and the
+// bytes of the files the render reads: the scene (hashed), the files a
+// .gltf names, the height map and plugins (size and time).
+Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header) {
+  // The switches whose effect spreads over many header attributes first, so
+  // that a refusal names them rather than one of their consequences.
+  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
+  for (const HeaderAttribute& h : header.attributes) {
+    const std::string& n = h.name;
+    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n.rfind("obscura:rays:", 0) == 0)
+      continue;
+    fp.emplace_back(n, attributeText(h));
+  }
+  fp.emplace_back("scene file", fileHash(a.scene));
+  if (hasExtension(a.scene, ".gltf")) {
+    // Buffers and images by relative uri; data: uris are in the hash above.
+    std::ifstream in(a.scene);
+    const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+    const std::filesystem::path dir = std::filesystem::path(a.scene).parent_path();
+    for (const char* list : {"buffers", "images"})
+      if (doc.is_object() && doc.contains(list) && doc[list].is_array())
+        for (const auto& e : doc[list])
+          if (e.is_object() && e.contains("uri") && e["uri"].is_string()) {
+            const std::string uri = e["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) != 0) fp.emplace_back("scene file " + uri, fileStamp(dir / uri));
+          }
+  }
+  if (!a.displace.empty()) fp.emplace_back("--displace file", fileStamp(a.displace));
+  const char* env = std::getenv("OBSCURA_PLUGIN_PATH");
+  fp.emplace_back("OBSCURA_PLUGIN_PATH", env ? env : "");
+  for (const std::string& p : a.plugins) fp.emplace_back("--plugin " + p, fileStamp(p));
+  return fp;
+}
 
 // True when a and b name the same file (existing or not).
 bool samePath(const std::string& a, const std::string& b) {
@@ -219,32 +304,60 @@ int runRender(const RenderArgs& a) {
   });
   checkRegionPasses(s, anyScreenSpace);  // before loading the scene
   checkOutputs(a, s, anyScreenSpace, a.passes.size());
+  // --checkpoint: a damaged file is refused before the scene loads; whether
+  // it belongs to this render, once the header's record of it is known.
+  std::optional<Checkpoint> checkpoint;
+  if (a.checkpointGiven) {
+    if (!(a.checkpoint >= 0) || !std::isfinite(a.checkpoint))
+      throw Error("--checkpoint: expected seconds >= 0 (0: after every tile), got " + formatFloat(a.checkpoint));
+    checkpoint.emplace(a.output + ".checkpoint", a.checkpoint);
+    s.checkpoint = &*checkpoint;
+    checkCheckpointPasses(s, anyScreenSpace);
+    checkpoint->read();
+  } else if (std::error_code ec; std::filesystem::exists(a.output + ".checkpoint", ec)) {
+    std::fprintf(stderr, "obscura: note: %s.checkpoint exists but --checkpoint was not given; rendering from the start\n",
+                 a.output.c_str());
+  }
 
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
   Camera camera;
   std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, s.width, s.height, camera);
 
-  interrupt::startPolling();
-  RenderStats stats;
-  Film film = render(*scene, camera, passes, s, stats, interrupt::flag());
-  if (interrupt::flag()->load()) {
-    std::fprintf(stderr, "%s\n", notWritten.c_str());
-    return 130;
-  }
-
   std::vector<LayerInfo> layers;
   if (!a.passes.empty())
     for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
-  ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
-                                        .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
-                                        .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
+  RenderStats stats;
+  const auto header = [&] {
+    return passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
+                               .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
+                               .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
+  };
+  if (checkpoint) checkpoint->setFingerprint(renderFingerprint(a, s, header()));
+
+  interrupt::startPolling();
+  Film film = render(*scene, camera, passes, s, stats, interrupt::flag());
+  if (interrupt::flag()->load()) {
+    if (checkpoint)
+      std::fprintf(stderr, "%s; %zu of %d tiles saved in %s (run the same command to resume)\n", notWritten.c_str(),
+                   checkpoint->savedTiles(), checkpoint->tileCount(), checkpoint->path().c_str());
+    else
+      std::fprintf(stderr, "%s\n", notWritten.c_str());
+    return 130;
+  }
+
+  ExrOptions exr = header();
+  // A resumed render: how many runs made it (obscura:renderTime sums their
+  // render loops; obscura:rays:* count every tile once, as an uninterrupted
+  // render does).
+  if (checkpoint && checkpoint->runs() > 1) exr.attributes.push_back({"obscura:checkpointRuns", checkpoint->runs()});
   exr.half = a.half;
   // The pass and its preview land together or not at all.
   OutputSet out;
   out.addExr(a.output, film, exr);
   if (!a.preview.empty()) out.addPreviewPng(a.preview, film);
   out.commit();
+  if (checkpoint) checkpoint->remove();  // the image is written: nothing left to resume
 
   if (!a.quiet) {
     const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
@@ -364,6 +477,11 @@ int main(int argc, char** argv) {
   render->add_option("--region", r.region,
                      "Render only the pixels [X0,X1) x [Y0,Y1) of the frame, as X0,Y0,X1,Y1: the EXR's data window (its display "
                      "window is the frame); equal to the same pixels of the full render (ray-traced passes only; see 'merge')");
+  render->add_option("--checkpoint", r.checkpoint,
+                     "Save finished tiles to OUTPUT.checkpoint at most every SECONDS (0: after every tile) and on Ctrl-C; "
+                     "the same command run again resumes from it, bit-identical to an uninterrupted render (ray-traced "
+                     "passes only; deleted once the EXR is written)")
+      ->default_str("off");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
   addSceneOptions(render, r);
 
@@ -431,6 +549,7 @@ int main(int argc, char** argv) {
   try {
     if (render->parsed()) {
       r.integratorGiven = render->get_option("--integrator")->count() > 0 || render->get_option("--param")->count() > 0;
+      r.checkpointGiven = render->get_option("--checkpoint")->count() > 0;
       return runRender(r);
     }
     if (compare->parsed()) return runCompare(cmp, interrupt::flag());
