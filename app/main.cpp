@@ -78,6 +78,14 @@ struct RenderArgs : SceneArgs {
   bool checkpointGiven = false;
 };
 
+// True when `path` ends in `ext` (".exr"), ignoring case.
+bool hasExtension(const std::string& path, const std::string& ext) {
+  if (path.size() < ext.size()) return false;
+  for (size_t i = 0; i < ext.size(); ++i)
+    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
+  return true;
+}
+
 // FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
 std::string fileHash(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -164,13 +172,6 @@ bool samePath(const std::string& a, const std::string& b) {
   return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
 }
 
-// True when `path` ends in `ext` (".exr"), ignoring case.
-bool hasExtension(const std::string& path, const std::string& ext) {
-  if (path.size() < ext.size()) return false;
-  for (size_t i = 0; i < ext.size(); ++i)
-    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
-  return true;
-}
 
 // Fail before a long render, not after it: outputs whose extension is not
 // the format written (an EXR under a .tif name, a PNG under .jpg: viewers
@@ -333,7 +334,12 @@ int runRender(const RenderArgs& a) {
                                .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
                                .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
   };
-  if (checkpoint) checkpoint->setFingerprint(renderFingerprint(a, s, header()));
+  if (checkpoint) {
+    checkpoint->setFingerprint(renderFingerprint(a, s, header()));
+    if (checkpoint->loaded() && !a.quiet)
+      std::fprintf(stderr, "obscura: resuming from %s (%zu tiles saved)\n", checkpoint->path().c_str(),
+                   checkpoint->savedTiles());
+  }
 
   interrupt::startPolling();
   Film film = render(*scene, camera, passes, s, stats, interrupt::flag());

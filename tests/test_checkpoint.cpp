@@ -11,6 +11,7 @@
 // also kills the process from outside as soon as the file appears.
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
@@ -23,8 +24,8 @@ namespace obscura::test {
 namespace fs = std::filesystem;
 namespace {
 
-// 40x30 pixels in 8-pixel tiles: 5 x 4 = 20 tiles, the last column 8 wide,
-// ... all full; with --region, tiles clipped at the region's edges.
+// 40x30 pixels in 8-pixel tiles: 5 x 4 = 20 tiles, the bottom row 6 high;
+// with --region, tiles clipped at the region's edges too.
 const std::vector<std::string> kCommon = {"render", "-q", "--res", "40x30", "--spp", "4", "--tile", "8"};
 // A ratio estimator through the Gaussian pixel filter (samples beyond their
 // pixel's square), with the AOVs.
@@ -32,11 +33,21 @@ const std::vector<std::string> kTransfer = {"-i", "transfer", "--filter", "gauss
 // Two ray-traced passes in layers and Cryptomatte object layers.
 const std::vector<std::string> kLayers = {"--pass", "tr=transfer", "--pass", "ao=ao:distance=2", "--cryptomatte", "object"};
 
+// kCommon, then `config` and `extra`, whose --res, --spp or --tile replace
+// kCommon's (an option may be given once).
 std::vector<std::string> args(const std::string& out, const std::vector<std::string>& config,
                               const std::vector<std::string>& extra = {}) {
   std::vector<std::string> a = kCommon;
-  a.insert(a.end(), config.begin(), config.end());
-  a.insert(a.end(), extra.begin(), extra.end());
+  std::vector<std::string> more = config;
+  more.insert(more.end(), extra.begin(), extra.end());
+  for (size_t i = 0; i < more.size(); ++i) {
+    const auto at = std::find(a.begin(), a.begin() + ptrdiff_t(kCommon.size()), more[i]);
+    if (at != a.begin() + ptrdiff_t(kCommon.size()) && i + 1 < more.size()) {
+      at[1] = more[++i];
+      continue;
+    }
+    a.push_back(more[i]);
+  }
   a.push_back("-o");
   a.push_back(out);
   return a;
@@ -187,19 +198,15 @@ TEST(Checkpoint, OfAnotherRenderIsRefused) {
   const std::string ckpt = killedCheckpoint(dir, out);
   // Each names the setting that differs.
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
-      {{"--spp", "8"}, "obscura:spp"},          // kCommon's --spp replaced below
+      {{"--spp", "8"}, "obscura:spp"},
       {{"--seed", "3"}, "obscura:seed"},
       {{"--tile", "16"}, "tile size"},
       {{"--no-aovs"}, "AOVs"},
       {{"-p", "depth=2"}, "obscura:param:depth"},
   };
   for (const auto& [extra, key] : cases) {
-    std::vector<std::string> a = args(out, kTransfer, {"--checkpoint", "0"});
-    // A repeated option of kCommon: change its value in place.
-    if (extra.size() == 2 && (extra[0] == "--spp" || extra[0] == "--tile"))
-      *(std::find(a.begin(), a.end(), extra[0]) + 1) = extra[1];
-    else
-      a.insert(a.end() - 2, extra.begin(), extra.end());
+    std::vector<std::string> a = args(out, kTransfer, extra);
+    a.insert(a.end() - 2, {"--checkpoint", "0"});
     const CliResult r = runCli(a, dir + "/mismatch.txt");
     expectRefused(r, ckpt, "checkpoint of a different render (" + key);
     EXPECT_FALSE(fs::exists(out));
