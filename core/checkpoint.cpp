@@ -244,7 +244,39 @@ RayCounters Checkpoint::rays() const {
 }
 
 void Checkpoint::write() {
+  // The tiles done now (acquire: their pixels and rays are visible); one
+  // that finishes while this runs goes into the next checkpoint.
+  std::vector<int> tiles;
+  for (int t = 0; t < tileCount_; ++t)
+    if (done(t)) tiles.push_back(t);
+
+  // Temporary, flushed to the disk, renamed: after a crash or power loss the
+  // file is the previous checkpoint or this one. Streamed in pieces of a few
+  // MiB, hashed as it goes, so a write needs no second copy of the film.
+  const std::string tmp = path_ + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(path_ + ": cannot write the checkpoint: " + errnoText());
+  const auto fail = [&](const std::string& why) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw Error(path_ + ": cannot write the checkpoint: " + why);
+  };
   std::vector<unsigned char> buf;
+  const auto writeAll = [&] {
+    size_t done = 0;
+    while (done < buf.size()) {
+      const ssize_t n = ::write(fd, buf.data() + done, buf.size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) fail(errnoText());
+      done += size_t(n);
+    }
+    buf.clear();
+  };
+  uint64_t hash = 1469598103934665603ull;  // FNV-1a 64 (fnv1a above), over every piece
+  const auto flush = [&] {
+    for (unsigned char c : buf) hash = (hash ^ c) * 1099511628211ull;
+    writeAll();
+  };
   Writer w{buf};
   buf.insert(buf.end(), kMagic, kMagic + sizeof kMagic);
   w.put(kFormatVersion);
@@ -258,12 +290,8 @@ void Checkpoint::write() {
   for (int c : channels) w.str(film_->name(c));
   w.put(earlierSeconds_ + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count());
   w.put(earlierRuns_ + 1);
-  const size_t countAt = buf.size();
-  w.put(uint32_t(0));
-  uint32_t count = 0;
-  for (int t = 0; t < tileCount_; ++t) {
-    if (!done(t)) continue;  // acquire: the tile's pixels and rays are visible
-    ++count;
+  w.put(uint32_t(tiles.size()));
+  for (int t : tiles) {
     w.put(uint32_t(t));
     w.put(tileRays_[size_t(t)].camera);
     w.put(tileRays_[size_t(t)].occlusion);
@@ -274,36 +302,24 @@ void Checkpoint::write() {
         const auto* p = reinterpret_cast<const unsigned char*>(&film_->at(c, r.x0, y));
         buf.insert(buf.end(), p, p + size_t(r.width()) * sizeof(float));
       }
+    if (buf.size() >= (size_t(4) << 20)) flush();
   }
-  std::memcpy(buf.data() + countAt, &count, sizeof count);
-  w.put(fnv1a(buf.data(), buf.size()));
-
-  // Temporary, flushed to the disk, renamed: after a crash or power loss the
-  // file is the previous checkpoint or this one.
-  const std::string tmp = path_ + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(path_ + ": cannot write the checkpoint: " + errnoText());
-  size_t done = 0;
-  while (done < buf.size()) {
-    const ssize_t n = ::write(fd, buf.data() + done, buf.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const std::string why = errnoText();
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      throw Error(path_ + ": cannot write the checkpoint: " + why);
-    }
-    done += size_t(n);
-  }
-  const bool synced = ::fsync(fd) == 0;
-  const bool closed = ::close(fd) == 0;
-  if (!synced || !closed || ::rename(tmp.c_str(), path_.c_str()) != 0) {
+  flush();
+  w.put(hash);  // of everything before it
+  writeAll();
+  if (::fsync(fd) != 0) fail(errnoText());
+  if (::close(fd) != 0) {
     const std::string why = errnoText();
     ::unlink(tmp.c_str());
     throw Error(path_ + ": cannot write the checkpoint: " + why);
   }
-  savedTiles_ = count;
-  if (killAfter_ > 0 && count >= killAfter_ && !killed_.exchange(true)) ::raise(killSignal_);
+  if (::rename(tmp.c_str(), path_.c_str()) != 0) {
+    const std::string why = errnoText();
+    ::unlink(tmp.c_str());
+    throw Error(path_ + ": cannot write the checkpoint: " + why);
+  }
+  savedTiles_ = tiles.size();
+  if (killAfter_ > 0 && tiles.size() >= killAfter_ && !killed_.exchange(true)) ::raise(killSignal_);
 }
 
 void Checkpoint::remove() {

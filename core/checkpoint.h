@@ -51,7 +51,9 @@ class Checkpoint {
   //
   // Tests only: OBSCURA_TEST_CHECKPOINT_KILL=N[:INT] makes the process send
   // itself SIGKILL (or SIGINT) right after it has written a checkpoint
-  // holding at least N tiles - a deterministic interruption.
+  // holding at least N tiles - a deterministic interruption with interval 0
+  // and one thread (with more, a thread that finishes a tile during another
+  // thread's write does not write).
   Checkpoint(std::string path, double intervalSeconds);
   ~Checkpoint();
   Checkpoint(const Checkpoint&) = delete;

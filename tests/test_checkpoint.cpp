@@ -171,10 +171,13 @@ TEST(Checkpoint, ExternalSigkillWhenTheFileAppears) {
   expectSameImage(out, ref);
 }
 
-// A checkpoint left by a SIGKILL of kTransfer after 5 tiles.
+// A checkpoint left by a SIGKILL of kTransfer after 5 tiles. One thread:
+// with more, a thread skips its write while another one writes, and the last
+// tiles may all finish during a write of fewer than 5 (the render then ends
+// normally and deletes its checkpoint).
 std::string killedCheckpoint(const std::string& dir, const std::string& out) {
   const ScopedEnv kill("OBSCURA_TEST_CHECKPOINT_KILL", "5");
-  const CliResult k = runCli(args(out, kTransfer, {"--checkpoint", "0"}), dir + "/kill.txt");
+  const CliResult k = runCli(args(out, kTransfer, {"--checkpoint", "0", "--threads", "1"}), dir + "/kill.txt");
   EXPECT_EQ(k.signal, SIGKILL) << k.stderrText;
   EXPECT_TRUE(fs::exists(out + ".checkpoint"));
   return out + ".checkpoint";
@@ -218,7 +221,7 @@ TEST(Checkpoint, OfAnotherRenderIsRefused) {
   const std::string out2 = dir + "/out2.exr";
   {
     const ScopedEnv kill("OBSCURA_TEST_CHECKPOINT_KILL", "5");
-    std::vector<std::string> a = args(out2, kTransfer, {"--checkpoint", "0"});
+    std::vector<std::string> a = args(out2, kTransfer, {"--checkpoint", "0", "--threads", "1"});
     a.insert(a.begin() + 1, scene);
     ASSERT_EQ(runCli(a, dir + "/kill2.txt").signal, SIGKILL);
   }
