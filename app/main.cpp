@@ -487,6 +487,7 @@ int main(int argc, char** argv) {
                      "Save finished tiles to OUTPUT.checkpoint at most every SECONDS (0: after every tile) and on Ctrl-C; "
                      "the same command run again resumes from it, bit-identical to an uninterrupted render (ray-traced "
                      "passes only; deleted once the EXR is written)")
+      ->type_name("SECONDS")
       ->default_str("off");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
   addSceneOptions(render, r);
