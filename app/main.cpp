@@ -9,9 +9,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
+#include <variant>
 
+#include "core/checkpoint.h"
 #include "core/error.h"
 #include "core/gbuffer.h"
 #include "core/gltf_loader.h"
@@ -79,7 +83,95 @@ struct RenderArgs : SceneArgs {
   int cryptomatteRanks = kDefaultCryptomatteRanks;
   std::string region;  // --region X0,Y0,X1,Y1; empty = the whole frame
   std::string frames;  // --frames A-B[:STEP]; empty = one image
+  double checkpoint = 0;  // --checkpoint SECONDS
+  bool checkpointGiven = false;
 };
+
+// True when `path` ends in `ext` (".exr"), ignoring case.
+bool hasExtension(const std::string& path, const std::string& ext) {
+  if (path.size() < ext.size()) return false;
+  for (size_t i = 0; i < ext.size(); ++i)
+    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
+  return true;
+}
+
+// FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
+std::string fileHash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "";
+  uint64_t h = 1469598103934665603ull, size = 0;
+  std::vector<char> buf(1 << 20);
+  while (in) {
+    in.read(buf.data(), std::streamsize(buf.size()));
+    const size_t n = size_t(in.gcount());
+    for (size_t i = 0; i < n; ++i) h = (h ^ (unsigned char)buf[i]) * 1099511628211ull;
+    size += n;
+  }
+  char text[64];
+  std::snprintf(text, sizeof text, "%016llx, %llu bytes", (unsigned long long)h, (unsigned long long)size);
+  return text;
+}
+
+// Size and modification time of a file (the files a scene refers to: they
+// may be large, and are not hashed).
+std::string fileStamp(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return "missing";
+  const auto time = std::filesystem::last_write_time(path, ec);
+  return std::to_string(size) + " bytes, mtime " + std::to_string(time.time_since_epoch().count());
+}
+
+// A header value as text, floats exactly (hex).
+std::string attributeText(const HeaderAttribute& h) {
+  const auto hex = [](float f) {
+    char t[32];
+    std::snprintf(t, sizeof t, "%a", double(f));
+    return std::string(t);
+  };
+  if (const auto* v = std::get_if<std::string>(&h.value)) return *v;
+  if (const auto* v = std::get_if<int>(&h.value)) return std::to_string(*v);
+  if (const auto* v = std::get_if<float>(&h.value)) return hex(*v);
+  std::string all;
+  for (float f : std::get<std::vector<float>>(h.value)) all += (all.empty() ? "" : ",") + hex(f);
+  return all;
+}
+
+// What a --checkpoint file must match to be resumed (README "Checkpoints"):
+// the EXR header's record of the render but for what differs between runs
+// (threads, times, ray counts), the tile size and AOV switch, and the
+// bytes of the files the render reads: the scene (hashed), the files a
+// .gltf names, the height map and plugins (size and time).
+Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header) {
+  // The switches whose effect spreads over many header attributes first, so
+  // that a refusal names them rather than one of their consequences.
+  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
+  for (const HeaderAttribute& h : header.attributes) {
+    const std::string& n = h.name;
+    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n.rfind("obscura:rays:", 0) == 0)
+      continue;
+    fp.emplace_back(n, attributeText(h));
+  }
+  fp.emplace_back("scene file", fileHash(a.scene));
+  if (hasExtension(a.scene, ".gltf")) {
+    // Buffers and images by relative uri; data: uris are in the hash above.
+    std::ifstream in(a.scene);
+    const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+    const std::filesystem::path dir = std::filesystem::path(a.scene).parent_path();
+    for (const char* list : {"buffers", "images"})
+      if (doc.is_object() && doc.contains(list) && doc[list].is_array())
+        for (const auto& e : doc[list])
+          if (e.is_object() && e.contains("uri") && e["uri"].is_string()) {
+            const std::string uri = e["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) != 0) fp.emplace_back("scene file " + uri, fileStamp(dir / uri));
+          }
+  }
+  if (!a.displace.empty()) fp.emplace_back("--displace file", fileStamp(a.displace));
+  const char* env = std::getenv("OBSCURA_PLUGIN_PATH");
+  fp.emplace_back("OBSCURA_PLUGIN_PATH", env ? env : "");
+  for (const std::string& p : a.plugins) fp.emplace_back("--plugin " + p, fileStamp(p));
+  return fp;
+}
 
 // True when a and b name the same file (existing or not).
 bool samePath(const std::string& a, const std::string& b) {
@@ -89,13 +181,6 @@ bool samePath(const std::string& a, const std::string& b) {
   return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
 }
 
-// True when `path` ends in `ext` (".exr"), ignoring case.
-bool hasExtension(const std::string& path, const std::string& ext) {
-  if (path.size() < ext.size()) return false;
-  for (size_t i = 0; i < ext.size(); ++i)
-    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
-  return true;
-}
 
 // Fail before a long render, not after it: outputs whose extension is not
 // the format written (an EXR under a .tif name, a PNG under .jpg: viewers
@@ -279,6 +364,14 @@ int runRender(const RenderArgs& args) {
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");
+  if (args.checkpointGiven) {
+    if (!(args.checkpoint >= 0) || !std::isfinite(args.checkpoint))
+      throw Error("--checkpoint: expected seconds >= 0 (0: after every tile), got " + formatFloat(args.checkpoint));
+    RenderSettings cs = s;
+    Checkpoint probe(jobs[0].output + ".checkpoint", args.checkpoint);
+    cs.checkpoint = &probe;
+    checkCheckpointPasses(cs, anyScreenSpace);
+  }
 
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
@@ -293,29 +386,61 @@ int runRender(const RenderArgs& args) {
     if (jobs.size() > 1 && !a.quiet)
       std::fprintf(stderr, "obscura: frame %s (%zu of %zu, %s s) -> %s\n", a.frame.c_str(), j + 1, jobs.size(),
                    formatFloat(parseFrame(a.frame) / a.fps).c_str(), a.output.c_str());
+    // --checkpoint (per frame: each output has its own): a damaged file is
+    // refused before the scene loads; whether it belongs to this render,
+    // once the header's record of it is known.
+    RenderSettings fs = s;
+    std::optional<Checkpoint> checkpoint;
+    if (a.checkpointGiven) {
+      checkpoint.emplace(a.output + ".checkpoint", a.checkpoint);
+      fs.checkpoint = &*checkpoint;
+      checkpoint->read();
+    } else if (std::error_code ec; std::filesystem::exists(a.output + ".checkpoint", ec)) {
+      std::fprintf(stderr, "obscura: note: %s.checkpoint exists but --checkpoint was not given; rendering from the start\n",
+                   a.output.c_str());
+    }
     Camera camera;
     std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, s.width, s.height, camera);
-
-    interrupt::startPolling();
-    RenderStats stats;
-    Film film = render(*scene, camera, passes, s, stats, interrupt::flag());
-    if (interrupt::flag()->load()) {
-      std::fprintf(stderr, "%s\n", notWritten.c_str());
-      return 130;
-    }
 
     std::vector<LayerInfo> layers;
     if (!a.passes.empty())
       for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
-    ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
-                                          .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
-                                          .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
+    RenderStats stats;
+    const auto header = [&] {
+      return passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
+                                 .settings = fs, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
+                                 .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
+    };
+    if (checkpoint) {
+      checkpoint->setFingerprint(renderFingerprint(a, fs, header()));
+      if (checkpoint->loaded() && !a.quiet)
+        std::fprintf(stderr, "obscura: resuming from %s (%zu tiles saved)\n", checkpoint->path().c_str(),
+                     checkpoint->savedTiles());
+    }
+
+    interrupt::startPolling();
+    Film film = render(*scene, camera, passes, fs, stats, interrupt::flag());
+    if (interrupt::flag()->load()) {
+      if (checkpoint)
+        std::fprintf(stderr, "%s; %zu of %d tiles saved in %s (run the same command to resume)\n", notWritten.c_str(),
+                     checkpoint->savedTiles(), checkpoint->tileCount(), checkpoint->path().c_str());
+      else
+        std::fprintf(stderr, "%s\n", notWritten.c_str());
+      return 130;
+    }
+
+    ExrOptions exr = header();
+    // A resumed render: how many runs made it (obscura:renderTime sums their
+    // render loops; obscura:rays:* count every tile once, as an uninterrupted
+    // render does).
+    if (checkpoint && checkpoint->runs() > 1) exr.attributes.push_back({"obscura:checkpointRuns", checkpoint->runs()});
     exr.half = a.half;
     // The pass and its preview land together or not at all.
     OutputSet out;
     out.addExr(a.output, film, exr);
     if (!a.preview.empty()) out.addPreviewPng(a.preview, film);
     out.commit();
+    if (checkpoint) checkpoint->remove();  // the image is written: nothing left to resume
 
     if (!a.quiet) {
       const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
@@ -459,6 +584,12 @@ int main(int argc, char** argv) {
   render->add_option("--frames", r.frames,
                      "Render frames A to B (every STEP-th), A-B[:STEP], each to -o with its '#' run replaced by the "
                      "zero-padded frame number (out.####.exr -> out.0001.exr; --preview likewise); the file is read once");
+  render->add_option("--checkpoint", r.checkpoint,
+                     "Save finished tiles to OUTPUT.checkpoint at most every SECONDS (0: after every tile) and on Ctrl-C; "
+                     "the same command run again resumes from it, bit-identical to an uninterrupted render (ray-traced "
+                     "passes only; deleted once the EXR is written)")
+      ->type_name("SECONDS")
+      ->default_str("off");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
   addSceneOptions(render, r);
 
@@ -526,6 +657,7 @@ int main(int argc, char** argv) {
   try {
     if (render->parsed()) {
       r.integratorGiven = render->get_option("--integrator")->count() > 0 || render->get_option("--param")->count() > 0;
+      r.checkpointGiven = render->get_option("--checkpoint")->count() > 0;
       return runRender(r);
     }
     if (compare->parsed()) return runCompare(cmp, interrupt::flag());

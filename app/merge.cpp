@@ -109,7 +109,7 @@ uint64_t parseCount(const TileHeader& t, const std::string& name) {
 bool isPerTileAttribute(const std::string& name) {
   // DateTime: OpenImageIO stamps each file with the time it was written.
   return name == "DateTime" || name == "obscura:region" || name == "obscura:renderTime" || name == "obscura:bvhBuildTime" ||
-         name == "obscura:threads" || name.rfind("obscura:rays:", 0) == 0;
+         name == "obscura:threads" || name == "obscura:checkpointRuns" || name.rfind("obscura:rays:", 0) == 0;
 }
 
 void mergeRegions(const std::string& output, const std::vector<std::string>& paths) {
@@ -195,6 +195,7 @@ void mergeRegions(const std::string& output, const std::vector<std::string>& pat
   spec.attribute("obscura:renderTime", renderTime);
   spec.attribute("obscura:bvhBuildTime", bvhTime);
   if (!sameThreads) spec.erase_attribute("obscura:threads");
+  spec.erase_attribute("obscura:checkpointRuns");  // a tile's own history, not the frame's
   spec.erase_attribute("DateTime");  // the merged file's own (OpenImageIO stamps it)
 
   OutputSet out;

@@ -350,7 +350,17 @@ void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace) {
                 "render it without --shutter or use a ray-traced pass");
 }
 
+void checkCheckpointPasses(const RenderSettings& s, bool anyScreenSpace) {
+  if (s.checkpoint && anyScreenSpace)
+    throw Error("--checkpoint: not available with a screen-space pass (its G-buffer loop has no tiles to save); "
+                "render without --checkpoint");
+}
+
 namespace {
+
+RayCounters threadRays(const ThreadScratch& ts) {
+  return {ts.cameraCounters.camera, ts.ctx.counters.occlusion, ts.ctx.counters.closest};
+}
 
 void checkSettings(const RenderSettings& s) {
   if (s.width <= 0 || s.height <= 0) throw Error("resolution must be positive");
@@ -374,13 +384,32 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
   Progress progress("render", uint64_t(renderWindow(s).size()), s.progress);
+  // The saved tiles of a resumed render are in the film before any other
+  // tile starts, and are skipped.
+  Checkpoint* const checkpoint = s.checkpoint;
+  if (checkpoint) {
+    checkpoint->start(film, s.tileSize, tiles.tileCount());
+    const PixelRect w = renderWindow(s);
+    for (int t = 0; t < tiles.tileCount(); ++t)
+      if (checkpoint->done(t)) progress.advance(PixelRect::tile(t, s.tileSize, w.width(), w.height()).size());
+  }
   const auto t0 = std::chrono::steady_clock::now();
 
   const auto renderTile = [&](int tile) {
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
+    if (checkpoint && checkpoint->done(tile)) return;
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
     if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer, slots.size());
-    if (const size_t pixels = tiles.renderTile(tile, *slot, cancel)) progress.advance(pixels);
+    const RayCounters before = threadRays(*slot);
+    if (const size_t pixels = tiles.renderTile(tile, *slot, cancel)) {
+      progress.advance(pixels);
+      // Between tiles, on this thread: the hot loop never sees the checkpoint.
+      if (checkpoint) {
+        const RayCounters after = threadRays(*slot);
+        checkpoint->finished(tile, {after.camera - before.camera, after.occlusion - before.occlusion,
+                                    after.closest - before.closest});
+      }
+    }
   };
 
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
@@ -399,6 +428,13 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     stats.rays.camera += ts.cameraCounters.camera;
     stats.rays.occlusion += ts.ctx.counters.occlusion;
     stats.rays.closest += ts.ctx.counters.closest;
+  }
+  if (checkpoint) {
+    // Only finished tiles count: a resumed render reports the rays of an
+    // uninterrupted one, and the render-loop time of all its runs.
+    stats.rays = checkpoint->rays();
+    stats.seconds += checkpoint->earlierSeconds();
+    if (cancel && cancel->load()) checkpoint->save();  // the last save of an interrupted render
   }
 }
 
@@ -435,8 +471,10 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   const auto screenSpace = [&](size_t k) { return passes[k].integrator->screenSpace(); };
   // A screen-space pass reads its neighbours in the G-buffer: a region's
   // pixels would differ from the full render's near the region's edges.
-  checkRegionPasses(s, std::any_of(passes.begin(), passes.end(),
-                                   [](const RenderPass& p) { return p.integrator->screenSpace() != nullptr; }));
+  const bool anyScreenSpace =
+      std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.integrator->screenSpace() != nullptr; });
+  checkRegionPasses(s, anyScreenSpace);
+  checkCheckpointPasses(s, anyScreenSpace);
   // Decode what the passes read, once, up front: estimate() never throws or
   // blocks on a lazy decode (the albedo textures: in each loop).
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))

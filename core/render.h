@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/camera.h"
+#include "core/checkpoint.h"
 #include "core/cryptomatte.h"
 #include "core/film.h"
 #include "core/integrator.h"
@@ -40,6 +41,11 @@ struct RenderSettings {
   // scene renders bit-identically either way. Ray-traced passes only.
   bool motionBlur = false;
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
+  // --checkpoint: finished tiles saved to a file between tiles, and saved
+  // tiles skipped (core/checkpoint.h; README "Checkpoints"). Ray-traced
+  // passes only. When set, stats.rays count the rays of every finished
+  // tile, saved ones included, and stats.seconds adds the earlier runs'.
+  Checkpoint* checkpoint = nullptr;
 };
 
 // The window a render fills: s.region, or the whole frame when it is empty.
@@ -52,6 +58,9 @@ void checkRegion(const PixelRect& r, int width, int height);
 // pass reads its neighbours in the G-buffer, so a region's pixels near its
 // edges would differ from the full render's.
 void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace);
+// Throws naming --checkpoint if s has one and a pass is screen-space: its
+// G-buffer loop has no tiles that finish one by one.
+void checkCheckpointPasses(const RenderSettings& s, bool anyScreenSpace);
 
 struct RenderStats {
   double seconds = 0;  // wall time of the render loop
