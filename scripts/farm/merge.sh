@@ -35,12 +35,13 @@ for frame in "$@"; do
   final=$(farm_final_path "$frame")
   first_task=$(((frame - SHOT_FIRST) / SHOT_STEP * tiles))
   inputs=()
+  for ((t = 0; t < tiles; t++)); do inputs+=("$(farm_task_output $((first_task + t)))"); done
+  farm_read_headers "$final" "${inputs[@]}"
   missing=()
   newer=0
   for ((t = 0; t < tiles; t++)); do
     task=$((first_task + t))
-    tile_file=$(farm_task_output "$task")
-    inputs+=("$tile_file")
+    tile_file=${inputs[t]}
     if ! farm_complete "$tile_file" "$(farm_region "$t")" "$frame"; then
       missing+=("$task")
     elif [[ "$tile_file" -nt "$final" ]]; then

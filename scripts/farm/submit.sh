@@ -122,6 +122,12 @@ if ((!no_submit)); then
 fi
 tiles=$((cols * rows))
 total=$((((last - first) / step + 1) * tiles))
+all_files=()
+for ((f = first, task = 0; f <= last; f += step)); do
+  all_files+=("$(farm_final_path "$f")")
+  for ((t = 0; t < tiles && tiles > 1; t++, task++)); do all_files+=("$(farm_task_output "$task")"); done
+done
+farm_read_headers "${all_files[@]}"
 missing=()
 frames_to_merge=0
 for ((f = first, task = 0; f <= last; f += step)); do
@@ -166,7 +172,9 @@ if ((no_submit)); then
   # For another scheduler, or by hand: the shot file is written, nothing is submitted.
   echo "farm: wrote $shot_file; tasks to run: ${spec:-none}"
   ((${#missing[@]})) && echo "farm: Slurm would run: $(printf '%q ' "${render_cmd[@]}")"
-  ((frames_to_merge)) && echo "farm: then: $(printf '%q ' "${merge_cmd[@]}" --dependency=afterok:JOB --kill-on-invalid-dep=yes "$farm_dir/merge.sbatch" "$shot_file")"
+  dep=()
+  ((${#missing[@]})) && dep=(--dependency=afterok:JOB --kill-on-invalid-dep=yes)
+  ((frames_to_merge)) && echo "farm: Slurm would run: $(printf '%q ' "${merge_cmd[@]}" "${dep[@]}" "$farm_dir/merge.sbatch" "$shot_file")"
   echo "jobs: - -"
   exit 0
 fi
@@ -175,7 +183,8 @@ render_job=- merge_job=-
 if ((${#missing[@]})); then
   render_job=$("${render_cmd[@]}")
   render_job=${render_job%%;*}
-  echo "farm: render job $render_job: --array=$spec (${#missing[@]} of $total tasks; the others are complete)"
+  done_count=$((total - ${#missing[@]}))
+  echo "farm: render job $render_job: --array=$spec (${#missing[@]} of $total tasks$( ((done_count)) && echo "; the other $done_count are complete"))"
 fi
 if ((frames_to_merge)); then
   dep=()

@@ -90,6 +90,8 @@ cleanup() {
   exit "$rc"
 }
 trap cleanup EXIT
+trap "exit 130" INT  # exit runs the EXIT trap: Slurm and munge stop on Ctrl-C too
+trap "exit 143" TERM
 
 # --- Slurm up -----------------------------------------------------------------------
 phase "start munged, slurmctld, slurmd"
@@ -101,7 +103,7 @@ for p in "$port" $((port + 1)); do
 done
 mkdir -p "$munge" "$slurm/state" "$slurm/spool"
 chown munge:munge "$munge"
-chmod 700 "$munge"
+chmod 711 "$munge"  # munged: the socket's folder must be searchable by all
 # A private munge key, socket and daemon: a munged the machine may already run is left alone.
 runuser -u munge -- mungekey --create --keyfile="$munge/munge.key"
 runuser -u munge -- munged --socket="$munge/munge.socket" --key-file="$munge/munge.key" \
@@ -182,7 +184,7 @@ mkdir -p "$out"
 shot_args=(-o "$out/default.####.exr" --frames 1-2 --tiles 2x2 --res 96x64 --scene scenes/default.gltf --cpus 1)
 render_opts=(--spp 8 -p distance=2 --quiet)
 work=$out/.farm/default
-tiles=("$work"/tiles/default.000{1,2}.t{0,1,2,3}.exr)
+tiles=("$work"/tiles/default.000{1,2}.t0{0,1,2,3}.exr)  # tasks 0-7
 
 submit() {  # obscura binary -> sets render_job, merge_job; prints submit.sh's output
   local log
