@@ -38,16 +38,21 @@ farm_region() {
   echo "$((c * SHOT_W / SHOT_COLS)),$((r * SHOT_H / SHOT_ROWS)),$(((c + 1) * SHOT_W / SHOT_COLS)),$(((r + 1) * SHOT_H / SHOT_ROWS))"
 }
 
-# The pattern with its run of '#' replaced by frame $2, zero-padded to the
-# run's length (a pattern without '#' is the output of a one-frame shot).
+# The pattern with the run of '#' in its file name replaced by frame $2,
+# zero-padded to the run's length (a name without '#' is the output of a
+# one-frame shot; a '#' in a folder name is left alone).
 farm_pattern_frame() {
-  local pattern=$1 frame=$2 prefix rest hashes suffix
-  prefix=${pattern%%#*}
-  [[ "$prefix" == "$pattern" ]] && { echo "$pattern"; return; }
-  rest=${pattern#"$prefix"}
+  local dir="" name=$1 prefix rest hashes suffix
+  if [[ "$1" == */* ]]; then
+    dir=${1%/*}/
+    name=${1##*/}
+  fi
+  prefix=${name%%#*}
+  [[ "$prefix" == "$name" ]] && { echo "$1"; return; }
+  rest=${name#"$prefix"}
   suffix=${rest##*#}
   hashes=${rest%"$suffix"}
-  printf '%s%0*d%s\n' "$prefix" "${#hashes}" "$frame" "$suffix"
+  printf '%s%s%0*d%s\n' "$dir" "$prefix" "${#hashes}" "$2" "$suffix"
 }
 
 farm_final_path() { farm_pattern_frame "$SHOT_PATTERN" "$1"; }  # frame -> merged frame

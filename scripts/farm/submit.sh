@@ -105,10 +105,12 @@ command -v iinfo >/dev/null || farm_die "iinfo (OpenImageIO tools, Debian packag
 
 # What the files are a function of; a work folder holds one such shot, so a
 # complete tile is never a leftover of other settings. The frame range, the
-# binary and the Slurm options may change between submissions.
-identity=$(declare -p SHOT_SCENE SHOT_W SHOT_H SHOT_COLS SHOT_ROWS SHOT_PATTERN SHOT_OPTS)
+# binary and the Slurm options may change between submissions. The scene's
+# content counts (its bytes; not the buffers or textures it refers to).
+identity="$(declare -p SHOT_SCENE SHOT_W SHOT_H SHOT_COLS SHOT_ROWS SHOT_PATTERN SHOT_OPTS)
+scene sha256 $(sha256sum <"$SHOT_SCENE" | cut -d' ' -f1)"  # an edited scene file makes the tiles stale
 if [[ -f "$work/shot.id" ]] && [[ "$(cat "$work/shot.id")" != "$identity" ]]; then
-  farm_die "$work/shot.id: this work folder holds a shot with other settings (scene, size, tiles, output or render options); use another --work, or delete $work to start over"
+  farm_die "$work/shot.id: this work folder holds a shot with other settings (scene path or content, size, tiles, output or render options); use another --work, or delete $work to start over"
 fi
 
 # --- what is missing -------------------------------------------------------------
