@@ -27,6 +27,7 @@ farm_die() {
 farm_tiles() { echo $((SHOT_COLS * SHOT_ROWS)); }
 farm_frame_count() { echo $(((SHOT_LAST - SHOT_FIRST) / SHOT_STEP + 1)); }
 farm_task_count() { echo $(($(farm_frame_count) * $(farm_tiles))); }
+# shellcheck disable=SC2017  # integer division on purpose: frame_index = task / tiles
 farm_frame_of() { echo $((SHOT_FIRST + $1 / $(farm_tiles) * SHOT_STEP)); }  # task -> frame
 farm_tile_of() { echo $(($1 % $(farm_tiles))); }                          # task -> tile
 
@@ -92,7 +93,10 @@ farm_attr() {
 # settings differ. FARM_VERIFY_PIXELS=1 also reads every pixel (iinfo --hash),
 # which catches a file truncated after the rename (a node that lost power
 # before its page cache reached a local disk; obscura does not fsync).
-farm_hash_flag() { [[ "${FARM_VERIFY_PIXELS:-0}" == 1 ]] && echo --hash || true; }
+# iinfo -v FILES..., reading every pixel too (--hash) with FARM_VERIFY_PIXELS=1.
+farm_iinfo() {
+  if [[ "${FARM_VERIFY_PIXELS:-0}" == 1 ]]; then iinfo -v --hash "$@"; else iinfo -v "$@"; fi
+}
 
 farm_complete() {
   local file=$1 region=$2 frame=$3 hdr value
@@ -100,7 +104,7 @@ farm_complete() {
   if [[ -v "FARM_HEADERS[$file]" ]]; then
     hdr=${FARM_HEADERS[$file]}
   else
-    hdr=$(iinfo -v $(farm_hash_flag) "$file" 2>&1) || return 1
+    hdr=$(farm_iinfo "$file" 2>&1) || return 1
   fi
   if [[ "${FARM_VERIFY_PIXELS:-0}" == 1 ]]; then
     grep -qE 'SHA-1: [0-9A-Fa-f]{40}' <<<"$hdr" || return 1  # iinfo exits 0 on a failed read
@@ -140,7 +144,7 @@ farm_read_headers() {
       continue
     fi
     [[ -n "$cur" ]] && FARM_HEADERS[$cur]+="$line"$'\n'
-  done < <(iinfo -v $(farm_hash_flag) "${files[@]}" 2>/dev/null)
+  done < <(farm_iinfo "${files[@]}" 2>/dev/null)
   return 0
 }
 
