@@ -111,7 +111,7 @@ runuser -u munge -- munged --socket="$munge/munge.socket" --key-file="$munge/mun
 host=$(hostname -s)
 cat >"$SLURM_CONF" <<EOF
 ClusterName=obscuratest
-SlurmctldHost=$host
+SlurmctldHost=$host(127.0.0.1)
 SlurmctldPort=$port
 SlurmdPort=$((port + 1))
 SlurmUser=root
@@ -134,7 +134,7 @@ SelectTypeParameters=CR_Core
 ReturnToService=2
 MinJobAge=3600
 MpiDefault=none
-NodeName=$host CPUs=$(nproc) State=UNKNOWN
+NodeName=$host NodeAddr=127.0.0.1 CPUs=$(nproc) State=UNKNOWN
 PartitionName=test Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF
 slurmctld -f "$SLURM_CONF"
@@ -198,7 +198,7 @@ wait_jobs() {
   ids=$(IFS=,; echo "$*")
   for ((i = 0; ; i++)); do
     [[ -z "$(squeue -h -j "$ids" -o %i 2>/dev/null)" ]] && return 0
-    ((i < 600)) || fail "jobs $ids still queued after 120 s: $(squeue -h -j "$ids")"
+    ((i < 1500)) || fail "jobs $ids still queued after 300 s: $(squeue -h -j "$ids")"
     sleep 0.2
   done
 }
