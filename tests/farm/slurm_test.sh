@@ -75,8 +75,9 @@ cleanup() {
       sleep 0.2
     done
   fi
-  stop_pidfile "$slurm/slurmd.pid" slurmd
-  stop_pidfile "$slurm/slurmctld.pid" slurmctld
+  local t0=$(now)
+  stop_pidfile "$slurm/slurmd.pid" slurmd & stop_pidfile "$slurm/slurmctld.pid" slurmctld & wait
+  echo "slurm_test: slurm daemons down after $(awk -v a="$(now)" -v b="$t0" 'BEGIN { printf "%.1f", a - b }') s"
   stop_pidfile "$munge/munged.pid" munged
   phase ""
   if ((rc != 0)); then
