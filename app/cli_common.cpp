@@ -6,10 +6,12 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <cstdio>
 #include <filesystem>
 #include <sstream>
 
 #include "core/error.h"
+#include "core/params.h"
 #include "core/plugin.h"
 #include "core/settings.h"
 
@@ -172,6 +174,8 @@ void nameSettingsAsFlags() {
   setSettingName(Setting::SubdivisionBackendOsd, "--subdiv-backend osd");
   setSettingName(Setting::Displacement, "--displace");
   setSettingName(Setting::DisplacementScale, "--displace-scale");
+  setSettingName(Setting::Time, "--frame");
+  setSettingName(Setting::Animations, "--animation");
 }
 
 void loadPlugins(const std::vector<std::string>& paths) {
@@ -204,14 +208,90 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   o.displacementMidlevel = a.displaceMidlevel;
   o.maxMemoryBytes = size_t(a.maxMemoryGiB * double(size_t(1) << 30));
   for (const std::string& text : a.objects) o.objectOverrides.push_back(parseObjectOverride(text));
+  if (!(a.fps > 0) || !std::isfinite(a.fps) || a.fps > 1e6)
+    throw Error("--fps: expected a positive number of frames per second (at most 1e6), got " + formatFloat(a.fps));
+  if (!a.frame.empty()) o.time = parseFrame(a.frame) / a.fps;
+  else if (!a.animations.empty())
+    throw Error("--animation: selects the animations a frame plays; give --frame (or, for render, --frames)");
+  for (const std::string& name : a.animations)
+    if (name.empty()) throw Error("--animation: an empty name in the list");
+  o.animations = a.animations;
   return o;
+}
+
+double parseFrame(const std::string& text) {
+  char* end = nullptr;
+  errno = 0;
+  const double f = std::strtod(text.c_str(), &end);
+  // Frames past 1e15 lose whole-frame resolution in a double's seconds.
+  if (text.empty() || *end != '\0' || errno != 0 || !std::isfinite(f) || std::abs(f) > 1e15 ||
+      text.find_first_of("xXpPnN") != std::string::npos)  // no hex floats, nan, inf
+    throw Error("--frame: expected a frame number (e.g. 12 or 12.5), got '" + text + "'");
+  return f;
+}
+
+std::vector<long long> parseFrameRange(const std::string& text) {
+  const std::string why = "--frames: expected A-B[:STEP] (whole frames A <= B, STEP >= 1), got '" + text + "'";
+  // A whole number at `pos` (an optional '-' then digits); advances pos.
+  const auto integer = [&](size_t& pos) -> long long {
+    const size_t start = pos;
+    if (pos < text.size() && text[pos] == '-') ++pos;
+    const size_t digits = pos;
+    while (pos < text.size() && std::isdigit(static_cast<unsigned char>(text[pos]))) ++pos;
+    if (pos == digits || pos - digits > 9) throw Error(why);
+    return std::stoll(text.substr(start, pos - start));
+  };
+  size_t pos = 0;
+  const long long a = integer(pos);
+  if (pos >= text.size() || text[pos] != '-') throw Error(why);
+  ++pos;
+  const long long b = integer(pos);
+  long long step = 1;
+  if (pos < text.size()) {
+    if (text[pos] != ':') throw Error(why);
+    ++pos;
+    const size_t s0 = pos;
+    step = integer(pos);
+    if (text[s0] == '-' || step < 1) throw Error(why);
+  }
+  if (pos != text.size() || a > b) throw Error(why);
+  if ((b - a) / step >= 1000000) throw Error("--frames '" + text + "': more than a million frames");
+  std::vector<long long> out;
+  for (long long f = a; f <= b; f += step) out.push_back(f);
+  return out;
+}
+
+FramePattern framePattern(const std::string& option, const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  const size_t nameStart = slash == std::string::npos ? 0 : slash + 1;
+  FramePattern p;
+  const size_t first = path.find('#', nameStart);
+  if (first == std::string::npos) return p;
+  size_t end = first;
+  while (end < path.size() && path[end] == '#') ++end;
+  if (path.find('#', end) != std::string::npos)
+    throw Error(option + " " + path + ": more than one run of '#' (the frame number goes in one run, e.g. out.####.exr)");
+  p.pos = first, p.length = end - first;
+  return p;
+}
+
+std::string frameFileName(const std::string& path, const FramePattern& p, long long frame) {
+  char digits[32];
+  std::snprintf(digits, sizeof digits, "%0*lld", int(p.length), frame);
+  return path.substr(0, p.pos) + digits + path.substr(p.pos + p.length);
 }
 
 std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string& path, const std::string& want, int width,
                                           int height, Camera& camera) {
+  sceneOptions(a);  // the options are checked before the file is read
+  const SceneSource source(path);  // parsed once, built at most twice
+  return loadSceneAndCamera(a, source, want, width, height, camera);
+}
+
+std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const SceneSource& source, const std::string& want, int width,
+                                          int height, Camera& camera) {
   LoadOptions o = sceneOptions(a);
   const float aspect = float(width) / float(height);
-  const SceneSource source(path);  // parsed once, built at most twice
   if (o.maxEdgePixels > 0) {
     LoadOptions probe = o;
     probe.subdivision = false;
@@ -317,6 +397,16 @@ ExrOptions passHeader(const PassInfo& i) {
       str("obscura:displaceScale", formatFloat(a->displaceScale));  // reads back as the same double
       str("obscura:displaceMidlevel", formatFloat(a->displaceMidlevel));
     }
+  }
+  if (const SceneArgs* a = i.sceneArgs; a && !a->frame.empty()) {
+    // The frame and what it plays (README "Animation and frames").
+    const double frame = parseFrame(a->frame);
+    str("obscura:frame", formatFloat(frame));
+    str("obscura:fps", formatFloat(a->fps));
+    str("obscura:time", formatFloat(frame / a->fps));
+    std::string list;
+    for (const std::string& n : a->animations) list += (list.empty() ? "" : ",") + n;
+    str("obscura:animations", list.empty() ? "all" : list);
   }
   if (i.sceneArgs && !i.sceneArgs->objects.empty()) {
     std::string all;

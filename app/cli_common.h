@@ -36,14 +36,38 @@ struct SceneArgs {
   std::string displace;  // height map
   double displaceScale = 0.1, displaceMidlevel = 0.5;
   std::vector<std::string> objects;  // --object GLOB:role=value,... (core/objects.h)
+  // Animation (README "Animation and frames"): --frame as typed (empty: the
+  // static pose), --fps, --animation's names or indices (empty: all).
+  std::string frame;
+  double fps = 24;
+  std::vector<std::string> animations;
 };
 // Checks them; throws obscura::Error naming the option.
 LoadOptions sceneOptions(const SceneArgs& a);
+
+// --frame's text as a number (fractional allowed, finite); throws naming --frame.
+double parseFrame(const std::string& text);
+// --frames "A-B[:STEP]": whole frames A <= B (either may be negative), STEP >= 1.
+std::vector<long long> parseFrameRange(const std::string& text);
+// The run of '#' in the file name of `path` (an output pattern,
+// out.####.exr): its position and length; length 0 when there is none.
+// More than one run throws naming `option`.
+struct FramePattern {
+  size_t pos = 0, length = 0;
+  bool any() const { return length > 0; }
+};
+FramePattern framePattern(const std::string& option, const std::string& path);
+// `path` with the run replaced by `frame`, zero-padded to the run's length
+// (the sign counts: -1 in #### is -001); longer numbers are not cut.
+std::string frameFileName(const std::string& path, const FramePattern& p, long long frame);
 
 // Loads `path` and selects its camera (--camera `want`) for a width x height
 // image. Adaptive subdivision measures edges from that camera, so then the
 // scene is first read with its cages unrefined (cheap) to find the camera.
 std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const std::string& path, const std::string& want, int width,
+                                          int height, Camera& camera);
+// The same from a file already read (a sequence of frames reads it once).
+std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const SceneSource& source, const std::string& want, int width,
                                           int height, Camera& camera);
 
 // Core messages name settings by the flags that set them ("--spp must be at

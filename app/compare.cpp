@@ -252,6 +252,13 @@ class CompareRun {
     viewHash_.add(a.subdiv + "/" + a.subdivBackend + "/" + std::to_string(a.subdivLevel) + "/" + formatFloat(a.subdivEdge));
     viewHash_.add(a.displace + "/" + formatFloat(a.displaceScale) + "/" + formatFloat(a.displaceMidlevel));
     viewHash_.add(nonDefaultRoles(scene.objects));
+    // The pose: another frame (or other animations) is another image. Added
+    // only with a frame, so the keys of still renders stay as they were.
+    if (!a.frame.empty()) {
+      std::string anims;
+      for (const std::string& n : a.animations) anims += "," + n;
+      viewHash_.add("frame/" + formatFloat(parseFrame(a.frame) / a.fps) + anims);
+    }
   }
 
   // --- stage 2: the reference (given, cached or rendered); nullopt when interrupted.

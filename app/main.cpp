@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -43,6 +44,11 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--object", a.objects,
                   "Roles of objects by name (glob): GLOB:role=value[,role=value...], roles occluder, camera, matte "
                   "(true/false) and occlusion (all/self/others); repeatable, applied in order after the file's extras");
+  cmd->add_option("--frame", a.frame,
+                  "Apply the glTF animations at this frame (time = FRAME / --fps; fractional allowed; default: the static pose)");
+  cmd->add_option("--fps", a.fps, "Frames per second of --frame and --frames (> 0)");
+  cmd->add_option("--animation", a.animations, "Animations a frame plays: names or indices, comma-separated (default: all)")
+      ->delimiter(',');
 }
 
 struct RenderArgs : SceneArgs {
@@ -69,6 +75,7 @@ struct RenderArgs : SceneArgs {
   std::string cryptomatte = "none";
   int cryptomatteRanks = kDefaultCryptomatteRanks;
   std::string region;  // --region X0,Y0,X1,Y1; empty = the whole frame
+  std::string frames;  // --frames A-B[:STEP]; empty = one image
 };
 
 // True when a and b name the same file (existing or not).
@@ -181,81 +188,142 @@ std::vector<PassSetup> passSetups(const RenderArgs& a) {
   return out;
 }
 
-int runRender(const RenderArgs& a) {
-  const std::string notWritten = "obscura: interrupted; " + a.output + " was not written";
-  interrupt::setMessage(notWritten);
-  loadPlugins(a.plugins);
-  std::vector<PassSetup> setups = passSetups(a);
+// One image of a sequence: the frame (empty: none) and its outputs.
+struct FrameJob {
+  std::string frame;  // as SceneArgs::frame
+  std::string output, preview;
+};
+
+// The images a render writes: one, or one per frame of --frames, the
+// frame number put into the '#' run of -o (and --preview). A single
+// --frame given as a whole number fills a '#' run too (what a farm task
+// passes); without a frame a '#' is an ordinary character.
+std::vector<FrameJob> frameJobs(const RenderArgs& a) {
+  if (a.frames.empty()) {
+    FrameJob job{a.frame, a.output, a.preview};
+    if (a.frame.empty()) return {job};
+    const FramePattern po = framePattern("-o", a.output);
+    const FramePattern pp = a.preview.empty() ? FramePattern{} : framePattern("--preview", a.preview);
+    if (po.any() || pp.any()) {
+      const double f = parseFrame(a.frame);
+      if (f != std::floor(f))
+        throw Error("-o " + a.output + ": a '#' run takes a whole frame number, but --frame is " + a.frame);
+      if (po.any()) job.output = frameFileName(a.output, po, (long long)f);
+      if (pp.any()) job.preview = frameFileName(a.preview, pp, (long long)f);
+    }
+    return {job};
+  }
+  if (!a.frame.empty()) throw Error("--frame: cannot be combined with --frames (one frame, or a range)");
+  const std::vector<long long> frames = parseFrameRange(a.frames);
+  const FramePattern po = framePattern("-o", a.output);
+  if (!po.any())
+    throw Error("-o " + a.output + ": --frames needs a '#' run in the output name for the frame number (e.g. out.####.exr)");
+  FramePattern pp;
+  if (!a.preview.empty()) {
+    pp = framePattern("--preview", a.preview);
+    if (!pp.any())
+      throw Error("--preview " + a.preview + ": --frames needs a '#' run in the preview name too (e.g. out.####.png)");
+  }
+  std::vector<FrameJob> jobs;
+  for (long long f : frames)
+    jobs.push_back({std::to_string(f), frameFileName(a.output, po, f), a.preview.empty() ? "" : frameFileName(a.preview, pp, f)});
+  return jobs;
+}
+
+int runRender(const RenderArgs& args) {
+  interrupt::setMessage("obscura: interrupted; " + args.output + " was not written");
+  loadPlugins(args.plugins);
+  std::vector<PassSetup> setups = passSetups(args);
   const IntegratorDescriptor& desc = *setups.front().desc;
   const ParamSet& params = setups.front().params;
   RenderSettings s;
-  parseResolution(a.res, s.width, s.height);
-  if (a.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(a.spp));
-  if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
-  if (a.tileSize < 1 || a.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(a.tileSize));
-  if (a.seed < 0 || a.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
-  if (a.filter == "box") s.filter = PixelFilter::Box;
-  else if (a.filter == "gaussian") s.filter = PixelFilter::Gaussian;
-  else throw Error("--filter: expected box or gaussian, got '" + a.filter + "'");
-  s.spp = a.spp;
-  s.seed = uint32_t(a.seed);
-  s.threads = a.threads;
-  s.tileSize = a.tileSize;
-  s.sky = parseSky(a.sky);
-  s.aovs = !a.noAovs;
-  s.progress = !a.quiet;
-  s.cryptomatte = parseCryptomatte(a.cryptomatte, a.cryptomatteRanks);
-  if (!a.region.empty()) {
-    s.region = parseRegion(a.region);
+  parseResolution(args.res, s.width, s.height);
+  if (args.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(args.spp));
+  if (args.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(args.threads));
+  if (args.tileSize < 1 || args.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(args.tileSize));
+  if (args.seed < 0 || args.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
+  if (args.filter == "box") s.filter = PixelFilter::Box;
+  else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
+  else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
+  s.spp = args.spp;
+  s.seed = uint32_t(args.seed);
+  s.threads = args.threads;
+  s.tileSize = args.tileSize;
+  s.sky = parseSky(args.sky);
+  s.aovs = !args.noAovs;
+  s.progress = !args.quiet;
+  s.cryptomatte = parseCryptomatte(args.cryptomatte, args.cryptomatteRanks);
+  if (!args.region.empty()) {
+    s.region = parseRegion(args.region);
     checkRegion(s.region, s.width, s.height);
   }
-  if (a.output.empty()) throw Error("-o: an output .exr path is required");
+  if (args.output.empty()) throw Error("-o: an output .exr path is required");
 
   std::optional<tbb::global_control> limit;
-  if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
+  if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(args.threads));
 
   const bool anyScreenSpace = std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) {
     return p.desc->kind == IntegratorKind::ScreenSpace;
   });
   checkRegionPasses(s, anyScreenSpace);  // before loading the scene
-  checkOutputs(a, s, anyScreenSpace, a.passes.size());
+  // Every frame's outputs and scene options are checked before the file is read.
+  const std::vector<FrameJob> jobs = frameJobs(args);
+  for (const FrameJob& job : jobs) {
+    RenderArgs fa = args;
+    fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
+    checkOutputs(fa, s, anyScreenSpace, args.passes.size());
+    sceneOptions(fa);
+  }
+  if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");
 
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
-  Camera camera;
-  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, a.scene, a.camera, s.width, s.height, camera);
+  const SceneSource source(args.scene);  // read once; each frame builds its scene from it
 
-  interrupt::startPolling();
-  RenderStats stats;
-  Film film = render(*scene, camera, passes, s, stats, interrupt::flag());
-  if (interrupt::flag()->load()) {
-    std::fprintf(stderr, "%s\n", notWritten.c_str());
-    return 130;
-  }
+  for (size_t j = 0; j < jobs.size(); ++j) {
+    RenderArgs a = args;
+    a.frame = jobs[j].frame, a.output = jobs[j].output, a.preview = jobs[j].preview;
+    const std::string notWritten = "obscura: interrupted; " + a.output + " was not written" +
+                                   (jobs.size() > 1 && j + 1 < jobs.size() ? " (nor the later frames)" : "");
+    interrupt::setMessage(notWritten);
+    if (jobs.size() > 1 && !a.quiet)
+      std::fprintf(stderr, "obscura: frame %s (%zu of %zu, %s s) -> %s\n", a.frame.c_str(), j + 1, jobs.size(),
+                   formatFloat(parseFrame(a.frame) / a.fps).c_str(), a.output.c_str());
+    Camera camera;
+    std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, s.width, s.height, camera);
 
-  std::vector<LayerInfo> layers;
-  if (!a.passes.empty())
-    for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
-  ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
-                                        .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
-                                        .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
-  exr.half = a.half;
-  // The pass and its preview land together or not at all.
-  OutputSet out;
-  out.addExr(a.output, film, exr);
-  if (!a.preview.empty()) out.addPreviewPng(a.preview, film);
-  out.commit();
+    interrupt::startPolling();
+    RenderStats stats;
+    Film film = render(*scene, camera, passes, s, stats, interrupt::flag());
+    if (interrupt::flag()->load()) {
+      std::fprintf(stderr, "%s\n", notWritten.c_str());
+      return 130;
+    }
 
-  if (!a.quiet) {
-    const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
-    std::string names;
-    for (const PassSetup& p : setups) names += (names.empty() ? "" : " ") + (p.layer.empty() ? "" : p.layer + "=") + p.desc->name;
-    std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
-                 s.width, s.height, s.spp, names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
-                 scene->buildSeconds());
-    if (anyScreenSpace)
-      std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
-                   stats.gbufferSeconds, stats.screenSpaceSeconds, stats.filterSeconds);
+    std::vector<LayerInfo> layers;
+    if (!a.passes.empty())
+      for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
+    ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
+                                          .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
+                                          .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
+    exr.half = a.half;
+    // The pass and its preview land together or not at all.
+    OutputSet out;
+    out.addExr(a.output, film, exr);
+    if (!a.preview.empty()) out.addPreviewPng(a.preview, film);
+    out.commit();
+
+    if (!a.quiet) {
+      const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
+      std::string names;
+      for (const PassSetup& p : setups) names += (names.empty() ? "" : " ") + (p.layer.empty() ? "" : p.layer + "=") + p.desc->name;
+      std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
+                   s.width, s.height, s.spp, names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
+                   scene->buildSeconds());
+      if (anyScreenSpace)
+        std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
+                     stats.gbufferSeconds, stats.screenSpaceSeconds, stats.filterSeconds);
+    }
   }
   return 0;
 }
@@ -284,7 +352,9 @@ int runInfo(const InfoArgs& a) {
   int w = 0, h = 0;
   parseResolution(a.res, w, h);
   Camera camera;
-  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, path, a.camera, w, h, camera);
+  sceneOptions(a);  // checked before the file is read
+  const SceneSource source(path);
+  std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, w, h, camera);
   const SceneStats st = scene->stats();
   const Bounds3& b = scene->bounds();
   std::printf("scene      %s\n", path.c_str());
@@ -300,7 +370,25 @@ int runInfo(const InfoArgs& a) {
   for (size_t i = 0; i < scene->cameras.size(); ++i) {
     const Camera& c = scene->cameras[i];
     const Vec3 p = c.position();
-    std::printf("           [%zu] %s  yfov %.4g rad  at (%g, %g, %g)\n", i, c.name.c_str(), c.yfov, p.x, p.y, p.z);
+    std::printf("           [%zu] %s  yfov %.4g rad  at (%g, %g, %g)%s\n", i, c.name.c_str(), c.yfov, p.x, p.y, p.z,
+                c.animated ? "  (animated)" : "");
+  }
+  if (const GltfDocument* doc = source.document()) {
+    // Every animation of the file, whichever --animation selects; the time
+    // range in seconds and in frames at --fps (README "Animation and frames").
+    const auto& anims = doc->animations();
+    std::printf("animations %zu%s\n", anims.size(),
+                a.frame.empty() ? "" : ("  (posed at frame " + a.frame + ", " + formatFloat(parseFrame(a.frame) / a.fps) + " s)").c_str());
+    for (size_t i = 0; i < anims.size(); ++i) {
+      const GltfDocument::AnimationInfo& an = anims[i];
+      std::string nodes;
+      for (const int n : an.nodes) nodes += (nodes.empty() ? "" : ", ") + doc->nodeLabel(n);
+      std::printf("           [%zu] %s  %s - %s s  (frames %s - %s at %s fps)  %zu channel%s  nodes: %s\n", i,
+                  an.name.empty() ? ("animations[" + std::to_string(i) + "]").c_str() : an.name.c_str(),
+                  formatFloat(an.start).c_str(), formatFloat(an.end).c_str(), formatFloat(an.start * a.fps).c_str(),
+                  formatFloat(an.end * a.fps).c_str(), formatFloat(a.fps).c_str(), an.channels, an.channels == 1 ? "" : "s",
+                  nodes.empty() ? "none" : nodes.c_str());
+    }
   }
   std::printf("objects    %zu\n", scene->objects.size());
   for (const SceneObject& o : scene->objects)
@@ -364,6 +452,9 @@ int main(int argc, char** argv) {
   render->add_option("--region", r.region,
                      "Render only the pixels [X0,X1) x [Y0,Y1) of the frame, as X0,Y0,X1,Y1: the EXR's data window (its display "
                      "window is the frame); equal to the same pixels of the full render (ray-traced passes only; see 'merge')");
+  render->add_option("--frames", r.frames,
+                     "Render frames A to B (every STEP-th), A-B[:STEP], each to -o with its '#' run replaced by the "
+                     "zero-padded frame number (out.####.exr -> out.0001.exr; --preview likewise); the file is read once");
   render->add_flag("--robust", r.robust, "Watertight Embree traversal: no ray slips between triangles sharing an edge (slower)");
   addSceneOptions(render, r);
 

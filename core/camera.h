@@ -31,6 +31,7 @@ struct Camera {
   float yfov = 0.8f;    // radians
   float znear = 0.0f;   // rays start here (along the ray, not depth)
   float zfar = kInfinity;
+  bool animated = false;  // placed by a node that an animation moves (at the time loaded)
 
   // Primary ray through film position (fx, fy) in pixels, y down, for an
   // image of w x h pixels. Direction is unit length.

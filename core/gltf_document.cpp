@@ -15,6 +15,8 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/params.h"
+#include "core/settings.h"
 
 namespace obscura {
 namespace {
@@ -219,6 +221,16 @@ class JsonChecker {
       fields(i, w, {{"uri", Kind::String}, {"bufferView", Kind::Index}, {"mimeType", Kind::String}});
     });
     arr("samplers", [&](const json& s, const std::string& w) { fields(s, w, {{"wrapS", Kind::Int}, {"wrapT", Kind::Int}}); });
+    arr("animations", [&](const json& a, const std::string& w) {
+      fields(a, w, {{"name", Kind::String}});
+      each(a, w, "channels", [&](const json& c, const std::string& cw) {
+        fields(c, cw, {{"sampler", Kind::Index}, {"target", Kind::Object}});
+        if (auto t = c.find("target"); t != c.end()) fields(*t, cw + ".target", {{"node", Kind::Index}, {"path", Kind::String}});
+      });
+      each(a, w, "samplers", [&](const json& s, const std::string& sw) {
+        fields(s, sw, {{"input", Kind::Index}, {"output", Kind::Index}, {"interpolation", Kind::String}});
+      });
+    });
     arr("cameras", [&](const json& c, const std::string& w) {
       fields(c, w, {{"type", Kind::String}, {"name", Kind::String}, {"perspective", Kind::Object}});
       if (auto p = c.find("perspective"); p != c.end())
@@ -346,7 +358,6 @@ void GltfDocument::warnUnsupported() {
     if (e == "KHR_draco_mesh_compression" || e == "EXT_meshopt_compression")
       fail("extensionsRequired", e + " is not supported; decompress the file first");
   if (!model_->skins.empty()) warn("skins are not supported (meshes render in bind pose)");
-  if (!model_->animations.empty()) warn("animations are not supported (the static pose is rendered)");
   if (!model_->lights.empty()) warn("KHR_lights_punctual lights are ignored (the sky is the only light)");
 }
 
@@ -446,30 +457,38 @@ Matrix4d GltfDocument::localMatrix(int index, const std::string& field) const {
       if (!std::isfinite(v)) fail(field + ".matrix", "not finite");
     return m;
   }
+  double t[3] = {0, 0, 0}, r[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+  if (n.translation.size() == 3) std::copy(n.translation.begin(), n.translation.end(), t);
+  if (n.rotation.size() == 4) std::copy(n.rotation.begin(), n.rotation.end(), r);
+  if (n.scale.size() == 3) std::copy(n.scale.begin(), n.scale.end(), s);
+  return trsMatrix(t, r, s, field);
+}
+
+// T x R x S, glTF's order. The defaults (no translation, the identity
+// quaternion, unit scale) give the identity factors exactly, so a node
+// without a field and a node with its default value agree bit for bit.
+Matrix4d GltfDocument::trsMatrix(const double tr[3], const double rot[4], const double sc[3], const std::string& field) const {
   Matrix4d t = identity4(), r = identity4(), s = identity4();
-  if (n.translation.size() == 3) {
-    t[12] = n.translation[0], t[13] = n.translation[1], t[14] = n.translation[2];
-  }
-  if (n.rotation.size() == 4) {
-    double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
-    const double len = std::sqrt(x * x + y * y + z * z + w * w);
-    if (!(len > 0) || !std::isfinite(len)) fail(field + ".rotation", "not a valid quaternion");
-    x /= len, y /= len, z /= len, w /= len;
-    r = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w),     2 * (x * z - y * w),     0,
-         2 * (x * y - z * w),     1 - 2 * (x * x + z * z), 2 * (y * z + x * w),     0,
-         2 * (x * z + y * w),     2 * (y * z - x * w),     1 - 2 * (x * x + y * y), 0,
-         0, 0, 0, 1};
-  }
-  if (n.scale.size() == 3) {
-    s[0] = n.scale[0], s[5] = n.scale[1], s[10] = n.scale[2];
-  }
+  t[12] = tr[0], t[13] = tr[1], t[14] = tr[2];
+  double x = rot[0], y = rot[1], z = rot[2], w = rot[3];
+  const double len = std::sqrt(x * x + y * y + z * z + w * w);
+  if (!(len > 0) || !std::isfinite(len)) fail(field + ".rotation", "not a valid quaternion");
+  x /= len, y /= len, z /= len, w /= len;
+  r = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w),     2 * (x * z - y * w),     0,
+       2 * (x * y - z * w),     1 - 2 * (x * x + z * z), 2 * (y * z + x * w),     0,
+       2 * (x * z + y * w),     2 * (y * z - x * w),     1 - 2 * (x * x + y * y), 0,
+       0, 0, 0, 1};
+  s[0] = sc[0], s[5] = sc[1], s[10] = sc[2];
   const Matrix4d m = mul(t, mul(r, s));
   for (double v : m)
     if (!std::isfinite(v)) fail(field, "transform is not finite");
   return m;
 }
 
-void GltfDocument::visit(int index, const Matrix4d& parent, std::vector<int>& stack, std::vector<char>& visited) {
+// Checks the hierarchy below `index` and records it in traversal order:
+// nodes, their static transforms, the mesh uses and the cameras. Poses
+// (pose()) walk the record.
+void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::vector<char>& visited) {
   const std::string field = "nodes[" + std::to_string(index) + "]";
   if (index < 0 || size_t(index) >= model_->nodes.size()) fail(field, "node does not exist");
   for (int s : stack)
@@ -480,22 +499,30 @@ void GltfDocument::visit(int index, const Matrix4d& parent, std::vector<int>& st
   visited[size_t(index)] = 1;
   if (stack.size() > 1000) fail(field, "node hierarchy deeper than 1000");
   const tinygltf::Node& n = model_->nodes[size_t(index)];
-  const Matrix4d world = mul(parent, localMatrix(index, field));
+  staticLocal_[size_t(index)] = localMatrix(index, field);
+  const size_t slot = visits_.size();
+  visits_.push_back({index, parent});
   if (n.skin >= 0) warn("skinned meshes render in their bind pose");
   if (n.mesh >= 0) {
     if (size_t(n.mesh) >= model_->meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
     // Named by the node, else by its mesh (what exporters name), else by its place.
     const std::string& meshName = model_->meshes[size_t(n.mesh)].name;
-    uses_.push_back({n.mesh, world, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index, stack});
+    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index, stack});
+    useVisits_.push_back(slot);
   }
-  if (n.camera >= 0) addCamera(index, n.camera, world, field);
+  if (n.camera >= 0) {
+    if (size_t(n.camera) >= model_->cameras.size())
+      fail(field + ".camera", "camera " + std::to_string(n.camera) + " does not exist");
+    cameraVisits_.push_back({slot, n.camera});
+  }
   stack.push_back(index);
-  for (int c : n.children) visit(c, world, stack, visited);
+  for (int c : n.children) visit(c, int(slot), stack, visited);
   stack.pop_back();
 }
 
 void GltfDocument::decodeNodes() {
   std::vector<char> visited(model_->nodes.size(), 0);
+  staticLocal_.assign(model_->nodes.size(), identity4());
   std::vector<int> roots;
   if (!model_->scenes.empty()) {
     int s = model_->defaultScene >= 0 ? model_->defaultScene : 0;
@@ -512,23 +539,88 @@ void GltfDocument::decodeNodes() {
       if (!isChild[i]) roots.push_back(int(i));
   }
   std::vector<int> stack;
-  for (int r : roots) visit(r, identity4(), stack, visited);
+  for (int r : roots) visit(r, -1, stack, visited);
   if (model_->scenes.empty())  // every node is reachable from a root unless it sits on a cycle
     for (size_t i = 0; i < model_->nodes.size(); ++i)
       if (!visited[i]) fail("nodes[" + std::to_string(i) + "]", "cycle in the node hierarchy");
-  // `--camera INDEX` means the index in the file's cameras[], whatever the
-  // order nodes were visited in.
-  std::stable_sort(cameras_.begin(), cameras_.end(), [](const Camera& a, const Camera& b) { return a.fileIndex < b.fileIndex; });
+  animations_ = readAnimations(*this);
+  for (const Animation& a : animations_) animationInfo_.push_back({a.name, a.start, a.end, a.fileChannels, a.nodes});
+  Pose p = pose(std::nullopt, {});
+  uses_ = std::move(p.uses);
+  cameras_ = std::move(p.cameras);
 }
 
-void GltfDocument::addCamera(int nodeIndex, int index, const Matrix4d& world, const std::string& field) {
+std::string GltfDocument::nodeLabel(int node) const {
+  const std::string& name = model_->nodes.at(size_t(node)).name;
+  return name.empty() ? "nodes[" + std::to_string(node) + "]" : name;
+}
+
+std::vector<size_t> GltfDocument::selectAnimations(const std::vector<std::string>& selection) const {
+  return obscura::selectAnimations(*this, animations_, selection);
+}
+
+GltfDocument::Pose GltfDocument::pose(std::optional<double> seconds, const std::vector<std::string>& selection) const {
+  const std::vector<size_t> played = selectAnimations(selection);
+  // The played channels' values, by node: translation, rotation, scale,
+  // starting from the node's own (a channel replaces one of the three).
+  struct Trs {
+    double t[3] = {0, 0, 0}, r[4] = {0, 0, 0, 1}, s[3] = {1, 1, 1};
+  };
+  std::map<int, Trs> animated;
+  if (seconds) {
+    if (!std::isfinite(*seconds)) throw Error(path_ + ": " + settingName(Setting::Time) + ": the time is not finite");
+    for (size_t a : played)
+      for (const AnimationChannel& ch : animations_[a].channels) {
+        auto [it, fresh] = animated.try_emplace(ch.node);
+        Trs& x = it->second;
+        if (fresh) {
+          const tinygltf::Node& n = model_->nodes[size_t(ch.node)];
+          if (n.translation.size() == 3) std::copy(n.translation.begin(), n.translation.end(), x.t);
+          if (n.rotation.size() == 4) std::copy(n.rotation.begin(), n.rotation.end(), x.r);
+          if (n.scale.size() == 3) std::copy(n.scale.begin(), n.scale.end(), x.s);
+        }
+        ch.sampler.evaluate(*seconds, ch.path == AnimationPath::Translation ? x.t : ch.path == AnimationPath::Rotation ? x.r : x.s);
+      }
+  }
+  std::vector<Matrix4d> world(visits_.size());
+  std::vector<char> moved(visits_.size(), 0);
+  for (size_t i = 0; i < visits_.size(); ++i) {
+    const Visit& v = visits_[i];
+    auto it = animated.find(v.node);
+    const Matrix4d local =
+        it == animated.end()
+            ? staticLocal_[size_t(v.node)]
+            : trsMatrix(it->second.t, it->second.r, it->second.s,
+                        "nodes[" + std::to_string(v.node) + "] (animated, at " + formatFloat(*seconds) + " s)");
+    world[i] = mul(v.parent < 0 ? identity4() : world[size_t(v.parent)], local);
+    moved[i] = it != animated.end() || (v.parent >= 0 && moved[size_t(v.parent)]);
+  }
+  Pose p;
+  p.uses = uses_;  // the static pose's (or, while decoding, the uses without transforms)
+  for (size_t i = 0; i < p.uses.size(); ++i) {
+    p.uses[i].world = world[useVisits_[i]];
+    p.uses[i].animated = moved[useVisits_[i]] != 0;
+  }
+  for (const CameraVisit& c : cameraVisits_) {
+    const int node = visits_[c.visit].node;
+    std::optional<Camera> cam = makeCamera(node, c.camera, world[c.visit], "nodes[" + std::to_string(node) + "]");
+    if (!cam) continue;
+    cam->animated = moved[c.visit] != 0;
+    p.cameras.push_back(std::move(*cam));
+  }
+  // `--camera INDEX` means the index in the file's cameras[], whatever the
+  // order nodes were visited in.
+  std::stable_sort(p.cameras.begin(), p.cameras.end(), [](const Camera& a, const Camera& b) { return a.fileIndex < b.fileIndex; });
+  return p;
+}
+
+std::optional<Camera> GltfDocument::makeCamera(int nodeIndex, int index, const Matrix4d& world, const std::string& field) const {
   const tinygltf::Node& node = model_->nodes[size_t(nodeIndex)];
   const std::string cfield = "cameras[" + std::to_string(index) + "]";
-  if (size_t(index) >= model_->cameras.size()) fail(field + ".camera", "camera " + std::to_string(index) + " does not exist");
   const auto& gc = model_->cameras[size_t(index)];
   if (gc.type != "perspective") {
     warn(cfield + ": " + gc.type + " cameras are not supported (skipped)");
-    return;
+    return std::nullopt;
   }
   Camera c;
   c.fileIndex = index;
@@ -553,7 +645,7 @@ void GltfDocument::addCamera(int nodeIndex, int index, const Matrix4d& world, co
   for (int r = 0; r < 3; ++r) a.m[r][0] = x[r], a.m[r][1] = y[r], a.m[r][2] = z[r];
   c.toWorld = a;
   checkCameraRange(c, path_ + ": " + field + " (" + cfield + ")");
-  cameras_.push_back(std::move(c));
+  return c;
 }
 
 // --- accessors ---------------------------------------------------------------

@@ -17,9 +17,11 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/animation.h"
 #include "core/camera.h"
 #include "core/scene.h"
 
@@ -67,8 +69,38 @@ class GltfDocument {
     std::string node;  // its name, else its mesh's name, else "nodes[i]"
     int nodeIndex;
     std::vector<int> ancestors;  // the node's ancestors, root first (their extras are inherited)
+    bool animated = false;  // in a pose: the node or an ancestor is the target of a played channel
   };
+  // The static pose: the file's node transforms, no animation applied.
   const std::vector<MeshUse>& meshUses() const { return uses_; }
+
+  // The file's animations (core/animation.h), checked when the file is read.
+  struct AnimationInfo {
+    std::string name;   // as the file has it (may be empty)
+    double start, end;  // seconds: the earliest and latest key of its channels
+    size_t channels;    // channels[] in the file
+    std::vector<int> nodes;  // the nodes its (supported) channels target, ascending
+  };
+  const std::vector<AnimationInfo>& animations() const { return animationInfo_; }
+  // nodes[i]'s name, else "nodes[i]".
+  std::string nodeLabel(int node) const;
+
+  // The mesh uses and cameras with the selected animations applied at
+  // `seconds` (animations played together: a later animation in the file
+  // overrides an earlier one on the same node and path). nullopt: the
+  // static pose (meshUses(), cameras()), `animated` false everywhere; the
+  // selection is checked all the same. The hierarchy is static, so the
+  // order of uses and cameras is the same at every time. `selection`:
+  // names or indices (decimal), empty = every animation; an unknown one
+  // throws obscura::Error listing the file's animations. A pose costs a walk
+  // over the nodes (no accessor is read again).
+  struct Pose {
+    std::vector<MeshUse> uses;
+    std::vector<Camera> cameras;
+  };
+  Pose pose(std::optional<double> seconds, const std::vector<std::string>& selection) const;
+  // The animations `selection` plays, by index (as pose() resolves it).
+  std::vector<size_t> selectAnimations(const std::vector<std::string>& selection) const;
 
   // A triangle primitive in object space (strips and fans as lists).
   struct Primitive {
@@ -90,9 +122,12 @@ class GltfDocument {
   void warnUnsupported();
   void decodeMaterials();
   void decodeNodes();
-  void visit(int index, const Matrix4d& parent, std::vector<int>& stack, std::vector<char>& visited);
+  void visit(int index, int parent, std::vector<int>& stack, std::vector<char>& visited);
+  // A node's transform: its matrix, else translation x rotation x scale.
   Matrix4d localMatrix(int index, const std::string& field) const;
-  void addCamera(int node, int index, const Matrix4d& world, const std::string& field);
+  Matrix4d trsMatrix(const double t[3], const double r[4], const double s[3], const std::string& field) const;
+  std::optional<Camera> makeCamera(int node, int index, const Matrix4d& world, const std::string& field) const;
+  friend std::vector<Animation> readAnimations(const GltfDocument& document);
   std::vector<Primitive> decodeMesh(int index) const;
 
   struct View;
@@ -110,6 +145,21 @@ class GltfDocument {
   std::vector<TextureImage> textures_, dataTextures_;
   std::vector<Camera> cameras_;
   std::vector<MeshUse> uses_;
+  // The default scene's nodes in traversal order (parents first), each with
+  // its parent's position in this list (-1 for a root): a pose walks it.
+  struct Visit {
+    int node, parent;
+  };
+  std::vector<Visit> visits_;
+  std::vector<size_t> useVisits_;  // uses_[i] is at visits_[useVisits_[i]]
+  struct CameraVisit {
+    size_t visit;
+    int camera;  // cameras[] index
+  };
+  std::vector<CameraVisit> cameraVisits_;
+  std::vector<Matrix4d> staticLocal_;  // by node index (identity for nodes outside the scene)
+  std::vector<Animation> animations_;
+  std::vector<AnimationInfo> animationInfo_;
   mutable std::map<int, std::vector<Primitive>> meshes_;
 };
 

@@ -34,7 +34,10 @@ class Builder {
     for (const auto& t : doc_.textures()) scene_->textures.push_back(std::make_unique<Texture>(t.encoded, t.name, true));
     for (const auto& t : doc_.dataTextures())
       scene_->dataTextures.push_back(std::make_unique<Texture>(t.encoded, t.name, false));
-    scene_->cameras = doc_.cameras();
+    // The nodes as the animations place them at the time asked for (the
+    // static pose without one); the hierarchy itself does not move.
+    pose_ = doc_.pose(options_.time, options_.animations);
+    scene_->cameras = pose_.cameras;
     buildGeometry();
     applyObjectOverrides(scene_->objects, options_.objectOverrides);
     scene_->setUvsRunDown();  // glTF's v = 0 is the top row of an image
@@ -320,14 +323,14 @@ class Builder {
       return std::pair{u.mesh, ob && ob->Has("displacement") ? u.nodeIndex : -1};
     };
     std::map<std::pair<int, int>, int> useCount;
-    for (const auto& u : doc_.meshUses()) ++useCount[key(u)];
+    for (const auto& u : pose_.uses) ++useCount[key(u)];
     // A subdivided mesh is refined per use, in world space - adaptive
     // refinement and displacement depend on where it is - so it is never
     // instanced.
-    for (const auto& u : doc_.meshUses())
+    for (const auto& u : pose_.uses)
       if (subdivisionOf(u.mesh)) useCount[key(u)] = 1;
     std::map<std::pair<int, int>, int> instanced;  // (glTF mesh, node) -> Scene instanced mesh
-    for (const auto& u : doc_.meshUses()) {
+    for (const auto& u : pose_.uses) {
       scene_->setCurrentObject(addObject(u));
       const Affine xf = Affine::fromColumnMajor4x4(u.world.data());
       const auto k = key(u);
@@ -366,6 +369,7 @@ class Builder {
 
   const GltfDocument& doc_;
   LoadOptions options_;
+  GltfDocument::Pose pose_;
   std::unique_ptr<Scene> scene_;
   std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;
@@ -390,6 +394,10 @@ SceneSource::SceneSource(std::string path) : path_(std::move(path)) {
 SceneSource::~SceneSource() = default;
 
 std::unique_ptr<Scene> SceneSource::build(const LoadOptions& options) const {
+  if (!gltf_ && options.time)
+    throw Error(path_ + ": " + settingName(Setting::Time) + ": an OBJ file has no animation (frames are glTF only)");
+  if (!gltf_ && !options.animations.empty())
+    throw Error(path_ + ": " + settingName(Setting::Animations) + ": an OBJ file has no animations");
   return gltf_ ? buildGltfScene(*gltf_, options) : loadObj(path_, options);
 }
 

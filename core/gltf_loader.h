@@ -39,6 +39,8 @@ class SceneSource {
   ~SceneSource();
   const std::string& path() const { return path_; }
   std::unique_ptr<Scene> build(const LoadOptions& options) const;
+  // The parsed glTF file (its animations, for listings); null for OBJ.
+  const GltfDocument* document() const { return gltf_.get(); }
 
  private:
   std::string path_;

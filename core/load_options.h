@@ -42,6 +42,12 @@ struct LoadOptions {
   // Roles set on objects by name (--object), applied in order after the
   // file's own (core/objects.h).
   std::vector<ObjectOverride> objectOverrides;
+  // Animation (glTF): the time in seconds at which the file's animations
+  // are applied to its nodes (GltfDocument::pose); nullopt = the static
+  // pose, no animation applied. An OBJ has no animation: a time is refused.
+  std::optional<double> time;
+  // The animations played at `time`: names or indices; empty = all of them.
+  std::vector<std::string> animations;
 };
 
 }  // namespace obscura

@@ -17,6 +17,8 @@ enum class Setting {
   SubdivisionBackendOsd,  // LoadOptions::backend set to OpenSubdiv
   Displacement,           // LoadOptions::displacementMap
   DisplacementScale,      // LoadOptions::displacementScale
+  Time,                   // LoadOptions::time
+  Animations,             // LoadOptions::animations
   Count
 };
 

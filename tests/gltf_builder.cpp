@@ -47,6 +47,28 @@ int GltfBuilder::vec4(const std::vector<std::array<float, 4>>& v) {
   return accessor(bufferView(v.data(), v.size() * 16), kFloat, v.size(), "VEC4");
 }
 
+int GltfBuilder::scalars(const std::vector<float>& v) {
+  return accessor(bufferView(v.data(), v.size() * 4), kFloat, v.size(), "SCALAR");
+}
+
+int GltfBuilder::floats(const std::vector<float>& v, const char* type) {
+  const size_t n = std::string(type) == "VEC4" ? 4 : std::string(type) == "VEC2" ? 2 : std::string(type) == "SCALAR" ? 1 : 3;
+  return accessor(bufferView(v.data(), v.size() * 4), kFloat, v.size() / n, type);
+}
+
+int GltfBuilder::animation(const std::string& name, const std::vector<Channel>& channels) {
+  json samplers = json::array(), chans = json::array();
+  for (const Channel& c : channels) {
+    const int input = scalars(c.times);
+    const int output = floats(c.values, c.path == "rotation" ? "VEC4" : c.path == "weights" ? "SCALAR" : "VEC3");
+    chans.push_back({{"sampler", samplers.size()}, {"target", {{"node", c.node}, {"path", c.path}}}});
+    samplers.push_back({{"input", input}, {"output", output}, {"interpolation", c.interpolation}});
+  }
+  json a = {{"samplers", samplers}, {"channels", chans}};
+  if (!name.empty()) a["name"] = name;
+  return push("animations", std::move(a));
+}
+
 int GltfBuilder::quadMesh(float h, int material, bool withUv) {
   json prim = {{"attributes", {{"POSITION", positions({{-h, -h, 0}, {h, -h, 0}, {h, h, 0}, {-h, h, 0}})}}},
                {"indices", indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3})}};

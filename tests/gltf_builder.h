@@ -37,6 +37,22 @@ class GltfBuilder {
   int vec3(const std::vector<Vec3>& v);
   int vec2(const std::vector<std::array<float, 2>>& v);
   int vec4(const std::vector<std::array<float, 4>>& v);
+  // A float SCALAR accessor (keyframe times).
+  int scalars(const std::vector<float>& v);
+  // A float accessor of `type` ("VEC3", "VEC4") from flat components.
+  int floats(const std::vector<float>& v, const char* type);
+
+  // One channel of an animation, with a sampler of its own: `values` are
+  // flat (3 per key for translation/scale, 4 for rotation; times 3 as many
+  // for CUBICSPLINE: in-tangent, value, out-tangent per key).
+  struct Channel {
+    int node;
+    std::string path;  // translation, rotation, scale, weights
+    std::vector<float> times, values;
+    std::string interpolation = "LINEAR";
+  };
+  // Appends animations[] {name (if not empty), samplers, channels}; returns its index.
+  int animation(const std::string& name, const std::vector<Channel>& channels);
   // An index accessor whose component type follows T (uint8/16/32).
   template <class T>
   int indices(const std::vector<T>& idx) {
