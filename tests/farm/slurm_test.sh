@@ -2,14 +2,15 @@
 # The farm scripts on a real single-node Slurm (Debian's slurm-wlm and munge),
 # brought up here in a temporary folder and shut down on exit, pass or fail:
 #
-#   A  submit a 2-frame x 4-tile shot of scenes/default.gltf (96x64) through a
+#   A  submit a 2-frame x 4-tile shot of scenes/default.gltf (96x64, its crate
+#      animated so the frames differ, when obscura has --frame) through a
 #      wrapper that SIGKILLs the obscura of one task: that task fails, the other
 #      seven write their tiles, and the merge job (afterok) is cancelled;
 #   B  submit again: only the killed task runs (its array is that one index, one
 #      log, the other tiles keep their inode and mtime), then the merge job;
 #   C  each merged frame is bit-identical to a single-process render of the
 #      frame (SHA-1 of the pixels, which any one-ulp change alters: checked on
-#      a copy scaled by 1 + 2^-23);
+#      a copy scaled by 1 + 2^-23), and the two frames differ;
 #   D  a third submit finds everything complete and submits nothing.
 #
 #   tests/farm/slurm_test.sh        # root; OBSCURA=path/to/obscura (default build/obscura)
@@ -149,11 +150,36 @@ done
 echo "slurm_test: $(sinfo -h -N -o '%N %t %c CPUs') ($(sinfo -V))"
 
 # --- the shot -------------------------------------------------------------------------
-# Obscura without --frame (before glTF animation lands) gets a shim that drops
-# it: every frame of the static default scene is then the same still.
+# The default scene with its crate sliding 12 units a second along +X (a glTF
+# LINEAR translation animation added here: perl and its core JSON::PP come with
+# build-essential), so frames 1 and 2 differ. Obscura without --frame (before
+# glTF animation) renders the static default scene through a shim that drops
+# --frame instead, and both frames are the same still.
 real=$obscura
-if ! "$obscura" render --help 2>&1 | grep -qE -- '--frame([ ,=]|$)'; then
+scene=$tmp/default_animated.gltf
+animated=1
+if "$obscura" render --help 2>&1 | grep -qE -- '--frame([ ,=]|$)'; then
+  perl -MJSON::PP -MMIME::Base64 -e '
+    local $/; open my $f, "<", $ARGV[0] or die "$ARGV[0]: $!"; my $d = JSON::PP->new->decode(<$f>);
+    my ($crate) = grep { $d->{nodes}[$_]{name} eq "crate" } 0 .. $#{$d->{nodes}};
+    defined $crate or die "$ARGV[0]: no node named crate";
+    my @t = @{$d->{nodes}[$crate]{translation}};
+    my $bin = pack("f<*", 0, 1, @t, $t[0] + 12, $t[1], $t[2]);
+    push @{$d->{buffers}}, {byteLength => length($bin), uri => "data:application/octet-stream;base64," . encode_base64($bin, "")};
+    my $b = $#{$d->{buffers}};
+    push @{$d->{bufferViews}}, {buffer => $b, byteOffset => 0, byteLength => 8}, {buffer => $b, byteOffset => 8, byteLength => 24};
+    my $v = $#{$d->{bufferViews}};
+    push @{$d->{accessors}}, {bufferView => $v - 1, componentType => 5126, count => 2, type => "SCALAR", min => [0], max => [1]},
+      {bufferView => $v, componentType => 5126, count => 2, type => "VEC3"};
+    my $a = $#{$d->{accessors}};
+    $d->{animations} = [{name => "crate_slide", samplers => [{input => $a - 1, output => $a, interpolation => "LINEAR"}],
+      channels => [{sampler => 0, target => {node => $crate, path => "translation"}}]}];
+    print JSON::PP->new->canonical->encode($d);' scenes/default.gltf >"$scene"
+  echo "slurm_test: scene: scenes/default.gltf + animation crate_slide ($("$obscura" info "$scene" 2>&1 | grep -m1 crate_slide | sed 's/^ *//'))"
+else
   echo "slurm_test: note: $obscura has no --frame yet; the tasks and references go through a shim that drops it"
+  animated=0
+  scene=scenes/default.gltf
   real=$tmp/bin/obscura-noframe
   mkdir -p "$tmp/bin"
   cat >"$real" <<EOF
@@ -182,7 +208,7 @@ chmod +x "$flaky"
 
 out=$tmp/shot
 mkdir -p "$out"
-shot_args=(-o "$out/default.####.exr" --frames 1-2 --tiles 2x2 --res 96x64 --scene scenes/default.gltf --cpus 1)
+shot_args=(-o "$out/default.####.exr" --frames 1-2 --tiles 2x2 --res 96x64 --scene "$scene" --cpus 1)
 render_opts=(--spp 8 -p distance=2 --quiet)
 work=$out/.farm/default
 tiles=("$work"/tiles/default.000{1,2}.t0{0,1,2,3}.exr)  # tasks 0-7
@@ -255,18 +281,28 @@ echo "slurm_test: the 7 complete tiles kept their inode and mtime; task $kill_ta
 
 # --- C: bit-identical to single-process renders ---------------------------------------------
 phase "C: frames == single-process renders, bit for bit"
+shas=()
 pixels_sha() { iinfo --hash "$1" | sed -nE 's/.*SHA-1: ([0-9A-Fa-f]{40})$/\1/p'; }
 for f in 1 2; do
   frame=$out/default.000$f.exr
   ref=$tmp/ref.$f.exr
-  "$real" render scenes/default.gltf -o "$ref" --res 96x64 --frame "$f" "${render_opts[@]}"
+  "$real" render "$scene" -o "$ref" --res 96x64 --frame "$f" "${render_opts[@]}"
   dims=$(iinfo "$frame" | sed -n 's/.*: *\([0-9]* x *[0-9]*\),.*/\1/p')
   a=$(pixels_sha "$frame")
   b=$(pixels_sha "$ref")
   [[ -n "$a" && "$a" == "$b" ]] || fail "frame $f: merged pixels SHA-1 $a != single render $b"
   oiiotool "$frame" "$ref" --diff --fail 0 --failpercent 0 >/dev/null || fail "frame $f: oiiotool --diff finds a difference"
   echo "slurm_test: frame $f ($dims): merged == single render, pixel SHA-1 $a"
+  shas[f]=$a
+  if ((animated)); then
+    got=$(iinfo -v "$frame" | sed -nE 's/^ *obscura:frame: "?([^"]*)"?$/\1/p')
+    [[ "$got" == "$f" ]] || fail "frame $f: the merged header's obscura:frame is '$got'"
+  fi
 done
+if ((animated)); then
+  [[ "${shas[1]}" != "${shas[2]}" ]] || fail "frames 1 and 2 are the same image although the crate moves"
+  echo "slurm_test: frames 1 and 2 differ (the crate moved), and each header says its frame"
+fi
 # The check is exact: a copy scaled by float(1 + 2^-23) (every nonzero value
 # moves by one or two ulps) must fail it.
 oiiotool "$tmp/ref.1.exr" --mulc 1.00000012 -d float -o "$tmp/ulp.exr"
