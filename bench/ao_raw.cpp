@@ -208,7 +208,7 @@ struct RawAoTracer::Impl {
         if constexpr (kSurface) {
           SurfaceHit h;
           computeSurfaceHit(obscuraScene, r.hit.geomID, r.hit.primID, r.hit.instID[0], r.hit.u, r.hit.v, r.ray.tfar,
-                            Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), false, h);
+                            Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.time, false, h);
           const Frame frame = Frame::fromNormal(h.ns);
           const Sample2 s = Sampler::get2D(b.key.p[i], b.sample.p[i], kFirstIntegratorDim);
           a.dir = frame.toWorld(squareToCosineHemisphere(s.u, s.v));

@@ -382,7 +382,7 @@ class Replayer {
             const RTCRayHit& r = rays[i];
             if (r.hit.geomID == kInvalid) continue;
             computeSurfaceHit(scene_, r.hit.geomID, r.hit.primID, r.hit.instID[0], r.hit.u, r.hit.v, r.ray.tfar,
-                              Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), true, sh);
+                              Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.time, true, sh);
             s.tally.sink += double(sh.albedo.x) + double(sh.eps);
             ++s.tally.surfaces;
             if (mode != ReplayMode::SurfaceSample) continue;
