@@ -134,8 +134,10 @@ TEST(MotionBlur, ScreenSpacePassesRefuseAShutter) {
 
 // The wall scene as a glTF file: the ground, the wall node animated from x =
 // d0 at t = 0 to x = d1 at t = 1 (`interpolation`), and a camera 3 above the
-// origin looking down (-Z, glTF's view axis).
-std::string writeWallShot(const std::string& dir, const std::string& name, const std::string& interpolation) {
+// origin looking down (-Z, glTF's view axis). With `movingCamera` the wall
+// stands at d0 and the camera slides from x = 0 to x = d0 - d1 instead.
+std::string writeWallShot(const std::string& dir, const std::string& name, const std::string& interpolation,
+                          bool movingCamera = false) {
   GltfBuilder b;
   const int ground = b.quadMesh(50.0f);
   const int wallPos = b.positions({{0, -50, 0}, {0, 50, 0}, {0, 50, 10}, {0, -50, 10}});
@@ -143,11 +145,14 @@ std::string writeWallShot(const std::string& dir, const std::string& name, const
   const int wall = b.push("meshes", {{"primitives", json::array({{{"attributes", {{"POSITION", wallPos}}}, {"indices", wallIdx}}})}});
   b.push("cameras", {{"type", "perspective"}, {"perspective", {{"yfov", 1e-3}, {"znear", 0.01}}}});
   const int groundNode = b.node({{"mesh", ground}, {"name", "ground"}});
-  const int wallNode = b.node({{"mesh", wall}, {"name", "wall"}});
+  const int wallNode = b.node({{"mesh", wall}, {"name", "wall"}, {"translation", {kD0, 0, 0}}});
   const int camNode = b.node({{"camera", 0}, {"name", "camera"}, {"translation", {0, 0, 3}}});
   b.scene({groundNode, wallNode, camNode});
-  b.animation("slide", {{wallNode, "translation", {0.0f, interpolation == "STEP" ? 10.0f : 1.0f},
-                         {float(kD0), 0, 0, float(kD1), 0, 0}, interpolation}});
+  const float end = interpolation == "STEP" ? 10.0f : 1.0f;
+  if (movingCamera)
+    b.animation("pan", {{camNode, "translation", {0.0f, end}, {0, 0, 3, float(kD0 - kD1), 0, 3}, interpolation}});
+  else
+    b.animation("slide", {{wallNode, "translation", {0.0f, end}, {float(kD0), 0, 0, float(kD1), 0, 0}, interpolation}});
   return b.writeGltf(dir, name);
 }
 
@@ -185,6 +190,18 @@ TEST(MotionBlurCli, AnimatedWallBlursToTheClosedForm) {
   const ReadBack h = readExr(dir + "/blur.exr");
   EXPECT_EQ(h.spec.get_string_attribute("obscura:shutter"), "0,1");
   EXPECT_EQ(h.spec.get_int_attribute("obscura:movingObjects", -1), 1);
+}
+
+TEST(MotionBlurCli, AnimatedCameraBlursToTheClosedForm) {
+  const std::string dir = tempDir("motion_cli_camera");
+  const std::string shot = writeWallShot(dir, "shot", "LINEAR", true);
+  const CliResult r = runCli({"render", shot, "-q", "-i", "ao", "-p", "distance=1", "--res", "16x16", "--spp", "64",
+                              "--no-aovs", "--fps", "1", "--frame", "0", "--shutter", "0,1", "-o", dir + "/blur.exr"},
+                             dir + "/err.txt");
+  ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  const auto [blur, blurSe] = meanSe(dir + "/blur.exr");
+  EXPECT_NEAR(blur, averageVisibility(kD0, kD1, kRadius), 4 * blurSe + 1e-6);
+  EXPECT_EQ(readExr(dir + "/blur.exr").spec.get_int_attribute("obscura:movingObjects", -1), 0);
 }
 
 TEST(MotionBlurCli, ANodeThatHoldsStillInTheShutterRendersAsTheStill) {
