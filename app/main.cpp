@@ -230,67 +230,67 @@ std::vector<FrameJob> frameJobs(const RenderArgs& a) {
   return jobs;
 }
 
-int runRender(const RenderArgs& a) {
-  interrupt::setMessage("obscura: interrupted; " + a.output + " was not written");
-  loadPlugins(a.plugins);
-  std::vector<PassSetup> setups = passSetups(a);
+int runRender(const RenderArgs& args) {
+  interrupt::setMessage("obscura: interrupted; " + args.output + " was not written");
+  loadPlugins(args.plugins);
+  std::vector<PassSetup> setups = passSetups(args);
   const IntegratorDescriptor& desc = *setups.front().desc;
   const ParamSet& params = setups.front().params;
   RenderSettings s;
-  parseResolution(a.res, s.width, s.height);
-  if (a.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(a.spp));
-  if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
-  if (a.tileSize < 1 || a.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(a.tileSize));
-  if (a.seed < 0 || a.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
-  if (a.filter == "box") s.filter = PixelFilter::Box;
-  else if (a.filter == "gaussian") s.filter = PixelFilter::Gaussian;
-  else throw Error("--filter: expected box or gaussian, got '" + a.filter + "'");
-  s.spp = a.spp;
-  s.seed = uint32_t(a.seed);
-  s.threads = a.threads;
-  s.tileSize = a.tileSize;
-  s.sky = parseSky(a.sky);
-  s.aovs = !a.noAovs;
-  s.progress = !a.quiet;
-  s.cryptomatte = parseCryptomatte(a.cryptomatte, a.cryptomatteRanks);
-  if (!a.region.empty()) {
-    s.region = parseRegion(a.region);
+  parseResolution(args.res, s.width, s.height);
+  if (args.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(args.spp));
+  if (args.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(args.threads));
+  if (args.tileSize < 1 || args.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(args.tileSize));
+  if (args.seed < 0 || args.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
+  if (args.filter == "box") s.filter = PixelFilter::Box;
+  else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
+  else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
+  s.spp = args.spp;
+  s.seed = uint32_t(args.seed);
+  s.threads = args.threads;
+  s.tileSize = args.tileSize;
+  s.sky = parseSky(args.sky);
+  s.aovs = !args.noAovs;
+  s.progress = !args.quiet;
+  s.cryptomatte = parseCryptomatte(args.cryptomatte, args.cryptomatteRanks);
+  if (!args.region.empty()) {
+    s.region = parseRegion(args.region);
     checkRegion(s.region, s.width, s.height);
   }
-  if (a.output.empty()) throw Error("-o: an output .exr path is required");
+  if (args.output.empty()) throw Error("-o: an output .exr path is required");
 
   std::optional<tbb::global_control> limit;
-  if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
+  if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(args.threads));
 
   const bool anyScreenSpace = std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) {
     return p.desc->kind == IntegratorKind::ScreenSpace;
   });
   checkRegionPasses(s, anyScreenSpace);  // before loading the scene
   // Every frame's outputs and scene options are checked before the file is read.
-  const std::vector<FrameJob> jobs = frameJobs(a);
+  const std::vector<FrameJob> jobs = frameJobs(args);
   for (const FrameJob& job : jobs) {
-    RenderArgs fa = a;
+    RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
-    checkOutputs(fa, s, anyScreenSpace, a.passes.size());
+    checkOutputs(fa, s, anyScreenSpace, args.passes.size());
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");
 
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
-  const SceneSource source(a.scene);  // read once; each frame builds its scene from it
+  const SceneSource source(args.scene);  // read once; each frame builds its scene from it
 
   for (size_t j = 0; j < jobs.size(); ++j) {
-    RenderArgs fa = a;
-    fa.frame = jobs[j].frame, fa.output = jobs[j].output, fa.preview = jobs[j].preview;
-    const std::string notWritten = "obscura: interrupted; " + fa.output + " was not written" +
+    RenderArgs a = args;
+    a.frame = jobs[j].frame, a.output = jobs[j].output, a.preview = jobs[j].preview;
+    const std::string notWritten = "obscura: interrupted; " + a.output + " was not written" +
                                    (jobs.size() > 1 && j + 1 < jobs.size() ? " (nor the later frames)" : "");
     interrupt::setMessage(notWritten);
-    if (jobs.size() > 1 && !fa.quiet)
-      std::fprintf(stderr, "obscura: frame %s (%zu of %zu, %s s) -> %s\n", fa.frame.c_str(), j + 1, jobs.size(),
-                   formatFloat(parseFrame(fa.frame) / fa.fps).c_str(), fa.output.c_str());
+    if (jobs.size() > 1 && !a.quiet)
+      std::fprintf(stderr, "obscura: frame %s (%zu of %zu, %s s) -> %s\n", a.frame.c_str(), j + 1, jobs.size(),
+                   formatFloat(parseFrame(a.frame) / a.fps).c_str(), a.output.c_str());
     Camera camera;
-    std::unique_ptr<Scene> scene = loadSceneAndCamera(fa, source, fa.camera, s.width, s.height, camera);
+    std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, s.width, s.height, camera);
 
     interrupt::startPolling();
     RenderStats stats;
@@ -301,23 +301,23 @@ int runRender(const RenderArgs& a) {
     }
 
     std::vector<LayerInfo> layers;
-    if (!fa.passes.empty())
+    if (!a.passes.empty())
       for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
-    ExrOptions exr = passHeader(PassInfo{.scenePath = fa.scene, .camera = camera, .integrator = desc, .params = params,
-                                          .settings = s, .stats = stats, .filterName = fa.filter, .robust = fa.robust, .sceneArgs = &fa,
+    ExrOptions exr = passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
+                                          .settings = s, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
                                           .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
-    exr.half = fa.half;
+    exr.half = a.half;
     // The pass and its preview land together or not at all.
     OutputSet out;
-    out.addExr(fa.output, film, exr);
-    if (!fa.preview.empty()) out.addPreviewPng(fa.preview, film);
+    out.addExr(a.output, film, exr);
+    if (!a.preview.empty()) out.addPreviewPng(a.preview, film);
     out.commit();
 
-    if (!fa.quiet) {
+    if (!a.quiet) {
       const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
       std::string names;
       for (const PassSetup& p : setups) names += (names.empty() ? "" : " ") + (p.layer.empty() ? "" : p.layer + "=") + p.desc->name;
-      std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", fa.output.c_str(),
+      std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
                    s.width, s.height, s.spp, names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
                    scene->buildSeconds());
       if (anyScreenSpace)
