@@ -5,8 +5,12 @@
 // rendered frame against a static file with the nodes placed where the test
 // computes them (bit for bit), frame sequences (`--frames`), and bad input.
 #include <gtest/gtest.h>
+#include <signal.h>
 
 #include <cfloat>
+#include <chrono>
+#include <fstream>
+#include <thread>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -456,6 +460,39 @@ TEST(AnimationRender, BadInputIsOneLineAndWritesNothing) {
     EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
     EXPECT_NE(r.stderrText.find(cases[i].says), std::string::npos) << i << ": " << r.stderrText;
     EXPECT_FALSE(std::filesystem::exists(dir + "/" + cases[i].out)) << cases[i].out;
+  }
+}
+
+// Ctrl-C during a sequence: exit 130, one line naming the frame that was
+// not written; the frames before it are complete, none after it is begun.
+TEST(AnimationRender, InterruptedSequenceKeepsTheFramesBefore) {
+  const std::string dir = tempDir("anim_interrupt");
+  const std::string animated = writeShot(dir, "shot", nullptr);
+  CliResult r;
+  const pid_t pid = startCli({"render", animated, "--res", "400x300", "--spp", "256", "--frames", "1-4", "-o", dir + "/f.#.exr"},
+                             dir + "/stderr.txt", r);
+  ASSERT_GT(pid, 0) << r.stderrText;
+  // Signal only once the handler is in place (SigCgt in /proc), a moment into the renders.
+  const auto catches = [&] {
+    std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("SigCgt:", 0) == 0) return ((std::stoull(line.substr(7), nullptr, 16) >> (SIGINT - 1)) & 1) != 0;
+    return false;
+  };
+  for (int i = 0; i < 6000 && !catches(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  kill(pid, SIGINT);
+  finishCli(pid, dir + "/stderr.txt", r);
+  ASSERT_EQ(r.exitCode, 130) << r.stderrText;
+  const size_t at = r.stderrText.find("obscura: interrupted; " + dir + "/f.");
+  ASSERT_NE(at, std::string::npos) << r.stderrText;
+  const int stopped = r.stderrText[at + std::string("obscura: interrupted; " + dir + "/f.").size()] - '0';
+  ASSERT_GE(stopped, 1);
+  ASSERT_LE(stopped, 4);
+  for (int f = 1; f <= 4; ++f) {
+    const std::string out = dir + "/f." + std::to_string(f) + ".exr";
+    EXPECT_EQ(std::filesystem::exists(out), f < stopped) << out;
+    if (f < stopped) EXPECT_TRUE(readExr(out).ok);
   }
 }
 
