@@ -329,7 +329,11 @@ std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const SceneSource&
     o.imageWidth = width, o.imageHeight = height;
   }
   std::unique_ptr<Scene> scene = source.build(o);
-  camera = o.camera ? *o.camera : selectCamera(*scene, want, aspect);
+  // The probe's camera measured the refinement. A file's camera is taken
+  // again from the full build, which is the same camera plus what only the
+  // full build gives it: its motion steps under --shutter. The automatic one
+  // is kept, as it framed the probe (the refined bounds differ a little).
+  camera = o.camera && o.camera->fileIndex < 0 ? *o.camera : selectCamera(*scene, want, aspect);
   return scene;
 }
 

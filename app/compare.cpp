@@ -259,7 +259,10 @@ class CompareRun {
       std::string anims;
       for (const std::string& n : a.animations) anims += "," + n;
       viewHash_.add("frame/" + formatFloat(parseFrame(a.frame) / a.fps) + anims);
-      if (!a.shutter.empty()) viewHash_.add("shutter/" + a.shutter);
+      if (!a.shutter.empty()) {  // by value: "-.25,.25" and "-0.25,0.25" are one shutter
+        const std::array<double, 2> sh = parseShutter(a.shutter);
+        viewHash_.add("shutter/" + formatFloat(sh[0]) + "," + formatFloat(sh[1]));
+      }
     }
   }
 

@@ -32,7 +32,7 @@ struct SurfaceHit {
   // The moment of the camera sample in the shutter, in [0, 1) (0 without
   // motion blur): the time of the ray that found p, which every ray leaving
   // p carries on (RayBatch::push), so a sample sees one instant of the scene.
-  float time;
+  float time = 0.0f;
 };
 
 // The surface's texture parametrization at a hit: uv, and the world-space
