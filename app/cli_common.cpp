@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "core/adaptive.h"
 #include "core/error.h"
 #include "core/params.h"
 #include "core/plugin.h"
@@ -177,6 +178,9 @@ void nameSettingsAsFlags() {
   setSettingName(Setting::Time, "--frame");
   setSettingName(Setting::Animations, "--animation");
   setSettingName(Setting::Shutter, "--shutter");
+  setSettingName(Setting::TargetError, "--target-error");
+  setSettingName(Setting::MinSpp, "--min-spp");
+  setSettingName(Setting::TimeLimit, "--time-limit");
 }
 
 void loadPlugins(const std::vector<std::string>& paths) {
@@ -403,6 +407,14 @@ ExrOptions passHeader(const PassInfo& i) {
     str("obscura:primaryPass", i.layers.front().layer);
   }
   exr.attributes.push_back({"obscura:spp", i.settings.spp});
+  if (adaptiveSampling(i.settings)) {
+    // README "Adaptive sampling": the settings, and what they took.
+    exr.attributes.push_back({"obscura:targetError", i.settings.targetError});
+    exr.attributes.push_back({"obscura:minSpp", firstRoundSpp(i.settings)});
+    exr.attributes.push_back({"obscura:timeLimit", float(i.settings.timeLimit)});
+    exr.attributes.push_back({"obscura:meanSpp", float(i.stats.meanSpp)});
+    exr.attributes.push_back({"obscura:rounds", i.stats.rounds});
+  }
   exr.attributes.push_back({"obscura:seed", int(i.settings.seed)});  // stored bit pattern; see README
   str("obscura:seedText", std::to_string(i.settings.seed));
   str("obscura:resolution", std::to_string(i.settings.width) + "x" + std::to_string(i.settings.height));

@@ -15,6 +15,7 @@
 #include <sstream>
 #include <variant>
 
+#include "core/adaptive.h"
 #include "core/checkpoint.h"
 #include "core/error.h"
 #include "core/gbuffer.h"
@@ -67,6 +68,9 @@ struct RenderArgs : SceneArgs {
   std::vector<std::string> passes;   // --pass LAYER=integrator[:key=value,...]
   std::string primary;               // --primary LAYER
   int spp = 16;
+  float targetError = 0;  // --target-error; 0 = off
+  int minSpp = 0;         // --min-spp; 0 = min(16, spp)
+  double timeLimit = 0;   // --time-limit SECONDS; 0 = none
   std::string res = "960x540";
   std::string camera;
   int threads = 0;
@@ -334,6 +338,10 @@ int runRender(const RenderArgs& args) {
   else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
   else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
   s.spp = args.spp;
+  s.targetError = args.targetError;
+  s.minSpp = args.minSpp;
+  s.timeLimit = args.timeLimit;
+  checkAdaptiveSettings(s);
   s.seed = uint32_t(args.seed);
   s.threads = args.threads;
   s.tileSize = args.tileSize;
@@ -446,8 +454,11 @@ int runRender(const RenderArgs& args) {
       const double total = double(stats.rays.camera + stats.rays.occlusion + stats.rays.closest);
       std::string names;
       for (const PassSetup& p : setups) names += (names.empty() ? "" : " ") + (p.layer.empty() ? "" : p.layer + "=") + p.desc->name;
-      std::fprintf(stderr, "obscura: %s  %dx%d  %d spp  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
-                   s.width, s.height, s.spp, names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
+      const std::string spp = adaptiveSampling(s) ? formatFloat(std::round(stats.meanSpp * 10) / 10) + " spp (mean of " +
+                                                        std::to_string(stats.rounds) + " rounds, max " + std::to_string(s.spp) + ")"
+                                                  : std::to_string(s.spp) + " spp";
+      std::fprintf(stderr, "obscura: %s  %dx%d  %s  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
+                   s.width, s.height, spp.c_str(), names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
                    scene->buildSeconds());
       if (anyScreenSpace)
         std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
@@ -563,7 +574,19 @@ int main(int argc, char** argv) {
                      "A pass in its own layer, LAYER=integrator[:key=value,...] (repeatable; replaces -i/-p): the passes "
                      "share camera rays and AOVs, each is written to LAYER.R/G/B and the first also to R,G,B");
   render->add_option("--primary", r.primary, "The --pass layer also written to R,G,B (default: the first)");
-  render->add_option("--spp", r.spp, "Camera samples per pixel");
+  render->add_option("--spp", r.spp, "Camera samples per pixel (with --target-error or --time-limit: the most a pixel takes)");
+  render->add_option("--target-error", r.targetError,
+                     "Adaptive sampling: a pixel stops once the standard error of its W (absolute, dilated over its 3x3 "
+                     "neighbours) is at most E, or at --spp samples (README \"Adaptive sampling\")")
+      ->type_name("E")
+      ->default_str("off");
+  render->add_option("--min-spp", r.minSpp, "Adaptive sampling: the samples every pixel takes before any may stop")
+      ->default_str("min(16, --spp)");
+  render->add_option("--time-limit", r.timeLimit,
+                     "Stop sampling at a round boundary: no round starts that is predicted to end past SECONDS of "
+                     "render loop (the image then depends on the machine's speed)")
+      ->type_name("SECONDS")
+      ->default_str("none");
   render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT");
   render->add_option("--camera", r.camera, "Camera name or index in the file, or 'auto' (default: the first camera, else auto)");
   render->add_option("--threads", r.threads, "Worker threads (0 = all cores)");

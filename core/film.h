@@ -31,6 +31,12 @@ enum Channel : int {
 // and camera conventions".
 constexpr float kBackgroundDepth = 1e10f;
 
+// The planes the render loops add with the AOVs (README "Adaptive
+// sampling"): the standard error of the pass W per pixel (un-premultiplied)
+// and the camera samples the pixel took.
+inline constexpr const char* kErrorPlane = "W.error";
+inline constexpr const char* kSppPlane = "spp";
+
 // The name of a fixed channel (Channel); extra planes are named by the Film.
 const char* channelName(int c);
 

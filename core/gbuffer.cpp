@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 
+#include "core/adaptive.h"
 #include "core/error.h"
 #include "core/pixel_sums.h"
 #include "core/progress.h"
@@ -253,6 +254,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     for (const auto& t : scene.textures) t->decode();
 
   Film film(s.width, s.height, s.aovs);
+  const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
+  const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   std::optional<CryptomatteFilm> crypto;  // its own pass, after the layers
   if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
@@ -267,7 +270,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     uint32_t hits = 0;
   };
   // Allocated here, zeroed in parallel in the arena below.
-  LargeVector<LayerSums> sums(n);
+  LargeVector<LayerSums> sums(n), evenSums(n);  // evenSums: the even layers' (docs/math.md §13)
   LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0);
   LargeVector<float> depthSums(s.aovs ? n : 0);
   GBufferLayer g;
@@ -279,6 +282,24 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
 
   Progress progress("render", uint64_t(s.spp), s.progress);
+  // Adaptive sampling (core/adaptive.h): after each round of layers, the
+  // pixels whose error is small enough stop accumulating; the loop ends when
+  // none is left. Each layer is traced for the whole image, so a round is
+  // the same layers for every running pixel.
+  std::optional<SampleSchedule> schedule;
+  if (adaptiveSampling(s)) schedule.emplace(PixelRect{0, 0, s.width, s.height}, s, true);
+  std::vector<float> error(schedule ? n : 0);
+  // The pass's standard error at pixel i from the layer sums (core/pixel_sums.h).
+  const auto pixelError = [&](size_t i) {
+    const LayerSums& p = sums[i];
+    const LayerSums& h = evenSums[i];
+    Sum3 num, den;
+    num.add(p.num), den.add(p.den);
+    HalfSums even;
+    even.num.add(h.num), even.den.add(h.den), even.hits = h.hits;
+    const Vec3 albedo = wantAlbedo && p.hits ? albedoSums[i] * (1.0f / float(p.hits)) : Vec3(1, 1, 1);
+    return standardError(num, den, p.hits, even, integrator, albedo);
+  };
   stats = {};
   uint64_t cameraRays = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -286,6 +307,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   tbb::task_arena arena(threads);
   arena.execute([&] {
     parallelFill(sums, LayerSums{});
+    parallelFill(evenSums, LayerSums{});
     parallelFill(albedoSums, Vec3(0, 0, 0));
     parallelFill(normalSums, Vec3(0, 0, 0));
     parallelFill(depthSums, 0.0f);
@@ -298,6 +320,11 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
 
       // A pixel's estimate of this layer into its sums (and the AOVs').
       const auto accumulate = [&](size_t i, const SampleEstimate& e) {
+        if (schedule && uint32_t(si) >= schedule->target(i)) return;  // stopped
+        if ((si & 1) == 0) {
+          LayerSums& h = evenSums[i];
+          h.num += e.num, h.den += e.den, h.hits += 1;
+        }
         LayerSums& p = sums[i];
         p.num += e.num;
         p.den += e.den;
@@ -346,6 +373,17 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         stats.filterSeconds += secondsSince(t);
       }
       progress.advance(1);
+      if (schedule && uint32_t(si + 1) == schedule->maxTarget()) {  // a round ends
+        parallelRows(s.height, [&](int y0, int y1) {
+          for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i) error[i] = pixelError(i);
+        });
+        const uint64_t planned = schedule->next(error.data());
+        const double seconds = secondsSince(t0);
+        if (planned && s.timeLimit > 0.0 &&
+            seconds + seconds / double(schedule->total()) * double(planned) > s.timeLimit)
+          schedule->dropPlan();
+        if (!schedule->planned()) break;
+      }
     }
     // The shared resolution (core/pixel_sums.h) from these sums.
     const auto pixelSums = [&](int y, int x) {
@@ -360,14 +398,21 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     };
     parallelRows(s.height, [&](int y0, int y1) {
       for (int y = y0; y < y1; ++y)
-        for (int x = 0; x < s.width; ++x)
-          resolvePixelSums(pixelSums(y, x), s.spp, integrator, wantAlbedo, s.sky, film, x, y);
+        for (int x = 0; x < s.width; ++x) {
+          const size_t i = size_t(y) * size_t(s.width) + size_t(x);
+          const int spp = schedule ? int(schedule->taken(i)) : s.spp;
+          resolvePixelSums(pixelSums(y, x), spp, integrator, wantAlbedo, s.sky, film, x, y);
+          if (errorPlane >= 0) film.at(errorPlane, x, y) = writtenError(pixelError(i), film, x, y);
+          if (sppPlane >= 0) film.at(sppPlane, x, y) = float(spp);
+        }
     });
     if (crypto && !(cancel && cancel->load(std::memory_order_relaxed)))
       renderCryptomatteSamples(scene, tracer, camera, s, *crypto, cameraRays);
   });
   stats.seconds = secondsSince(t0);
   progress.finish();
+  stats.meanSpp = schedule ? schedule->meanSpp() : double(s.spp);
+  stats.rounds = schedule ? schedule->rounds() : 1;
   stats.rays.camera = cameraRays;
   for (const auto& ctx : contexts) {
     if (!ctx) continue;

@@ -29,6 +29,16 @@ struct PassSums {
   Sum3 num, den;
 };
 
+// The sums of the pixel's even-indexed samples (sample index 0, 2, 4, ...),
+// beside the whole pixel's: the odd half is the difference. The two halves
+// are independent estimates of W, which gives the pixel's standard error
+// for plain means and ratio estimators alike (docs/math.md §13).
+struct HalfSums {
+  Sum3 num, den;
+  uint32_t hits = 0;
+  void add(const SampleEstimate& e) { num.add(e.num), den.add(e.den), hits += 1; }
+};
+
 // Sum num / Sum den, one channel; 0/0 is 1 (core/integrator.h).
 inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
 
@@ -41,6 +51,20 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
 // Writes the layer planes layer, layer + 1, layer + 2 of pixel (fx, fy) from
 // a pass's sums, given the pixel's hits and albedo sum (PixelSums'): W
 // premultiplied by coverage, exactly as resolvePixelSums writes R,G,B.
+// The standard error of the pixel's W (un-premultiplied, after
+// integrator.resolvePixel with the pixel's mean albedo `albedo`) from its
+// sums and its even half's (docs/math.md §13): with a and b hits in the even
+// and odd halves, se = |W_even - W_odd| sqrt(ab) / (a + b), the largest over
+// the channels. 0 for a pixel without hits (the background is exact);
+// +inf when one half has no hit (nothing to compare).
+float standardError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfSums& even,
+                    const Integrator& integrator, Vec3 albedo);
+
+// What the W.error plane holds at pixel (fx, fy), once R,G,B,A are
+// written: `se` (standardError), or where it is unknown |W|, the largest
+// channel of the un-premultiplied pass (the error of a guess of 0).
+float writtenError(float se, const Film& film, int fx, int fy);
+
 void resolvePassLayer(const PassSums& q, uint32_t hits, const Sum3& albedo, int spp, const Integrator& integrator,
                       bool wantAlbedo, Film& film, int layer, int fx, int fy);
 

@@ -6,8 +6,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <optional>
 
+#include "core/adaptive.h"
 #include "core/error.h"
 #include "core/gbuffer.h"
 #include "core/pixel_sums.h"
@@ -17,6 +20,14 @@
 
 namespace obscura {
 namespace {
+
+// A pixel's mean albedo over its hits, or (1,1,1) for a pass whose solo
+// render would not carry albedo (hits > 0).
+Vec3 pixelAlbedo(const Sum3& albedo, uint32_t hits, bool wantAlbedo) {
+  if (!wantAlbedo) return Vec3(1, 1, 1);
+  const double invHits = 1.0 / double(hits);
+  return Vec3(float(albedo.x * invHits), float(albedo.y * invHits), float(albedo.z * invHits));
+}
 
 // Camera samples per chunk. Large enough that per-chunk overhead
 // vanishes, small enough that the batch and its hits stay in L1/L2.
@@ -39,6 +50,12 @@ struct ThreadScratch {
   std::vector<SampleEstimate> W;  // pass k's estimate of hit i: W[k * kChunk + i]
   std::vector<PixelSums> sums;  // the tile's pixels (the primary pass and the AOVs)
   std::vector<PassSums> passSums;  // the other passes: pixel j, pass k >= 1 at j * (passes - 1) + k - 1
+  std::vector<HalfSums> even;   // the primary pass's even samples, per pixel
+  // Where this tile's lanes accumulate: the vectors above (a fixed-spp
+  // tile), or the window's sums that persist across adaptive rounds.
+  PixelSums* sumsAt = nullptr;
+  PassSums* passAt = nullptr;
+  HalfSums* evenAt = nullptr;
   RayCounters cameraCounters;
   CryptomatteFilm::Tile crypto;  // empty unless Cryptomatte is on
 };
@@ -56,10 +73,11 @@ struct PassSlot {
 // each pixel's samples are summed in sample order whatever the chunking. The
 // pixel's sampler key and filter seeds are hashed once per pixel.
 struct SampleCursor {
-  uint32_t pix = 0, si = 0;  // pixel within the tile, sample within the pixel
-  int px, py;                // that pixel in the image
-  uint32_t key;
-  Sampler::Seeds2 filterSeeds;
+  uint32_t pix = 0;          // the pixel's slot in the sums (ThreadScratch::sumsAt)
+  uint32_t si = 0, end = 0;  // sample within the pixel, and the end of its samples this round
+  int px = 0, py = 0;        // that pixel in the image
+  uint32_t key = 0;
+  Sampler::Seeds2 filterSeeds{};
 };
 
 // The render loop's stages for one tile, chunk by chunk:
@@ -71,23 +89,57 @@ struct SampleCursor {
 // source of surface hits only has to fill hits, laneHit and lanePixel.
 class TileRenderer {
  public:
+  // The window's sums across adaptive rounds (window row-major).
+  struct WindowSums {
+    std::vector<PixelSums> sums;
+    std::vector<PassSums> passSums;
+    std::vector<HalfSums> even;
+  };
+
   TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
                const Tracer& tracer, Film& film, bool wantAlbedo, const CryptomatteFilm* crypto = nullptr)
       : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), shutter_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar), forward_(camera.toWorld.vector(Vec3(0, 0, -1))),
-        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto), window_(renderWindow(s)) {}
+        wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto), window_(renderWindow(s)),
+        errorPlane_(film.find(kErrorPlane)), sppPlane_(film.find(kSppPlane)) {}
 
   // The tiles cut from the render's window (the frame, or --region).
   int tileCount() const { return PixelRect::tileCount(s_.tileSize, window_.width(), window_.height()); }
+  PixelRect tileRect(int tile) const {
+    PixelRect r = PixelRect::tile(tile, s_.tileSize, window_.width(), window_.height());
+    r.x0 += window_.x0, r.x1 += window_.x0, r.y0 += window_.y0, r.y1 += window_.y0;
+    return r;
+  }
 
-  // Renders one tile into the film; returns its pixel count, or 0 when
-  // cancelled (checked once per chunk: a relaxed load per kChunk samples).
-  size_t renderTile(int tile, ThreadScratch& ts, const std::atomic<bool>* cancel) const {
+  // Adaptive rounds: each tile takes the samples `schedule` plans for its
+  // pixels, into `sums`; resolveTile writes the film once they are done.
+  void setSchedule(const SampleSchedule* schedule, WindowSums* sums) {
+    schedule_ = schedule;
+    window_sums_ = sums;
+  }
+
+  // Renders one tile's samples (of this round) into its sums and, at fixed
+  // spp, into the film; returns the samples taken, or 0 when cancelled
+  // (checked once per chunk: a relaxed load per kChunk samples).
+  uint64_t renderTile(int tile, ThreadScratch& ts, const std::atomic<bool>* cancel) const {
     const PixelRect r = tileRect(tile);
-    ts.sums.assign(r.size(), PixelSums{});
-    ts.passSums.assign(r.size() * (passes_.size() - 1), PassSums{});
-    const uint64_t total = uint64_t(r.size()) * uint64_t(s_.spp);
-    SampleCursor c = startCursor(r);
+    uint64_t total;
+    if (schedule_) {
+      total = schedule_->planned(r);
+      if (total == 0) return 0;
+      ts.sumsAt = window_sums_->sums.data();
+      ts.passAt = window_sums_->passSums.data();
+      ts.evenAt = window_sums_->even.data();
+    } else {
+      total = uint64_t(r.size()) * uint64_t(s_.spp);
+      ts.sums.assign(r.size(), PixelSums{});
+      ts.passSums.assign(r.size() * (passes_.size() - 1), PassSums{});
+      ts.even.assign(r.size(), HalfSums{});
+      ts.sumsAt = ts.sums.data(), ts.passAt = ts.passSums.data(), ts.evenAt = ts.even.data();
+    }
+    SampleCursor c;
+    c.px = r.x0, c.py = r.y0;
+    seekPixel(r, c);
     if (crypto_) crypto_->beginTile(r, ts.crypto);
     for (uint64_t begin = 0; begin < total; begin += kChunk) {
       if (cancel && cancel->load(std::memory_order_relaxed)) return 0;
@@ -99,26 +151,63 @@ class TileRenderer {
       estimate(ts);
       accumulate(n, ts);
     }
-    resolve(r, ts);
-    if (crypto_) crypto_->endTile(ts.crypto);
-    return r.size();
+    if (!schedule_) {
+      resolve(r, ts.sums.data(), ts.passSums.data(), ts.even.data());
+      if (crypto_) crypto_->endTile(ts.crypto);
+    }
+    return total;
+  }
+
+  // An adaptive render's tile into the film, once its rounds are done.
+  void resolveTile(int tile) const {
+    resolve(tileRect(tile), window_sums_->sums.data(), window_sums_->passSums.data(), window_sums_->even.data());
+  }
+
+  // The primary pass's standard error of every pixel of the window (window
+  // row-major) from the adaptive sums: what the schedule decides on.
+  void windowErrors(float* error) const {
+    const int w = window_.width();
+    tbb::parallel_for(0, window_.height(), [&](int y) {
+      for (int x = 0; x < w; ++x) {
+        const size_t i = size_t(y) * size_t(w) + size_t(x);
+        error[i] = pixelError(window_sums_->sums[i], window_sums_->even[i]);
+      }
+    });
   }
 
  private:
-  // Tile `tile` of the window, in image coordinates: every sample is keyed
-  // by its pixel's place in the frame, whatever window it is rendered in.
-  PixelRect tileRect(int tile) const {
-    PixelRect r = PixelRect::tile(tile, s_.tileSize, window_.width(), window_.height());
-    r.x0 += window_.x0, r.x1 += window_.x0, r.y0 += window_.y0, r.y1 += window_.y0;
-    return r;
+  float pixelError(const PixelSums& p, const HalfSums& even) const {
+    const PassSlot& primary = passes_[0];
+    return standardError(p.num, p.den, p.hits, even, *primary.integrator,
+                         p.hits ? pixelAlbedo(p.albedo, p.hits, primary.albedo) : Vec3(1, 1, 1));
   }
 
-  SampleCursor startCursor(const PixelRect& r) const {
-    SampleCursor c;
-    c.px = r.x0, c.py = r.y0;
-    c.key = sampler_.pixelKey(uint32_t(r.x0), uint32_t(r.y0));
+  // Pixel (px, py)'s slot in the sums and its samples this round.
+  uint32_t slotOf(const PixelRect& r, int px, int py) const {
+    return uint32_t(schedule_ ? window_.offset(px, py) : r.offset(px, py));
+  }
+
+  // Moves c from pixel (c.px, c.py) on to the first pixel of the tile, in
+  // row-major order, with samples this round (a fixed-spp round: that very
+  // pixel), and sets its sample range, sampler key and filter seeds. The
+  // caller knows the tile's sample count, so it never seeks past the last.
+  void seekPixel(const PixelRect& r, SampleCursor& c) const {
+    for (; c.py < r.y1;) {
+      uint32_t begin = 0, end = uint32_t(s_.spp);
+      if (schedule_) {
+        const size_t i = window_.offset(c.px, c.py);
+        begin = schedule_->taken(i), end = schedule_->target(i);
+      }
+      if (begin < end) {
+        c.pix = slotOf(r, c.px, c.py);
+        c.si = begin, c.end = end;
+        break;
+      }
+      if (++c.px == r.x1) c.px = r.x0, ++c.py;
+    }
+    if (c.py >= r.y1) return;
+    c.key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
     c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
-    return c;
   }
 
   // Camera samples -> rays: the next n samples of the tile into ts.camera,
@@ -143,12 +232,9 @@ class TileRenderer {
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key;
       ts.laneSample[l] = c.si;
-      if (++c.si == uint32_t(s_.spp)) {  // next pixel
-        c.si = 0;
-        ++c.pix;
+      if (++c.si == c.end) {  // next pixel
         if (++c.px == r.x1) c.px = r.x0, ++c.py;
-        c.key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
-        c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
+        seekPixel(r, c);
       }
     }
   }
@@ -204,12 +290,14 @@ class TileRenderer {
       const int32_t hi = ts.laneHit[l];
       if (hi < 0) continue;
       const SurfaceHit& h = ts.hits[size_t(hi)];
-      PixelSums& p = ts.sums[ts.lanePixel[l]];
+      PixelSums& p = ts.sumsAt[ts.lanePixel[l]];
       p.num.add(ts.W[size_t(hi)].num);
       p.den.add(ts.W[size_t(hi)].den);
       p.hits += 1;
+      // The even half for the error estimate (docs/math.md §13).
+      if ((ts.laneSample[l] & 1u) == 0) ts.evenAt[ts.lanePixel[l]].add(ts.W[size_t(hi)]);
       for (size_t k = 1; k < passes_.size(); ++k) {
-        PassSums& q = ts.passSums[size_t(ts.lanePixel[l]) * (passes_.size() - 1) + k - 1];
+        PassSums& q = ts.passAt[size_t(ts.lanePixel[l]) * (passes_.size() - 1) + k - 1];
         const SampleEstimate& w = ts.W[k * kChunk + size_t(hi)];
         q.num.add(w.num);
         q.den.add(w.den);
@@ -226,21 +314,23 @@ class TileRenderer {
     }
   }
 
-  // The tile's sums into the film. Each pixel belongs to exactly one tile,
-  // so no locking.
-  void resolve(const PixelRect& r, const ThreadScratch& ts) const {
+  // The tile's sums (slots as slotOf) into the film, each pixel over the
+  // samples it took. Each pixel belongs to exactly one tile, so no locking.
+  void resolve(const PixelRect& r, const PixelSums* sums, const PassSums* passSums, const HalfSums* even) const {
     const PassSlot& primary = passes_[0];
-    for (int y = 0; y < r.height(); ++y)
-      for (int x = 0; x < r.width(); ++x) {
-        const size_t j = size_t(y) * size_t(r.width()) + size_t(x);
-        const int fx = r.x0 + x, fy = r.y0 + y;
-        const PixelSums& p = ts.sums[j];
-        resolvePixelSums(p, s_.spp, *primary.integrator, primary.albedo, s_.sky, film_, fx, fy);
+    for (int fy = r.y0; fy < r.y1; ++fy)
+      for (int fx = r.x0; fx < r.x1; ++fx) {
+        const size_t j = slotOf(r, fx, fy);
+        const int n = schedule_ ? int(schedule_->taken(window_.offset(fx, fy))) : s_.spp;
+        const PixelSums& p = sums[j];
+        resolvePixelSums(p, n, *primary.integrator, primary.albedo, s_.sky, film_, fx, fy);
+        if (errorPlane_ >= 0) film_.at(errorPlane_, fx, fy) = writtenError(pixelError(p, even[j]), film_, fx, fy);
+        if (sppPlane_ >= 0) film_.at(sppPlane_, fx, fy) = float(n);
         if (primary.layer >= 0)
           for (int c = 0; c < 3; ++c) film_.at(primary.layer + c, fx, fy) = film_.at(kR + c, fx, fy);
         for (size_t k = 1; k < passes_.size(); ++k) {
-          const PassSums& q = ts.passSums[j * (passes_.size() - 1) + k - 1];
-          resolvePassLayer(q, p.hits, p.albedo, s_.spp, *passes_[k].integrator, passes_[k].albedo, film_,
+          const PassSums& q = passSums[j * (passes_.size() - 1) + k - 1];
+          resolvePassLayer(q, p.hits, p.albedo, n, *passes_[k].integrator, passes_[k].albedo, film_,
                            passes_[k].layer, fx, fy);
         }
       }
@@ -259,19 +349,14 @@ class TileRenderer {
   const bool mattes_;
   const CryptomatteFilm* crypto_;  // null: Cryptomatte off
   const PixelRect window_;
+  const int errorPlane_, sppPlane_;  // film planes W.error and spp, or -1
+  const SampleSchedule* schedule_ = nullptr;  // null: every pixel takes spp samples in one round
+  WindowSums* window_sums_ = nullptr;
 };
 
 }  // namespace
 
 namespace {
-
-// A pixel's mean albedo over its hits, or (1,1,1) for a pass whose solo
-// render would not carry albedo (hits > 0).
-Vec3 meanAlbedo(const Sum3& albedo, uint32_t hits, bool wantAlbedo) {
-  if (!wantAlbedo) return Vec3(1, 1, 1);
-  const double invHits = 1.0 / double(hits);
-  return Vec3(float(albedo.x * invHits), float(albedo.y * invHits), float(albedo.z * invHits));
-}
 
 // A pass's W at a pixel: the ratio of its sums, through resolvePixel.
 Vec3 resolvePass(const Sum3& num, const Sum3& den, const Integrator& integrator, Vec3 albedo) {
@@ -293,7 +378,7 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
   // The pass and the albedo are means over the pixel's hits, then
   // premultiplied by coverage.
   const double invHits = 1.0 / double(p.hits);
-  const Vec3 albedo = meanAlbedo(p.albedo, p.hits, wantAlbedo);
+  const Vec3 albedo = pixelAlbedo(p.albedo, p.hits, wantAlbedo);
   const Vec3 W = resolvePass(p.num, p.den, integrator, albedo);
   film.at(kR, fx, fy) = float(double(W.x) * coverage);
   film.at(kG, fx, fy) = float(double(W.y) * coverage);
@@ -317,13 +402,37 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
 }
 
 
+float writtenError(float se, const Film& film, int fx, int fy) {
+  if (std::isfinite(se)) return se;
+  const float a = film.at(kA, fx, fy);
+  if (!(a > 0.0f)) return 0.0f;
+  return std::max({std::fabs(film.at(kR, fx, fy)), std::fabs(film.at(kG, fx, fy)), std::fabs(film.at(kB, fx, fy))}) / a;
+}
+
+float standardError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfSums& even,
+                    const Integrator& integrator, Vec3 albedo) {
+  if (hits == 0) return 0.0f;
+  const uint32_t a = even.hits, b = hits - even.hits;
+  if (a == 0 || b == 0) return std::numeric_limits<float>::infinity();
+  const Sum3 oddNum{num.x - even.num.x, num.y - even.num.y, num.z - even.num.z};
+  const Sum3 oddDen{den.x - even.den.x, den.y - even.den.y, den.z - even.den.z};
+  const Vec3 We = resolvePass(even.num, even.den, integrator, albedo);
+  const Vec3 Wo = resolvePass(oddNum, oddDen, integrator, albedo);
+  // Var(W_e - W_o) = s^2 (1/a + 1/b) and Var(W) = s^2 / (a + b) for
+  // per-hit variance s^2, so se(W) = |W_e - W_o| sqrt(ab) / (a + b)
+  // (docs/math.md §13); = |W_e - W_o| / 2 for equal halves.
+  const double scale = std::sqrt(double(a) * double(b)) / double(a + b);
+  const double d = std::max({std::fabs(double(We.x) - Wo.x), std::fabs(double(We.y) - Wo.y), std::fabs(double(We.z) - Wo.z)});
+  return float(d * scale);
+}
+
 void resolvePassLayer(const PassSums& q, uint32_t hits, const Sum3& albedo, int spp, const Integrator& integrator,
                       bool wantAlbedo, Film& film, int layer, int fx, int fy) {
   if (hits == 0) return;  // background: the planes' zeros
   // The same arithmetic as resolvePixelSums' R,G,B, so a pass in a layer
   // equals its solo render bit for bit.
   const double coverage = double(hits) / double(spp);
-  const Vec3 W = resolvePass(q.num, q.den, integrator, meanAlbedo(albedo, hits, wantAlbedo));
+  const Vec3 W = resolvePass(q.num, q.den, integrator, pixelAlbedo(albedo, hits, wantAlbedo));
   film.at(layer + 0, fx, fy) = float(double(W.x) * coverage);
   film.at(layer + 1, fx, fy) = float(double(W.y) * coverage);
   film.at(layer + 2, fx, fy) = float(double(W.z) * coverage);
@@ -368,6 +477,17 @@ void checkSettings(const RenderSettings& s) {
   if (s.tileSize <= 0) throw Error("tile size must be at least 1");
   if (s.cryptomatte.any()) checkCryptomatteRanks(s.cryptomatte.ranks);
   if (hasRegion(s)) checkRegion(s.region, s.width, s.height);
+  checkAdaptiveSettings(s);
+  if (adaptiveSampling(s)) {
+    const std::string what = s.targetError > 0.0f ? settingName(Setting::TargetError) : settingName(Setting::TimeLimit);
+    // Both keep per-tile state that a tile's last sample completes; an
+    // adaptive tile is revisited round after round.
+    if (s.cryptomatte.any())
+      throw Error(what + ": adaptive sampling does not yet write Cryptomatte layers; render them at a fixed spp");
+    if (s.checkpoint)
+      throw Error(what + ": adaptive sampling cannot be checkpointed (its rounds revisit every tile); "
+                         "render without --checkpoint");
+  }
 }
 
 // The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the
@@ -380,10 +500,14 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   std::optional<CryptomatteFilm> crypto;
   if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
-  const TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo, crypto ? &*crypto : nullptr);
+  TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo, crypto ? &*crypto : nullptr);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
-  Progress progress("render", uint64_t(renderWindow(s).size()), s.progress);
+  // Adaptive renders count samples against the most they may take (every
+  // pixel at spp), and finish early; fixed ones count pixels.
+  const bool adaptive = adaptiveSampling(s);
+  const uint64_t window = uint64_t(renderWindow(s).size());
+  Progress progress("render", adaptive ? window * uint64_t(s.spp) : window, s.progress);
   // The saved tiles of a resumed render are in the film before any other
   // tile starts, and are skipped.
   Checkpoint* const checkpoint = s.checkpoint;
@@ -401,8 +525,8 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
     if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer, slots.size());
     const RayCounters before = threadRays(*slot);
-    if (const size_t pixels = tiles.renderTile(tile, *slot, cancel)) {
-      progress.advance(pixels);
+    if (const uint64_t samples = tiles.renderTile(tile, *slot, cancel)) {
+      progress.advance(adaptive ? samples : tiles.tileRect(tile).size());
       // Between tiles, on this thread: the hot loop never sees the checkpoint.
       if (checkpoint) {
         const RayCounters after = threadRays(*slot);
@@ -414,12 +538,48 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
 
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
-  arena.execute([&] {
+  const auto eachTile = [&](const auto& f) {
     tbb::parallel_for(tbb::blocked_range<int>(0, tiles.tileCount(), 1), [&](const tbb::blocked_range<int>& r) {
-      for (int t = r.begin(); t != r.end(); ++t) renderTile(t);
+      for (int t = r.begin(); t != r.end(); ++t) f(t);
     });
-  });
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  stats.meanSpp = s.spp;
+  if (!adaptive) {
+    arena.execute([&] { eachTile(renderTile); });
+  } else {
+    // Rounds (core/adaptive.h): every round takes the samples the schedule
+    // plans from the errors at the end of the one before; the film is
+    // written once, from the sums the rounds leave.
+    SampleSchedule schedule(renderWindow(s), s);
+    TileRenderer::WindowSums sums;
+    std::vector<float> error(window);
+    arena.execute([&] {
+      sums.sums.resize(window);
+      sums.passSums.resize(window * (slots.size() - 1));
+      sums.even.resize(window);
+      tiles.setSchedule(&schedule, &sums);
+      for (;;) {
+        eachTile(renderTile);
+        if (cancel && cancel->load()) return;
+        tiles.windowErrors(error.data());
+        const uint64_t planned = schedule.next(error.data());
+        if (planned == 0) break;
+        // --time-limit: no round starts that would end past it, at the rate
+        // the rounds so far ran (samples per second).
+        const double seconds = elapsed();
+        if (s.timeLimit > 0.0 &&
+            seconds + seconds / double(schedule.total()) * double(planned) > s.timeLimit) {
+          schedule.dropPlan();
+          break;
+        }
+      }
+      eachTile([&](int t) { tiles.resolveTile(t); });
+    });
+    stats.meanSpp = schedule.meanSpp();
+    stats.rounds = schedule.rounds();
+  }
+  stats.seconds = elapsed();
   progress.finish();
   stats.rays = {};
   for (const auto& slot : scratch) {
@@ -446,6 +606,8 @@ void addStats(RenderStats& total, const RenderStats& part) {
   total.gbufferSeconds += part.gbufferSeconds;
   total.screenSpaceSeconds += part.screenSpaceSeconds;
   total.filterSeconds += part.filterSeconds;
+  // The primary pass's loop runs first: its samples per pixel are the film's.
+  if (total.meanSpp == 0) total.meanSpp = part.meanSpp, total.rounds = part.rounds;
 }
 
 void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int count) {
@@ -484,6 +646,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   RenderStats part;
   Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
                              : Film(renderWindow(s), s.width, s.height, s.aovs);
+  if (!screenSpace(0) && s.aovs) film.addPlane(kErrorPlane), film.addPlane(kSppPlane);
   addStats(stats, part);
   // Layer planes in pass order, after the fixed channels (and the
   // Cryptomatte layers of a screen-space primary).

@@ -40,6 +40,13 @@ struct RenderSettings {
   // (Camera::motion) are placed at it. Off: every ray at time 0. A still
   // scene renders bit-identically either way. Ray-traced passes only.
   bool motionBlur = false;
+  // Adaptive sampling (core/adaptive.h; README "Adaptive sampling"): with
+  // a target error or a time limit, pixels are sampled in rounds and each
+  // stops once its standard error of W (dilated over its neighbours) is at
+  // most targetError, or at spp samples. Absolute, in units of W.
+  float targetError = 0;  // 0: off
+  int minSpp = 0;         // the first round's samples; 0: min(16, spp)
+  double timeLimit = 0;   // seconds; 0: none. No round starts that is predicted to end past it
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
   // --checkpoint: finished tiles saved to a file between tiles, and saved
   // tiles skipped (core/checkpoint.h; README "Checkpoints"). Ray-traced
@@ -69,6 +76,10 @@ struct RenderStats {
   // into rendering the G-buffer layers, the integrator's pass over them, and
   // the interleaving filter.
   double gbufferSeconds = 0, screenSpaceSeconds = 0, filterSeconds = 0;
+  // Camera samples taken per pixel, on average over the window (spp unless
+  // adaptive), and the rounds they were taken in.
+  double meanSpp = 0;
+  int rounds = 1;
 };
 
 // One pass of a render: an integrator, what it needs, and the EXR layer its

@@ -7,7 +7,7 @@ namespace {
 
 std::array<std::string, size_t(Setting::Count)> gNames = {
     "spp", "maxMemoryBytes", "subdivision", "backend OpenSubdiv", "displacementMap", "displacementScale",
-    "time", "animations", "shutter",
+    "time", "animations", "shutter", "targetError", "minSpp", "timeLimit",
 };
 
 }  // namespace

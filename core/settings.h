@@ -20,6 +20,9 @@ enum class Setting {
   Time,                   // LoadOptions::time
   Animations,             // LoadOptions::animations
   Shutter,                // LoadOptions::shutter, RenderSettings::motionBlur
+  TargetError,            // RenderSettings::targetError
+  MinSpp,                 // RenderSettings::minSpp
+  TimeLimit,              // RenderSettings::timeLimit
   Count
 };
 

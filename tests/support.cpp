@@ -183,6 +183,20 @@ PixelStats pixelStats(const Film& film, int c) {
   return s;
 }
 
+void expectSameFilm(const Film& a, const Film& b, const std::string& what) {
+  ASSERT_EQ(a.channels().size(), b.channels().size()) << what;
+  ASSERT_EQ(a.width(), b.width()) << what;
+  ASSERT_EQ(a.height(), b.height()) << what;
+  ASSERT_EQ(a.originX(), b.originX()) << what;
+  ASSERT_EQ(a.originY(), b.originY()) << what;
+  const size_t n = size_t(a.width()) * size_t(a.height());
+  for (size_t k = 0; k < a.channels().size(); ++k) {
+    const int c = a.channels()[k];
+    ASSERT_EQ(a.name(c), b.name(b.channels()[k])) << what;
+    ASSERT_EQ(std::memcmp(a.plane(c), b.plane(b.channels()[k]), n * sizeof(float)), 0) << what << ": " << a.name(c);
+  }
+}
+
 SubdivisionCage cubeCage() {
   SubdivisionCage c;
   for (int i = 0; i < 8; ++i) c.positions.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);

@@ -97,6 +97,10 @@ struct PixelStats {
 };
 PixelStats pixelStats(const Film& film, int c);
 
+// Asserts that two films hold the same planes (names, order, window) with
+// the same bits in every pixel; `what` names the comparison in failures.
+void expectSameFilm(const Film& a, const Film& b, const std::string& what);
+
 // Form factor from a floor point (normal +z) at the origin to the rectangle
 // [0, X] x [0, Y] parallel to the floor at height h: (1 / 2 pi) [A / sqrt(1 + A^2)
 // atan(B / sqrt(1 + A^2)) + B / sqrt(1 + B^2) atan(A / sqrt(1 + B^2))], A = X / h,

@@ -1,0 +1,128 @@
+#include "core/adaptive.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.h"
+#include "core/render.h"
+#include "core/settings.h"
+
+namespace obscura {
+
+namespace {
+// The first round's samples when --min-spp is not given: enough for the
+// two halves' error estimate to mean something (8 samples each), few enough
+// that an open floor converged after a handful wastes little.
+constexpr int kDefaultMinSpp = 16;
+}  // namespace
+
+bool adaptiveSampling(const RenderSettings& s) { return s.targetError > 0.0f || s.timeLimit > 0.0; }
+
+int firstRoundSpp(const RenderSettings& s) { return std::min(s.spp, s.minSpp > 0 ? s.minSpp : kDefaultMinSpp); }
+
+void checkAdaptiveSettings(const RenderSettings& s) {
+  if (!(s.targetError >= 0.0f) || !std::isfinite(s.targetError))
+    throw Error(settingName(Setting::TargetError) + " must be a finite standard error >= 0 (0: off)");
+  if (!(s.timeLimit >= 0.0) || !std::isfinite(s.timeLimit))
+    throw Error(settingName(Setting::TimeLimit) + " must be a finite number of seconds >= 0 (0: none)");
+  if (s.minSpp < 0) throw Error(settingName(Setting::MinSpp) + " must be at least 1");
+  if (s.minSpp > s.spp)
+    throw Error(settingName(Setting::MinSpp) + " (" + std::to_string(s.minSpp) + ") exceeds " +
+                settingName(Setting::Spp) + " (" + std::to_string(s.spp) + "), the most samples a pixel takes");
+  if (s.minSpp > 0 && !adaptiveSampling(s))
+    throw Error(settingName(Setting::MinSpp) + " needs " + settingName(Setting::TargetError) + " or " +
+                settingName(Setting::TimeLimit) + " (without them every pixel takes " + settingName(Setting::Spp) +
+                " samples)");
+}
+
+SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
+    : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds), taken_(window.size(), 0),
+      target_(window.size(), uint32_t(firstRoundSpp(s))), active_(window.size(), 1), dilated_(window.size()) {
+  planned_ = uint64_t(window.size()) * uint64_t(firstRoundSpp(s));
+  maxTarget_ = uint32_t(firstRoundSpp(s));
+}
+
+uint64_t SampleSchedule::planned(const PixelRect& r) const {
+  uint64_t n = 0;
+  for (int y = r.y0; y < r.y1; ++y) {
+    const size_t row = window_.offset(r.x0, y);
+    for (int x = 0; x < r.width(); ++x) n += target_[row + size_t(x)] - taken_[row + size_t(x)];
+  }
+  return n;
+}
+
+void SampleSchedule::dropPlan() {
+  if (planned_) --rounds_;
+  target_ = taken_;
+  planned_ = 0;
+  maxTarget_ = 0;
+}
+
+uint64_t SampleSchedule::next(const float* error) {
+  for (size_t i = 0; i < taken_.size(); ++i) total_ += target_[i] - taken_[i];
+  taken_ = target_;
+  const int w = window_.width(), h = window_.height();
+  // The error dilated over each pixel's 3 x 3 neighbours within the window
+  // (a max filter, rows then columns): a pixel stops only when its
+  // neighbourhood agrees, so one lucky estimate - the halves' difference
+  // has one degree of freedom, and is near 0 a few times in a hundred -
+  // does not stop a noisy pixel (docs/math.md §13).
+  std::vector<float> rows(window_.size());
+  tbb::parallel_for(0, h, [&](int y) {
+    const float* e = error + size_t(y) * size_t(w);
+    float* o = rows.data() + size_t(y) * size_t(w);
+    for (int x = 0; x < w; ++x) {
+      float m = e[x];
+      if (x > 0) m = std::max(m, e[x - 1]);
+      if (x + 1 < w) m = std::max(m, e[x + 1]);
+      o[x] = m;
+    }
+  });
+  tbb::parallel_for(0, h, [&](int y) {
+    const size_t row = size_t(y) * size_t(w);
+    for (int x = 0; x < w; ++x) {
+      float m = rows[row + size_t(x)];
+      if (y > 0) m = std::max(m, rows[row - size_t(w) + size_t(x)]);
+      if (y + 1 < h) m = std::max(m, rows[row + size_t(w) + size_t(x)]);
+      dilated_[row + size_t(x)] = m;
+    }
+  });
+  // Each pixel that goes on takes the samples its estimate says it needs -
+  // the error falls as 1/sqrt(n), so n (d/E)^2 - but at least one and at
+  // most half again what it has: the estimate is noisy, and a round that
+  // overshoots cannot be taken back.
+  uint64_t planned = 0;
+  maxTarget_ = 0;
+  for (size_t i = 0; i < taken_.size(); ++i) {
+    if (!active_[i]) continue;  // stopped pixels stay stopped
+    const uint32_t n = taken_[i];
+    const float d = dilated_[i];
+    if (n >= spp_ || (targetError_ > 0.0f && d <= targetError_)) {
+      active_[i] = 0;
+      continue;
+    }
+    const double grow = std::max(1.0, std::floor(double(n) * 0.5));
+    double want = double(n) + grow;
+    if (targetError_ > 0.0f && std::isfinite(d)) {
+      const double ratio = double(d) / double(targetError_);
+      want = std::min(want, std::ceil(double(n) * ratio * ratio));
+    }
+    want = std::max(want, double(n) + 1.0);
+    target_[i] = uint32_t(std::min(double(spp_), want));
+    planned += target_[i] - n;
+    maxTarget_ = std::max(maxTarget_, target_[i]);
+  }
+  if (uniform_) {
+    planned = 0;
+    for (size_t i = 0; i < taken_.size(); ++i)
+      if (active_[i]) target_[i] = maxTarget_, planned += maxTarget_ - taken_[i];
+  }
+  planned_ = planned;
+  if (planned) ++rounds_;
+  return planned;
+}
+
+}  // namespace obscura

@@ -1,0 +1,74 @@
+// Adaptive sampling: how many camera samples each pixel takes, decided in
+// rounds from the pixels' error estimates (README "Adaptive sampling",
+// docs/math.md §13).
+//
+// Every pixel takes the first --min-spp samples; after each round, a pixel
+// whose error estimate, dilated over its 3 x 3 neighbourhood, is at most the
+// target stops, and every other pixel is given its next samples, up to
+// --spp. A pixel's samples are always its first n samples in sample order,
+// the very samples of a fixed-spp render, so a pixel that never stops equals
+// the fixed-spp render bit for bit; and the decisions read only the sums at
+// round boundaries, so the image does not depend on threads or tile size.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/film.h"
+
+namespace obscura {
+
+struct RenderSettings;
+
+// True when s asks for rounds: a target error or a time limit.
+bool adaptiveSampling(const RenderSettings& s);
+// The samples of the first round: --min-spp (default min(16, spp)).
+int firstRoundSpp(const RenderSettings& s);
+// Throws obscura::Error naming the setting if s's adaptive settings are out
+// of range.
+void checkAdaptiveSettings(const RenderSettings& s);
+
+// The pixels' sample counts over a window (row-major within it).
+class SampleSchedule {
+ public:
+  // With `uniformRounds` every pixel that goes on takes the round's
+  // largest target: the screen-space loop's samples are whole-image
+  // G-buffer layers, taken by every running pixel at once.
+  SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds = false);
+  size_t pixels() const { return taken_.size(); }
+  // Pixel i's samples so far (before this round) and the end of this
+  // round's: it takes samples [taken(i), target(i)).
+  uint32_t taken(size_t i) const { return taken_[i]; }
+  uint32_t target(size_t i) const { return target_[i]; }
+  // The samples this round takes, in all and in rect r (image coordinates,
+  // inside the window).
+  uint64_t planned() const { return planned_; }
+  // The largest target: the samples the round runs up to.
+  uint32_t maxTarget() const { return maxTarget_; }
+  uint64_t planned(const PixelRect& r) const;
+  // The round is done: every pixel's samples so far become its target.
+  // Then, from each pixel's standard error (window row-major; +inf where
+  // unknown), plans the next round and returns its samples (0: finished).
+  uint64_t next(const float* error);
+  // Drops the round just planned (the time limit): the render ends with
+  // the samples taken.
+  void dropPlan();
+  // Samples taken over the window, and their mean per pixel.
+  uint64_t total() const { return total_; }
+  double meanSpp() const { return double(total_) / double(pixels()); }
+  int rounds() const { return rounds_; }
+
+ private:
+  PixelRect window_;
+  uint32_t spp_;
+  float targetError_;
+  bool uniform_;
+  std::vector<uint32_t> taken_, target_;
+  std::vector<uint8_t> active_;  // 0 once the pixel has stopped
+  std::vector<float> dilated_;
+  uint64_t planned_ = 0, total_ = 0;
+  uint32_t maxTarget_ = 0;
+  int rounds_ = 1;
+};
+
+}  // namespace obscura
