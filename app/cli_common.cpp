@@ -415,6 +415,11 @@ ExrOptions passHeader(const PassInfo& i) {
     exr.attributes.push_back({"obscura:meanSpp", float(i.stats.meanSpp)});
     exr.attributes.push_back({"obscura:rounds", i.stats.rounds});
   }
+  if (i.settings.denoise) {
+    // README "Denoising": the filter and its defaults (core/denoise.h).
+    str("obscura:denoise", "atrous");
+    exr.attributes.push_back({"obscura:denoiseTime", float(i.stats.denoiseSeconds)});
+  }
   exr.attributes.push_back({"obscura:seed", int(i.settings.seed)});  // stored bit pattern; see README
   str("obscura:seedText", std::to_string(i.settings.seed));
   str("obscura:resolution", std::to_string(i.settings.width) + "x" + std::to_string(i.settings.height));

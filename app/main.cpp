@@ -71,6 +71,7 @@ struct RenderArgs : SceneArgs {
   float targetError = 0;  // --target-error; 0 = off
   int minSpp = 0;         // --min-spp; 0 = min(16, spp)
   double timeLimit = 0;   // --time-limit SECONDS; 0 = none
+  bool denoise = false;   // --denoise
   std::string res = "960x540";
   std::string camera;
   int threads = 0;
@@ -152,7 +153,8 @@ Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, cons
   Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
   for (const HeaderAttribute& h : header.attributes) {
     const std::string& n = h.name;
-    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n.rfind("obscura:rays:", 0) == 0)
+    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n == "obscura:denoiseTime" ||
+        n.rfind("obscura:rays:", 0) == 0)
       continue;
     fp.emplace_back(n, attributeText(h));
   }
@@ -341,6 +343,8 @@ int runRender(const RenderArgs& args) {
   s.targetError = args.targetError;
   s.minSpp = args.minSpp;
   s.timeLimit = args.timeLimit;
+  s.denoise = args.denoise;
+  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
   checkAdaptiveSettings(s);
   s.seed = uint32_t(args.seed);
   s.threads = args.threads;
@@ -460,6 +464,7 @@ int runRender(const RenderArgs& args) {
       std::fprintf(stderr, "obscura: %s  %dx%d  %s  %s  %.2f s  %.2f Mrays/s  (BVH %.3f s)\n", a.output.c_str(),
                    s.width, s.height, spp.c_str(), names.c_str(), stats.seconds, total / stats.seconds * 1e-6,
                    scene->buildSeconds());
+      if (s.denoise) std::fprintf(stderr, "obscura: denoised in %.3f s (raw pass in noisy.R/G/B)\n", stats.denoiseSeconds);
       if (anyScreenSpace)
         std::fprintf(stderr, "obscura: screen-space split: G-buffer %.3f s, screen-space %.3f s, filter %.3f s\n",
                      stats.gbufferSeconds, stats.screenSpaceSeconds, stats.filterSeconds);
@@ -580,6 +585,9 @@ int main(int argc, char** argv) {
                      "neighbours) is at most E, or at --spp samples (README \"Adaptive sampling\")")
       ->type_name("E")
       ->default_str("off");
+  render->add_flag("--denoise", r.denoise,
+                   "Edge-aware denoise of the pass, guided by N, Z, W.error and the objects (README \"Denoising\"); the raw "
+                   "pass is kept as noisy.R/G/B");
   render->add_option("--min-spp", r.minSpp, "Adaptive sampling: the samples every pixel takes before any may stop")
       ->default_str("min(16, --spp)");
   render->add_option("--time-limit", r.timeLimit,

@@ -110,7 +110,7 @@ struct RawAoTracer::Impl {
       setRayHit(rh, raster.org, d, tnear, tfar, 0);
       rtcIntersect1(scene, &cc, &rh);
       if (rh.hit.geomID == kInvalid) continue;
-      const AoRay a = makeAoRay(raster.org, d, rh.ray.tfar, Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), w.key, w.si);
+      const AoRay a = makeAoRay(raster.org, d, rh.ray.tfar, Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z), w.key, w.index);
       alignas(16) RTCRay r;
       setRay(r, a.org, a.dir, 0.0f, set.aoDistance, 0);
       rtcOccluded1(scene, &oc, &r);
@@ -147,7 +147,7 @@ struct RawAoTracer::Impl {
         p.hit.geomID[l] = kInvalid;
         p.hit.instID[0][l] = kInvalid;
         b.key.p[i] = w.key;
-        b.sample.p[i] = w.si;
+        b.sample.p[i] = w.index;
       }
       const size_t packets = (n + 15) / 16;
       for (size_t k = 0; k < packets; ++k)
@@ -196,7 +196,7 @@ struct RawAoTracer::Impl {
       for (size_t i = 0; i < n; ++i, w.next()) {
         setRayHit(cam[i], raster.org, w.direction(raster), tnear, tfar, unsigned(i));
         b.key.p[i] = w.key;
-        b.sample.p[i] = w.si;
+        b.sample.p[i] = w.index;
       }
       rtcIntersect1M(scene, &cc, cam, unsigned(n), sizeof(RTCRayHit));
 

@@ -184,7 +184,7 @@ class RawObscurance {
       for (size_t i = 0; i < n; ++i, w.next()) {
         setRayHit(cam[i], raster_.org, w.direction(raster_), tnear_, tfar_, unsigned(i));
         b.key.p[i] = w.key;
-        b.sample.p[i] = w.si;
+        b.sample.p[i] = w.index;
       }
       rtcIntersect1M(scene_, &cc, cam, unsigned(n), sizeof(RTCRayHit));
 

@@ -83,21 +83,25 @@ struct BenchIntegrator {
 
 // Walks a tile's camera samples in the renderer's order (core/render.cpp):
 // pixels row-major within the tile, each pixel's samples 0..spp-1
-// consecutively.
+// consecutively; sample si draws from its replicate's key at its index
+// (core/sampler.h sampleStream).
 struct SampleWalk {
   SampleWalk(const Sampler& s, int x0_, int y0, int tw, int spp_)
       : sampler(s), x0(x0_), x1(x0_ + tw), spp(uint32_t(spp_)), px(x0_), py(y0),
-        key(s.pixelKey(uint32_t(x0_), uint32_t(y0))) {}
+        pixelKey(s.pixelKey(uint32_t(x0_), uint32_t(y0))), key(pixelKey) {}
   void next() {
-    if (++si != spp) return;
-    si = 0;
-    if (++px == x1) px = x0, ++py;
-    key = sampler.pixelKey(uint32_t(px), uint32_t(py));
+    if (++si == spp) {
+      si = 0;
+      if (++px == x1) px = x0, ++py;
+      pixelKey = sampler.pixelKey(uint32_t(px), uint32_t(py));
+    }
+    const SampleStream st = sampleStream(pixelKey, si);
+    key = st.key, index = st.index;
   }
   // The current sample's camera ray direction (box filter, as the benches
   // render with).
   Vec3 direction(const RasterCamera& raster) const {
-    const Sample2 f = Sampler::get2D(key, si, kDimPixelFilter);
+    const Sample2 f = Sampler::get2D(key, index, kDimPixelFilter);
     return raster.direction(float(px) + f.u, float(py) + f.v);
   }
   const Sampler& sampler;
@@ -105,7 +109,9 @@ struct SampleWalk {
   uint32_t spp;
   int px, py;
   uint32_t si = 0;
-  uint32_t key;
+  uint32_t pixelKey;
+  uint32_t key;       // the sample's replicate key
+  uint32_t index = 0; // and its index in it
 };
 
 // A closest-hit ray for rtcIntersect1/1M (mask ~0, time 0, no hit yet).

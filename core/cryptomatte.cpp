@@ -264,20 +264,21 @@ void renderCryptomatteSamples(const Scene& scene, const Tracer& tracer, const Ca
       // the same camera ray (key, filter dimension, film position).
       uint32_t pix = 0, si = 0;
       int px = r.x0, py = r.y0;
-      Sampler::Seeds2 seeds = Sampler::seeds2D(sampler.pixelKey(uint32_t(px), uint32_t(py)), kDimPixelFilter);
+      uint32_t key = sampler.pixelKey(uint32_t(px), uint32_t(py));
       const uint64_t total = uint64_t(r.size()) * spp;
       for (uint64_t begin = 0; begin < total; begin += kChunk) {
         const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
         sc.rays.clear();
         for (size_t l = 0; l < n; ++l) {
           float fx, fy;
-          cameraSampleFilm(s.filter, seeds, si, px, py, fx, fy);
+          const SampleStream st = sampleStream(key, si);  // the sample's replicate (core/sampler.h)
+          cameraSampleFilm(s.filter, Sampler::seeds2D(st.key, kDimPixelFilter), st.index, px, py, fx, fy);
           sc.rays.pushCamera(raster.org, raster.direction(fx, fy), camera.znear, camera.zfar);
           sc.lanePixel[l] = pix;
           if (++si == spp && ++pix < r.size()) {
             si = 0;
             px = r.x0 + int(pix % uint32_t(r.width())), py = r.y0 + int(pix / uint32_t(r.width()));
-            seeds = Sampler::seeds2D(sampler.pixelKey(uint32_t(px), uint32_t(py)), kDimPixelFilter);
+            key = sampler.pixelKey(uint32_t(px), uint32_t(py));
           }
         }
         tracer.intersect(sc.rays, RayCoherence::Coherent);

@@ -60,7 +60,9 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   const size_t n = size_t(s.width) * size_t(s.height);
   g.width = s.width;
   g.height = s.height;
-  g.sampleIndex = sampleIndex;
+  // The layer's replicate and index within it (core/sampler.h sampleStream):
+  // the ray-traced loop's for the same sample.
+  g.sampleIndex = sampleStream(0, sampleIndex).index;
   g.view = ViewTransform(camera, s.width, s.height);
   g.depth.resize(n);
   g.position.resize(n);
@@ -74,7 +76,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   const Sampler sampler(s.seed);
   const bool mattes = scene.hasMattes(), nonOccluders = scene.hasNonOccluders();
   // No pixel has coordinates (2^32 - 1, 2^32 - 1): a key of its own.
-  g.imageKey = sampler.pixelKey(~0U, ~0U);
+  g.imageKey = sampleStream(sampler.pixelKey(~0U, ~0U), sampleIndex).key;
   tbb::enumerable_thread_specific<IntersectBatch> batches;
   tbb::enumerable_thread_specific<uint64_t> rays(0);
   parallelRows(s.height, [&](int y0, int y1) {
@@ -96,9 +98,9 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
         const int px = int(i % size_t(s.width)), py = int(i / size_t(s.width));
         // The ray-traced loop's camera ray of (pixel, sample index):
         // the same key, filter dimension and film position.
-        const uint32_t key = sampler.pixelKey(uint32_t(px), uint32_t(py));
+        const uint32_t key = sampleStream(sampler.pixelKey(uint32_t(px), uint32_t(py)), sampleIndex).key;
         float fx, fy;
-        cameraSampleFilm(s.filter, Sampler::seeds2D(key, kDimPixelFilter), sampleIndex, px, py, fx, fy);
+        cameraSampleFilm(s.filter, Sampler::seeds2D(key, kDimPixelFilter), g.sampleIndex, px, py, fx, fy);
         cam.pushCamera(raster.org, raster.direction(fx, fy), camera.znear, camera.zfar);
         g.pixelKey[i] = key;
       }

@@ -21,6 +21,7 @@ struct PixelSums {
   Sum3 num, den, albedo, N;
   double Z;
   uint32_t hits;
+  uint32_t object = ~0U;  // the object of the pixel's first hit in sample order (the denoiser's guide)
 };
 
 // The sums of a pass that shares its pixel's hits, coverage and AOVs with

@@ -11,6 +11,7 @@
 #include <optional>
 
 #include "core/adaptive.h"
+#include "core/denoise.h"
 #include "core/error.h"
 #include "core/gbuffer.h"
 #include "core/pixel_sums.h"
@@ -76,8 +77,10 @@ struct SampleCursor {
   uint32_t pix = 0;          // the pixel's slot in the sums (ThreadScratch::sumsAt)
   uint32_t si = 0, end = 0;  // sample within the pixel, and the end of its samples this round
   int px = 0, py = 0;        // that pixel in the image
-  uint32_t key = 0;
-  Sampler::Seeds2 filterSeeds{};
+  // The keys of the pixel's two sample replicates (core/sampler.h
+  // sampleStream: even samples, odd samples) and their filter seeds.
+  uint32_t key[2] = {0, 0};
+  Sampler::Seeds2 filterSeeds[2] = {};
 };
 
 // The render loop's stages for one tile, chunk by chunk:
@@ -206,8 +209,11 @@ class TileRenderer {
       if (++c.px == r.x1) c.px = r.x0, ++c.py;
     }
     if (c.py >= r.y1) return;
-    c.key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
-    c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
+    const uint32_t key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
+    for (uint32_t g = 0; g < 2; ++g) {
+      c.key[g] = sampleStream(key, g).key;
+      c.filterSeeds[g] = Sampler::seeds2D(c.key[g], kDimPixelFilter);
+    }
   }
 
   // Camera samples -> rays: the next n samples of the tile into ts.camera,
@@ -216,8 +222,10 @@ class TileRenderer {
     IntersectBatch& cam = ts.camera;
     cam.clear();
     for (size_t l = 0; l < n; ++l) {
+      // Sample si draws from replicate si & 1 at index si >> 1 (core/sampler.h).
+      const uint32_t g = c.si & 1U, index = c.si >> 1;
       float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
-      cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx, fy);
+      cameraSampleFilm(s_.filter, c.filterSeeds[g], index, c.px, c.py, fx, fy);
       if (!s_.motionBlur) {
         const RasterCamera& raster = shutter_.still();
         cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_);
@@ -225,12 +233,12 @@ class TileRenderer {
         // The sample's moment in the shutter, from a dimension of its own:
         // the other dimensions - and so a still scene's image - are those
         // of a render without motion blur.
-        const float time = Sampler::get1D(c.key, c.si, kDimShutterTime);
+        const float time = Sampler::get1D(c.key[g], index, kDimShutterTime);
         const RasterCamera raster = shutter_.at(time);
         cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_, time);
       }
       ts.lanePixel[l] = c.pix;
-      ts.laneKey[l] = c.key;
+      ts.laneKey[l] = c.key[g];
       ts.laneSample[l] = c.si;
       if (++c.si == c.end) {  // next pixel
         if (++c.px == r.x1) c.px = r.x0, ++c.py;
@@ -260,8 +268,8 @@ class TileRenderer {
       ts.laneHit[l] = int32_t(ts.hits.size());
       SurfaceHit& h = ts.hits.emplace_back();
       computeSurfaceHit(scene_, cam.data()[l], wantAlbedo_, h);
-      h.pixelKey = ts.laneKey[l];
-      h.sampleIndex = ts.laneSample[l];
+      h.pixelKey = ts.laneKey[l];  // the sample's replicate
+      h.sampleIndex = ts.laneSample[l] >> 1;
     }
   }
 
@@ -293,6 +301,7 @@ class TileRenderer {
       PixelSums& p = ts.sumsAt[ts.lanePixel[l]];
       p.num.add(ts.W[size_t(hi)].num);
       p.den.add(ts.W[size_t(hi)].den);
+      if (p.hits == 0) p.object = h.object;
       p.hits += 1;
       // The even half for the error estimate (docs/math.md §13).
       if ((ts.laneSample[l] & 1u) == 0) ts.evenAt[ts.lanePixel[l]].add(ts.W[size_t(hi)]);
@@ -326,6 +335,7 @@ class TileRenderer {
         resolvePixelSums(p, n, *primary.integrator, primary.albedo, s_.sky, film_, fx, fy);
         if (errorPlane_ >= 0) film_.at(errorPlane_, fx, fy) = writtenError(pixelError(p, even[j]), film_, fx, fy);
         if (sppPlane_ >= 0) film_.at(sppPlane_, fx, fy) = float(n);
+        if (objects_) objects_[window_.offset(fx, fy)] = p.object;
         if (primary.layer >= 0)
           for (int c = 0; c < 3; ++c) film_.at(primary.layer + c, fx, fy) = film_.at(kR + c, fx, fy);
         for (size_t k = 1; k < passes_.size(); ++k) {
@@ -352,6 +362,9 @@ class TileRenderer {
   const int errorPlane_, sppPlane_;  // film planes W.error and spp, or -1
   const SampleSchedule* schedule_ = nullptr;  // null: every pixel takes spp samples in one round
   WindowSums* window_sums_ = nullptr;
+  uint32_t* objects_ = nullptr;  // --denoise: each pixel's first object (window row-major), else null
+ public:
+  void setObjects(uint32_t* objects) { objects_ = objects; }
 };
 
 }  // namespace
@@ -488,12 +501,15 @@ void checkSettings(const RenderSettings& s) {
       throw Error(what + ": adaptive sampling cannot be checkpointed (its rounds revisit every tile); "
                          "render without --checkpoint");
   }
+  if (s.denoise && !s.aovs)
+    throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
 }
 
 // The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the
 // camera samples, into `film` (with its Cryptomatte layers if s asks).
 void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const PassSlot> slots, bool wantAlbedo,
-                     const RenderSettings& s, Film& film, RenderStats& stats, const std::atomic<bool>* cancel) {
+                     const RenderSettings& s, Film& film, RenderStats& stats, const std::atomic<bool>* cancel,
+                     uint32_t* objects) {
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();
 
@@ -501,6 +517,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
   std::optional<CryptomatteFilm> crypto;
   if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
   TileRenderer tiles(scene, camera, slots, s, tracer, film, wantAlbedo, crypto ? &*crypto : nullptr);
+  tiles.setObjects(objects);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
   // Adaptive renders count samples against the most they may take (every
@@ -615,6 +632,43 @@ void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int 
   for (int c = 0; c < count; ++c) std::copy_n(from.plane(fromChannel + c), n, to.plane(toChannel + c));
 }
 
+// --denoise: the film's R,G,B through the edge-aware filter (core/denoise.h),
+// the raw pass kept as noisy.R/G/B; the primary's layer copy and shaded.*
+// (albedo x W x sky, premultiplied: albedo_pm W_pm sky / A) follow the
+// denoised W, so the film stays one consistent pass.
+void denoisePrimary(Film& film, bool passReadsAlbedo, const uint32_t* objects, const RenderSettings& s, int layer) {
+  const size_t n = size_t(film.width()) * size_t(film.height());
+  const int noisy = film.addPlane("noisy.R");
+  film.addPlane("noisy.G"), film.addPlane("noisy.B");
+  copyPlanes(film, kR, film, noisy, 3);
+  std::vector<float> variance(n);
+  const float* error = film.plane(film.find(kErrorPlane));
+  for (size_t i = 0; i < n; ++i) variance[i] = error[i] * error[i];
+  DenoiseInput in;
+  in.width = film.width(), in.height = film.height();
+  for (int c = 0; c < 3; ++c) {
+    in.color[c] = film.plane(noisy + c);
+    in.normal[c] = film.plane(kNX + c);
+    in.albedo[c] = passReadsAlbedo ? film.plane(kAlbedoR + c) : nullptr;
+  }
+  in.alpha = film.plane(kA);
+  in.variance = variance.data();
+  in.depth = film.plane(kZ);
+  in.object = objects;
+  DenoiseSettings ds;
+  ds.threads = s.threads;
+  float* out[3] = {film.plane(kR), film.plane(kG), film.plane(kB)};
+  denoise(in, ds, out);
+  if (layer >= 0) copyPlanes(film, kR, film, layer, 3);
+  const double sky[3] = {s.sky.x, s.sky.y, s.sky.z};
+  for (size_t i = 0; i < n; ++i) {
+    const float a = film.plane(kA)[i];
+    for (int c = 0; c < 3; ++c)
+      film.plane(kShadedR + c)[i] =
+          a > 0.0f ? float(double(film.plane(kAlbedoR + c)[i]) * film.plane(kR + c)[i] * sky[c] / a) : 0.0f;
+  }
+}
+
 }  // namespace
 
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
@@ -678,16 +732,20 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     for (size_t k : rayTraced) slots.push_back({passes[k].integrator, passes[k].needs.albedo || s.aovs, layerOf[k]});
     return slots;
   };
+  // The denoiser's object guide: each pixel's first object, from the
+  // ray-traced primary's walk (a screen-space primary: normal and depth only).
+  std::vector<uint32_t> objects(s.denoise && !screenSpace(0) ? renderWindow(s).size() : 0, ~0U);
   if (!rayTraced.empty()) {
     part = {};
     if (!screenSpace(0)) {
-      renderRayTraced(scene, camera, slotsFor(layer), wantAlbedo, s, film, part, cancel);
+      renderRayTraced(scene, camera, slotsFor(layer), wantAlbedo, s, film, part, cancel,
+                      objects.empty() ? nullptr : objects.data());
     } else {
       // The first ray-traced pass lands in R,G,B of a film of its own; every
       // ray-traced pass's layer is copied over.
       Film rt(renderWindow(s), s.width, s.height, s.aovs);
       const std::vector<int> rtLayer = addLayers(rt);
-      renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel);
+      renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel, nullptr);
       for (size_t k : rayTraced) copyPlanes(rt, rtLayer[k], film, layer[k], 3);
     }
     addStats(stats, part);
@@ -702,7 +760,15 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     addStats(stats, part);
   }
   if (screenSpace(0) && layer[0] >= 0) copyPlanes(film, kR, film, layer[0], 3);
-  if (cancel && cancel->load()) stats.seconds = -1;
+  if (cancel && cancel->load()) {
+    stats.seconds = -1;
+    return film;
+  }
+  if (s.denoise) {
+    const auto t0 = std::chrono::steady_clock::now();
+    denoisePrimary(film, passes[0].needs.albedo, objects.empty() ? nullptr : objects.data(), s, layer[0]);
+    stats.denoiseSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
   return film;
 }
 

@@ -47,6 +47,11 @@ struct RenderSettings {
   float targetError = 0;  // 0: off
   int minSpp = 0;         // the first round's samples; 0: min(16, spp)
   double timeLimit = 0;   // seconds; 0: none. No round starts that is predicted to end past it
+  // --denoise (core/denoise.h; README "Denoising"): the primary pass's R,G,B
+  // (and its layer, shaded.*) replaced by the edge-aware filter's output,
+  // guided by N, Z, W.error, the pixels' objects and (for passes that read
+  // it) albedo; the raw pass kept as noisy.R/G/B. Needs the AOVs.
+  bool denoise = false;
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/tracer.h)
   // --checkpoint: finished tiles saved to a file between tiles, and saved
   // tiles skipped (core/checkpoint.h; README "Checkpoints"). Ray-traced
@@ -80,6 +85,7 @@ struct RenderStats {
   // adaptive), and the rounds they were taken in.
   double meanSpp = 0;
   int rounds = 1;
+  double denoiseSeconds = 0;  // --denoise: the filter's wall time (not in `seconds`)
 };
 
 // One pass of a render: an integrator, what it needs, and the EXR layer its

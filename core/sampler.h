@@ -165,6 +165,22 @@ class Sampler {
   uint32_t seed_;
 };
 
+// Camera sample `si` of a pixel draws from one of two independently
+// scrambled replicates of the pixel's sequence: the even samples from the
+// pixel's key at index si / 2, the odd ones from a key hashed from it, at
+// the same index. Each replicate's first n points are a stratified net; the
+// two are independent, so their difference measures the error of the
+// pixel's mean honestly (docs/math.md §13). Splitting one scrambled
+// sequence into its even and odd indices would not: the lowest index bit
+// picks a half of the first dimension, so the two halves would integrate
+// over different halves of the domain.
+struct SampleStream {
+  uint32_t key, index;
+};
+inline SampleStream sampleStream(uint32_t pixelKey, uint32_t si) {
+  return {(si & 1U) ? hashCombine(pixelKey, 0x6f4f2a1dU) : pixelKey, si >> 1};
+}
+
 // Fixed dimension assignments of the core. Integrators use dimensions from
 // kFirstIntegratorDim upward, so core and integrator streams never collide.
 enum : uint32_t {
