@@ -3,24 +3,27 @@
 #include "core/denoise.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 #include <vector>
 
 #include "core/error.h"
 #include "core/film.h"
+#include "core/large_vector.h"
 
 namespace obscura {
 
 namespace {
 
 // The B3-spline's taps (1, 4, 6, 4, 1) / 16: the a-trous scaling function of
-// docs/denoise.md "The filter"; the variance prefilter's 3 x 3 taps are
-// (1, 2, 1) / 4.
+// docs/denoise.md "The filter"; the 3-tap kernel and the variance
+// prefilter's taps are the binomial (1, 2, 1) / 4.
 constexpr float kB3[5] = {1.0f / 16, 4.0f / 16, 6.0f / 16, 4.0f / 16, 1.0f / 16};
 constexpr float kBinomial3[3] = {0.25f, 0.5f, 0.25f};
 
@@ -29,25 +32,30 @@ constexpr float kBinomial3[3] = {0.25f, 0.5f, 0.25f};
 // gradient (docs/denoise.md "Depth").
 constexpr float kGradientNormalDot = 0.9f;
 
-// The per-pixel guides, un-premultiplied and laid out for the tap loop.
+// Beyond this exponent a tap weighs < 1e-13 of the centre: clamped there
+// (and so, in effect, 0) rather than branched on, to keep the loop
+// branch-free.
+constexpr float kMaxExponent = 30.0f;
+
+// The per-pixel guides as planes (structure of arrays): the tap loop runs
+// along a row for one tap offset at a time, so the pixels and their taps
+// are consecutive floats and the loop vectorizes (docs/denoise.md "Cost").
 struct Guides {
   int width = 0, height = 0;
-  std::vector<uint8_t> valid;              // alpha > 0 and a finite depth below the background's
-  std::vector<float> invDepth, gx, gy;     // d = 1 / Z and its gradient in pixels
-  const float* normal[3] = {nullptr, nullptr, nullptr};
-  std::vector<float> albedo[3];            // un-premultiplied; empty without albedo
-  const uint32_t* object = nullptr;
-  bool hasAlbedo = false;
+  LargeVector<float> n[3];
+  LargeVector<float> d;        // 1 / Z; -1 where the pixel holds no W (never read)
+  LargeVector<float> gx, gy;   // gradient of d in pixels
+  LargeVector<uint32_t> object;
+  LargeVector<float> live;      // 1 where the pixel holds W, else 0
+  LargeVector<float> albedo[3];  // un-premultiplied; empty without albedo
 };
 
-// The planes one iteration reads and writes: W (3 channels, un-premultiplied)
-// and its variance.
-struct Planes {
-  std::vector<float> w[3];
-  std::vector<float> var;
-  void resize(size_t n) {
-    for (auto& c : w) c.assign(n, 0.0f);
-    var.assign(n, 0.0f);
+// W (un-premultiplied) and its variance: what an iteration reads and writes.
+struct State {
+  LargeVector<float> w[3], var;
+  explicit State(size_t n) {
+    for (auto& c : w) c.resize(n);
+    var.resize(n);
   }
 };
 
@@ -58,76 +66,177 @@ struct TapPass {
   int radius;  // taps -radius..radius
   int step;    // pixels between taps
   bool luminance;
+  bool varOnly;  // the prefilter: var = weighted mean of the taps' var, W copied
 };
 
-// exp(-E) of the guide terms (normal, depth, albedo) between p and its tap q
-// at offset (dx, dy), or 0 if q holds no W or another object. Hot: no
-// allocation, one exp per tap (the terms are summed in the exponent).
-inline float guideExponent(const Guides& g, const DenoiseSettings& s, size_t p, size_t q, int dx, int dy, bool& ok) {
-  ok = g.valid[q] && (!g.object || g.object[q] == g.object[p]);
-  if (!ok) return 0.0f;
-  const float dot = g.normal[0][p] * g.normal[0][q] + g.normal[1][p] * g.normal[1][q] + g.normal[2][p] * g.normal[2][q];
-  float e = s.sigmaNormal * std::max(0.0f, 1.0f - dot);
-  // Inverse depth is affine in the image on a plane (docs/denoise.md
-  // "Depth"): predict q's from p's gradient, and measure the miss against
-  // what the gradient itself may be off by over that offset.
-  const float lx = g.gx[p] * float(dx), ly = g.gy[p] * float(dy);
-  const float miss = g.invDepth[q] - (g.invDepth[p] + lx + ly);
-  const float tol = s.sigmaDepth * (std::abs(lx) + std::abs(ly)) + s.depthTolerance * g.invDepth[p];
-  const float r = miss / tol;
-  e += r * r;
-  if (g.hasAlbedo) {
-    float da = 0.0f;
-    for (int c = 0; c < 3; ++c) da = std::max(da, std::abs(g.albedo[c][p] - g.albedo[c][q]));
-    e += da / s.sigmaAlbedo;
-  }
-  return e;
+// exp(-x) for x in [0, kMaxExponent], to ~2e-7 relative: 2^(-x log2 e)
+// split into an integer power (the exponent bits) and a degree-5
+// polynomial of 2^f on [-0.5, 0.5] (Taylor of e^(f ln 2)). The weights are
+// ratios of sums of these, so the error is far below the noise; unlike
+// std::exp it vectorizes, and it gives the same bits on every machine.
+inline float expNeg(float x) {
+  const float t = -x * 1.44269504f;
+  // Round to nearest by adding and subtracting 1.5 * 2^23 (|t| < 44).
+  const float k = (t + 12582912.0f) - 12582912.0f;
+  const float f = (t - k) * 0.69314718f;
+  const float p = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6 + f * (1.0f / 24 + f * (1.0f / 120)))));
+  const int32_t bits = (int32_t(k) + 127) << 23;
+  float scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  return p * scale;
 }
 
-// One pass of taps over rows [y0, y1): dst = the normalized weighted mean of
-// src's taps, dst.var = sum w^2 var / (sum w)^2 (the variance of that mean
-// for independent pixels; docs/denoise.md "Variance through the
-// iterations"). With varOnly the W planes are copied and only var is
-// filtered (the prefilter of the variance estimate).
-void tapRows(const Guides& g, const DenoiseSettings& s, const TapPass& t, const Planes& src, Planes& dst, int y0, int y1,
-             bool varOnly) {
-  const int w = g.width, h = g.height;
-  for (int y = y0; y < y1; ++y)
-    for (int x = 0; x < w; ++x) {
-      const size_t p = size_t(y) * size_t(w) + size_t(x);
-      if (!g.valid[p]) {
-        for (int c = 0; c < 3; ++c) dst.w[c][p] = src.w[c][p];
-        dst.var[p] = src.var[p];
-        continue;
-      }
-      const float wp[3] = {src.w[0][p], src.w[1][p], src.w[2][p]};
-      const float vp = src.var[p];
-      float sumW = 0.0f, sumC[3] = {0.0f, 0.0f, 0.0f}, sumV = 0.0f;
-      for (int j = -t.radius; j <= t.radius; ++j) {
-        const int qy = y + j * t.step;
-        if (qy < 0 || qy >= h) continue;
-        for (int i = -t.radius; i <= t.radius; ++i) {
-          const int qx = x + i * t.step;
-          if (qx < 0 || qx >= w) continue;
-          const size_t q = size_t(qy) * size_t(w) + size_t(qx);
-          bool ok;
-          float e = guideExponent(g, s, p, q, i * t.step, j * t.step, ok);
-          if (!ok) continue;
-          if (t.luminance) {
-            float dl = 0.0f;
-            for (int c = 0; c < 3; ++c) dl = std::max(dl, std::abs(src.w[c][q] - wp[c]));
-            e += dl / (s.sigmaLuminance * std::sqrt(vp + src.var[q]) + s.luminanceTolerance);
-          }
-          const float wt = t.kernel[i + t.radius] * t.kernel[j + t.radius] * std::exp(-e);
-          sumW += wt;
-          for (int c = 0; c < 3; ++c) sumC[c] += wt * src.w[c][q];
-          sumV += varOnly ? wt * src.var[q] : wt * wt * src.var[q];
-        }
-      }
-      // The centre tap always counts (e = 0), so sumW > 0.
-      for (int c = 0; c < 3; ++c) dst.w[c][p] = varOnly ? wp[c] : sumC[c] / sumW;
-      dst.var[p] = varOnly ? sumV / sumW : sumV / (sumW * sumW);
+// Per-thread sums of one row: weight, W (3), variance.
+struct RowSums {
+  std::vector<float> w, c[3], v;
+  void reset(int width) {
+    w.assign(size_t(width), 0.0f);
+    for (auto& x : c) x.assign(size_t(width), 0.0f);
+    v.assign(size_t(width), 0.0f);
+  }
+};
+
+// The planes of one row (p's) and the row sums, for tapSpan.
+struct TapRowArgs {
+  const float *n0, *n1, *n2, *d, *gx, *gy, *live;
+  const uint32_t* object;
+  const float *w0, *w1, *w2, *var;
+  const float *a0, *a1, *a2;  // albedo, or nullptr
+  float *sw, *sc0, *sc1, *sc2, *sv;
+};
+// One tap offset: q = p + off (in pixels of the planes), its kernel weight
+// and its offset in x and y (signed and absolute).
+struct TapOffset {
+  ptrdiff_t off;
+  float k, dx, dy, adx, ady;
+};
+
+// The taps at one offset for the pixels x0..x1-1 of a row. Branch-free in x
+// (the options are template parameters; a tap outside the pixel's object or
+// on a pixel without W gets weight 0 by a select), so it vectorizes.
+template <bool Albedo, bool Luminance, bool VarOnly>
+void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
+  const float* __restrict n0 = r.n0;
+  const float* __restrict n1 = r.n1;
+  const float* __restrict n2 = r.n2;
+  const float* __restrict d = r.d;
+  const float* __restrict live = r.live;
+  const float* __restrict gx = r.gx;
+  const float* __restrict gy = r.gy;
+  const uint32_t* __restrict obj = r.object;
+  const float* __restrict w0 = r.w0;
+  const float* __restrict w1 = r.w1;
+  const float* __restrict w2 = r.w2;
+  const float* __restrict var = r.var;
+  float* __restrict sw = r.sw;
+  float* __restrict sc0 = r.sc0;
+  float* __restrict sc1 = r.sc1;
+  float* __restrict sc2 = r.sc2;
+  float* __restrict sv = r.sv;
+  const ptrdiff_t off = o.off;
+  const float sn = s.sigmaNormal, sz = s.sigmaDepth, ez = s.depthTolerance;
+  const float sl2 = s.sigmaLuminance * s.sigmaLuminance, el2 = s.luminanceTolerance * s.luminanceTolerance;
+  for (int x = x0; x < x1; ++x) {
+    const ptrdiff_t q = x + off;
+    const float dot = n0[x] * n0[q] + n1[x] * n1[q] + n2[x] * n2[q];
+    float e = sn * std::max(0.0f, 1.0f - dot);
+    // Inverse depth is affine in the image on a plane: predict q's from
+    // p's gradient; the miss is measured against what the gradient may be
+    // off by over the offset, plus a share of the depth itself.
+    const float miss = d[q] - (d[x] + gx[x] * o.dx + gy[x] * o.dy);
+    const float tol = sz * (std::abs(gx[x]) * o.adx + std::abs(gy[x]) * o.ady) + ez * d[x];
+    e += miss * miss / (tol * tol);
+    if constexpr (Albedo) {
+      const float da = std::max(std::abs(r.a0[x] - r.a0[q]), std::max(std::abs(r.a1[x] - r.a1[q]), std::abs(r.a2[x] - r.a2[q])));
+      e += da * invAlbedo;
     }
+    if constexpr (Luminance) {
+      const float dl = std::max(std::abs(w0[q] - w0[x]), std::max(std::abs(w1[q] - w1[x]), std::abs(w2[q] - w2[x])));
+      // Gaussian in the difference over its standard error (no square
+      // root per tap: std::sqrt's errno path keeps the loop scalar).
+      e += dl * dl / (sl2 * (var[x] + var[q]) + el2);
+    }
+    const float wk = o.k * expNeg(std::min(e, kMaxExponent));
+    // d > 0 marks a pixel with W; folded in as a factor (a second compare
+    // would mix mask widths and keep the loop scalar).
+    const float wt = obj[q] == obj[x] ? wk * live[q] : 0.0f;
+    sw[x] += wt;
+    sc0[x] += wt * w0[q];
+    sc1[x] += wt * w1[q];
+    sc2[x] += wt * w2[q];
+    sv[x] += (VarOnly ? wt : wt * wt) * var[q];
+  }
+}
+
+// One pass of taps over row y: dst = the normalized weighted mean of src's
+// taps, dst.var = sum w^2 var / (sum w)^2 (the variance of that mean for
+// independent pixels; docs/denoise.md "Variance"). Every weight is
+// kernel(i) kernel(j) exp(-E), E the sum of the terms of core/denoise.h.
+// Hot: no allocation (the row sums are the thread's, sized once), no
+// branch in the inner loop over x (a tap outside the pixel's object or on
+// a pixel without W gets weight 0 by a select).
+void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const State& src, State& dst, int y,
+            RowSums& sums) {
+  const int w = g.width, h = g.height;
+  const bool albedo = !g.albedo[0].empty();
+  const float invAlbedo = 1.0f / s.sigmaAlbedo;
+  const size_t row = size_t(y) * size_t(w);
+  sums.reset(w);
+  float* __restrict sw = sums.w.data();
+  float* __restrict sc0 = sums.c[0].data();
+  float* __restrict sc1 = sums.c[1].data();
+  float* __restrict sc2 = sums.c[2].data();
+  float* __restrict sv = sums.v.data();
+  const float* n0 = g.n[0].data() + row;
+  const float* n1 = g.n[1].data() + row;
+  const float* n2 = g.n[2].data() + row;
+  const float* dp = g.d.data() + row;
+  const float* gxp = g.gx.data() + row;
+  const float* gyp = g.gy.data() + row;
+  const uint32_t* op = g.object.data() + row;
+  const float* livep = g.live.data() + row;
+  const float* w0 = src.w[0].data() + row;
+  const float* w1 = src.w[1].data() + row;
+  const float* w2 = src.w[2].data() + row;
+  const float* vp = src.var.data() + row;
+  for (int j = -t.radius; j <= t.radius; ++j) {
+    const int qy = y + j * t.step;
+    if (qy < 0 || qy >= h) continue;
+    const ptrdiff_t dyRows = ptrdiff_t(j) * t.step * w;
+    const float dyPx = float(j * t.step), ady = std::abs(dyPx);
+    for (int i = -t.radius; i <= t.radius; ++i) {
+      const int dx = i * t.step;
+      const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+      const ptrdiff_t off = dyRows + dx;
+      const float k = t.kernel[i + t.radius] * t.kernel[j + t.radius];
+      const float dxPx = float(dx), adx = std::abs(dxPx);
+      const float* pa0 = albedo ? g.albedo[0].data() + row : nullptr;
+      const float* pa1 = albedo ? g.albedo[1].data() + row : nullptr;
+      const float* pa2 = albedo ? g.albedo[2].data() + row : nullptr;
+      const TapRowArgs r{n0, n1, n2, dp, gxp, gyp, livep, op, w0, w1, w2, vp, pa0, pa1, pa2, sw, sc0, sc1, sc2, sv};
+      const TapOffset o{off, k, dxPx, dyPx, adx, ady};
+      if (albedo) {
+        if (t.luminance) tapSpan<true, true, false>(r, o, s, invAlbedo, x0, x1);
+        else tapSpan<true, false, false>(r, o, s, invAlbedo, x0, x1);
+      } else if (t.luminance) {
+        tapSpan<false, true, false>(r, o, s, invAlbedo, x0, x1);
+      } else if (t.varOnly) {
+        tapSpan<false, false, true>(r, o, s, invAlbedo, x0, x1);
+      } else {
+        tapSpan<false, false, false>(r, o, s, invAlbedo, x0, x1);
+      }
+    }
+  }
+  // A pixel with W has its centre tap (weight > 0), so sw > 0 there; the
+  // others are copied through.
+  for (int x = 0; x < w; ++x) {
+    const size_t p = row + size_t(x);
+    const bool ok = dp[x] > 0.0f;
+    dst.w[0][p] = ok && !t.varOnly ? sc0[x] / sw[x] : w0[x];
+    dst.w[1][p] = ok && !t.varOnly ? sc1[x] / sw[x] : w1[x];
+    dst.w[2][p] = ok && !t.varOnly ? sc2[x] / sw[x] : w2[x];
+    dst.var[p] = !ok ? vp[x] : t.varOnly ? sv[x] / sw[x] : sv[x] / (sw[x] * sw[x]);
+  }
 }
 
 void checkPlane(const void* p, const char* field) {
@@ -160,6 +269,7 @@ void checkDenoise(const DenoiseInput& in, const DenoiseSettings& s) {
     throw Error("denoise: sigmaLuminance: must be a finite number >= 0, got " + std::to_string(s.sigmaLuminance));
   positive(s.luminanceTolerance, "luminanceTolerance");
   positive(s.sigmaAlbedo, "sigmaAlbedo");
+  if (s.kernel != 3 && s.kernel != 5) throw Error("denoise: kernel: must be 3 or 5, got " + std::to_string(s.kernel));
   if (s.threads < 0) throw Error("denoise: threads: must be >= 0, got " + std::to_string(s.threads));
 }
 
@@ -168,23 +278,20 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
   const int w = in.width, h = in.height;
   const size_t n = size_t(w) * size_t(h);
 
+  // Uninitialized, on huge pages (core/large_vector.h): every element is
+  // written by the passes below before it is read, from all threads.
   Guides g;
   g.width = w, g.height = h;
-  g.valid.assign(n, 0);
-  g.invDepth.assign(n, 0.0f);
-  g.gx.assign(n, 0.0f);
-  g.gy.assign(n, 0.0f);
-  for (int c = 0; c < 3; ++c) g.normal[c] = in.normal[c];
-  g.object = in.object;
-  g.hasAlbedo = in.albedo[0] != nullptr;
-  if (g.hasAlbedo)
-    for (auto& a : g.albedo) a.assign(n, 0.0f);
-  Planes a, b;
-  a.resize(n);
-  b.resize(n);
+  for (auto& c : g.n) c.resize(n);
+  g.d.resize(n), g.gx.resize(n), g.gy.resize(n), g.object.resize(n), g.live.resize(n);
+  const bool hasAlbedo = in.albedo[0] != nullptr;
+  if (hasAlbedo)
+    for (auto& c : g.albedo) c.resize(n);
+  State a(n), b(n);
 
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
+  tbb::enumerable_thread_specific<RowSums> rowSums;
   auto rows = [&](auto&& body) {
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
@@ -198,12 +305,16 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
       const float al = in.alpha[p], z = in.depth[p];
       bool ok = al > 0.0f && z > 0.0f && z < kBackgroundDepth && std::isfinite(z) && std::isfinite(in.variance[p]);
       for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(in.color[c][p]) && std::isfinite(in.normal[c][p]);
-      g.valid[p] = ok;
-      for (int c = 0; c < 3; ++c) a.w[c][p] = ok ? in.color[c][p] / al : in.color[c][p];
+      for (int c = 0; c < 3; ++c) {
+        g.n[c][p] = ok ? in.normal[c][p] : 0.0f;
+        a.w[c][p] = ok ? in.color[c][p] / al : in.color[c][p];
+        if (hasAlbedo) g.albedo[c][p] = ok ? in.albedo[c][p] / al : 0.0f;
+      }
+      g.d[p] = ok ? 1.0f / z : -1.0f;
+      g.live[p] = ok ? 1.0f : 0.0f;
+      g.gx[p] = g.gy[p] = 0.0f;
+      g.object[p] = in.object ? in.object[p] : 0u;
       a.var[p] = ok ? std::max(0.0f, in.variance[p]) : 0.0f;
-      g.invDepth[p] = ok ? 1.0f / z : 0.0f;
-      if (g.hasAlbedo)
-        for (int c = 0; c < 3; ++c) g.albedo[c][p] = ok ? in.albedo[c][p] / al : 0.0f;
     }
   });
 
@@ -213,13 +324,12 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
   // (the other side crosses a depth step), one side where only one joins,
   // 0 where none does.
   auto joins = [&](size_t p, size_t q) {
-    if (!g.valid[q] || (g.object && g.object[q] != g.object[p])) return false;
-    const float dot = in.normal[0][p] * in.normal[0][q] + in.normal[1][p] * in.normal[1][q] + in.normal[2][p] * in.normal[2][q];
-    return dot > kGradientNormalDot;
+    return g.d[q] > 0.0f && g.object[q] == g.object[p] &&
+           g.n[0][p] * g.n[0][q] + g.n[1][p] * g.n[1][q] + g.n[2][p] * g.n[2][q] > kGradientNormalDot;
   };
   auto gradient = [&](size_t p, bool hasLo, size_t lo, bool hasHi, size_t hi) {
     const bool l = hasLo && joins(p, lo), u = hasHi && joins(p, hi);
-    const float dl = l ? g.invDepth[p] - g.invDepth[lo] : 0.0f, du = u ? g.invDepth[hi] - g.invDepth[p] : 0.0f;
+    const float dl = l ? g.d[p] - g.d[lo] : 0.0f, du = u ? g.d[hi] - g.d[p] : 0.0f;
     if (l && u) {
       if (std::abs(dl - du) <= 0.5f * std::max(std::abs(dl), std::abs(du))) return 0.5f * (dl + du);
       return std::abs(dl) < std::abs(du) ? dl : du;
@@ -230,31 +340,32 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
     for (int y = y0; y < y1; ++y)
       for (int x = 0; x < w; ++x) {
         const size_t p = size_t(y) * size_t(w) + size_t(x);
-        if (!g.valid[p]) continue;
+        if (!(g.d[p] > 0.0f)) continue;
         g.gx[p] = gradient(p, x > 0, p - 1, x + 1 < w, p + 1);
         g.gy[p] = gradient(p, y > 0, p - size_t(w), y + 1 < h, p + size_t(w));
       }
   });
 
+  State* src = &a;
+  State* dst = &b;
+  auto pass = [&](const TapPass& t) {
+    rows([&](int y0, int y1) {
+      RowSums& sums = rowSums.local();
+      for (int y = y0; y < y1; ++y) tapRow(g, s, t, *src, *dst, y, sums);
+    });
+    std::swap(src, dst);
+  };
   // The variance estimate from two halves of the samples is itself noisy
   // (one degree of freedom): a 3 x 3 guided mean steadies it before the
   // luminance term reads it (docs/denoise.md "Variance").
-  Planes* src = &a;
-  Planes* dst = &b;
-  if (s.iterations > 0 && s.sigmaLuminance > 0.0f) {
-    const TapPass pre{kBinomial3, 1, 1, false};
-    rows([&](int y0, int y1) { tapRows(g, s, pre, *src, *dst, y0, y1, true); });
-    std::swap(src, dst);
-  }
-  for (int it = 0; it < s.iterations; ++it) {
-    const TapPass t{kB3, 2, 1 << it, s.sigmaLuminance > 0.0f};
-    rows([&](int y0, int y1) { tapRows(g, s, t, *src, *dst, y0, y1, false); });
-    std::swap(src, dst);
-  }
+  const bool luminance = s.sigmaLuminance > 0.0f;
+  if (s.iterations > 0 && luminance) pass(TapPass{kBinomial3, 1, 1, false, true});
+  for (int it = 0; it < s.iterations; ++it)
+    pass(s.kernel == 3 ? TapPass{kBinomial3, 1, 1 << it, luminance, false} : TapPass{kB3, 2, 1 << it, luminance, false});
 
   rows([&](int y0, int y1) {
     for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
-      for (int c = 0; c < 3; ++c) out[c][p] = g.valid[p] ? src->w[c][p] * in.alpha[p] : in.color[c][p];
+      for (int c = 0; c < 3; ++c) out[c][p] = g.d[p] > 0.0f ? src->w[c][p] * in.alpha[p] : in.color[c][p];
   });
 }
 

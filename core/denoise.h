@@ -42,6 +42,9 @@ struct DenoiseSettings {
   // A-trous iterations; iteration i reads taps 2^i pixels apart, so the
   // footprint is 4 * (2^iterations - 1) + 1 pixels across (5: 125).
   int iterations = 5;
+  // Taps per iteration and axis: 5 (the B3 spline 1 4 6 4 1 / 16) or 3 (the
+  // binomial 1 2 1 / 4: 9 taps instead of 25, the footprint about half).
+  int kernel = 5;
   // Normal term sigmaNormal * (1 - n_p . n_q): 10 degrees apart weigh 0.14,
   // a 90 degree crease exp(-128).
   float sigmaNormal = 128.0f;
