@@ -80,6 +80,10 @@ int main(int argc, char** argv) {
   addCommonOptions(app, common, "smoke run: 320x180, 2 spp, 1 run");
   std::string integrator = "ao";
   int referenceSpp = 0;
+  DenoiseSettings ds;
+  app.add_option("--kernel", ds.kernel, "Denoiser taps per axis: 3 or 5");
+  app.add_option("--iterations", ds.iterations, "Denoiser a-trous iterations");
+  app.add_option("--sigma-luminance", ds.sigmaLuminance, "Denoiser luminance term (0: off)");
   app.add_option("--integrator", integrator, "Integrator of the pass (default parameters)");
   app.add_option("--reference-spp", referenceSpp, "Also render an N-spp reference and print RMSE noisy vs denoised (0: off)");
   CLI11_PARSE(app, argc, argv);
@@ -111,7 +115,6 @@ int main(int argc, char** argv) {
         in.albedo[c] = integ.needs.albedo ? fa.plane(kAlbedoR + c) : nullptr;
       }
       in.alpha = m.alpha.data(), in.variance = m.var.data(), in.depth = fa.plane(kZ);
-      DenoiseSettings ds;
       ds.threads = threads.threads();
       std::vector<float> out[3];
       for (auto& p : out) p.assign(m.alpha.size(), 0.0f);
@@ -124,6 +127,7 @@ int main(int argc, char** argv) {
       }
       const double tr = sa.seconds + sb.seconds, td = median(times);
       std::printf("  render loop (both halves) %8.3f s\n", tr);
+      std::printf("  denoiser: kernel %d, %d iterations, sigmaLuminance %g\n", ds.kernel, ds.iterations, ds.sigmaLuminance);
       std::printf("  denoise (median of %d)     %8.3f s   %.1f %% of the render   (%.1f ns per pixel and iteration)\n",
                   common.runs, td, 100.0 * td / tr, td * 1e9 / double(m.alpha.size()) / ds.iterations);
       if (referenceSpp > 0) {

@@ -1,6 +1,6 @@
 // The edge-aware denoiser of a pass W (README "Denoising", docs/denoise.md):
-// an a-trous wavelet filter (5 x 5 B3-spline taps, the step doubling each
-// iteration) whose taps are weighted by the AOVs (normal, depth, object,
+// an a-trous wavelet filter (3 x 3 binomial or 5 x 5 B3-spline taps, the
+// step doubling each iteration) whose taps are weighted by the AOVs (normal, depth, object,
 // albedo) and by W's own differences measured against its per-pixel
 // standard error, with that variance carried through the iterations.
 //
@@ -39,12 +39,14 @@ struct DenoiseInput {
 // Every weight is exp(-E) with E a sum of the terms below (docs/denoise.md
 // gives the equations and the measurements behind each default).
 struct DenoiseSettings {
-  // A-trous iterations; iteration i reads taps 2^i pixels apart, so the
-  // footprint is 4 * (2^iterations - 1) + 1 pixels across (5: 125).
+  // A-trous iterations; iteration i reads taps 2^i pixels apart.
   int iterations = 5;
-  // Taps per iteration and axis: 5 (the B3 spline 1 4 6 4 1 / 16) or 3 (the
-  // binomial 1 2 1 / 4: 9 taps instead of 25, the footprint about half).
-  int kernel = 5;
+  // Taps per iteration and axis: 3 (the binomial 1 2 1 / 4: footprint
+  // 2 (2^iterations - 1) + 1 = 63 pixels across at 5 iterations) or 5 (the
+  // B3 spline 1 4 6 4 1 / 16: 125 pixels, 25 taps instead of 9). 3 is the
+  // default by measurement (docs/denoise.md "Why this filter"): the same
+  // error as 5 on the viking room and the crease at 40 % of the time.
+  int kernel = 3;
   // Normal term sigmaNormal * (1 - n_p . n_q): 10 degrees apart weigh 0.14,
   // a 90 degree crease exp(-128).
   float sigmaNormal = 128.0f;
@@ -53,10 +55,12 @@ struct DenoiseSettings {
   // in the image on any plane; g_p is its one-sided gradient at p.
   float sigmaDepth = 1.0f;
   float depthTolerance = 0.01f;
-  // Luminance term |W_p - W_q|_max / (sigmaLuminance * sqrt(V_p + V_q) +
-  // luminanceTolerance): differences within a few standard errors of the
-  // difference weigh ~1, a feature of W the AOVs do not show stops the
-  // filter. 0 turns the term off (a linear, guide-only filter).
+  // Luminance term (|W_p - W_q|_max / (sigmaLuminance sqrt(V_p + V_q)))^2,
+  // V the variance (propagated through the iterations), with
+  // luminanceTolerance^2 added to the denominator: differences within a few
+  // standard errors of the difference weigh ~1, a feature of W the AOVs do
+  // not show stops the filter. 0 turns the term off (a linear, guide-only
+  // filter).
   float sigmaLuminance = 4.0f;
   float luminanceTolerance = 1e-4f;
   // Albedo term |a_p - a_q|_max / sigmaAlbedo (only with albedo planes).

@@ -67,17 +67,18 @@ Output run(const DenoiseInput& in, const DenoiseSettings& s = {}) {
 }
 
 // Sum of squares of the a-trous filter's equivalent kernel with no edges
-// (the B3 taps at steps 1, 2, 4, ... convolved), in 2D: the variance factor
+// (the kernel's taps at steps 1, 2, 4, ... convolved), in 2D: the variance factor
 // of the linear filter the weights reduce to in a flat region of small
 // differences (an independent computation of what the filter can reach).
-double linearVarianceFactor(int iterations) {
+double linearVarianceFactor(int iterations, int taps) {
   std::vector<double> k{1.0};
-  const double b3[5] = {1 / 16.0, 4 / 16.0, 6 / 16.0, 4 / 16.0, 1 / 16.0};
+  const double b3[5] = {1 / 16.0, 4 / 16.0, 6 / 16.0, 4 / 16.0, 1 / 16.0}, binomial[3] = {0.25, 0.5, 0.25};
+  const double* kernel = taps == 5 ? b3 : binomial;
   for (int i = 0; i < iterations; ++i) {
     const int step = 1 << i;
-    std::vector<double> next(k.size() + size_t(4 * step), 0.0);
+    std::vector<double> next(k.size() + size_t((taps - 1) * step), 0.0);
     for (size_t j = 0; j < k.size(); ++j)
-      for (int t = 0; t < 5; ++t) next[j + size_t(t * step)] += k[j] * b3[t];
+      for (int t = 0; t < taps; ++t) next[j + size_t(t * step)] += k[j] * kernel[t];
     k = next;
   }
   double s2 = 0;
@@ -109,7 +110,7 @@ TEST(Denoise, ExactFlatRegionStaysExact) {
 // per-pixel variance drops by a factor the test measures and reports, at
 // least a tenth of the linear a-trous filter's.
 TEST(Denoise, FlatNoisyRegionKeepsItsMean) {
-  const int w = 192, h = 192, trials = 12, border = 62;  // 2 * (1 + 2 + 4 + 8 + 16): the footprint's radius
+  const int w = 192, h = 192, trials = 12, border = 62;  // 2 * (1 + 2 + 4 + 8 + 16): the 5-tap footprint's radius
   const float mu = 0.6f, sigma = 0.1f;
   std::mt19937_64 rng(7);
   std::vector<double> meanIn, meanOut;
@@ -148,7 +149,7 @@ TEST(Denoise, FlatNoisyRegionKeepsItsMean) {
   EXPECT_NEAR(mIn, mu, 4 * seIn);  // the noise itself
   EXPECT_NEAR(mOut, mu, 4 * seOut) << "denoised mean " << mOut << " se " << seOut;
   const double varIn = sqIn / double(nInterior), varOut = sqOut / double(nInterior);
-  const double linear = linearVarianceFactor(DenoiseSettings{}.iterations);
+  const double linear = linearVarianceFactor(DenoiseSettings{}.iterations, DenoiseSettings{}.kernel);
   EXPECT_NEAR(varIn, sigma * sigma, 4 * sigma * sigma * std::sqrt(2.0 / double(nInterior)));
   RecordProperty("flat_variance_in", std::to_string(varIn));
   RecordProperty("flat_variance_out", std::to_string(varOut));
