@@ -45,7 +45,7 @@ struct DenoiseSettings {
   // 2 (2^iterations - 1) + 1 = 63 pixels across at 5 iterations) or 5 (the
   // B3 spline 1 4 6 4 1 / 16: 125 pixels, 25 taps instead of 9). 3 is the
   // default by measurement (docs/denoise.md "Why this filter"): the same
-  // error as 5 on the viking room and the crease at 40 % of the time.
+  // error as 5 on the viking room and the crease at under half the time.
   int kernel = 3;
   // Normal term sigmaNormal * (1 - n_p . n_q): 10 degrees apart weigh 0.14,
   // a 90 degree crease exp(-128).
