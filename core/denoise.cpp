@@ -1,0 +1,432 @@
+// The edge-aware a-trous denoiser (core/denoise.h; the weights and the
+// measurements behind them: docs/denoise.md).
+#include "core/denoise.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/film.h"
+#include "core/large_vector.h"
+
+namespace obscura {
+
+namespace {
+
+// The B3-spline's taps (1, 4, 6, 4, 1) / 16: the a-trous scaling function of
+// docs/denoise.md "The filter"; the 3-tap kernel and the variance
+// prefilter's taps are the binomial (1, 2, 1) / 4.
+constexpr float kB3[5] = {1.0f / 16, 4.0f / 16, 6.0f / 16, 4.0f / 16, 1.0f / 16};
+constexpr float kBinomial3[3] = {0.25f, 0.5f, 0.25f};
+
+// Two pixels whose normals are closer than this (cos 25 degrees) and that
+// belong to one object may share an inverse-depth difference for the
+// gradient (docs/denoise.md "Depth").
+constexpr float kGradientNormalDot = 0.9f;
+
+// Beyond this exponent a tap weighs < 1e-13 of the centre: clamped there
+// (and so, in effect, 0) rather than branched on, to keep the loop
+// branch-free.
+constexpr float kMaxExponent = 30.0f;
+
+// The per-pixel guides as planes (structure of arrays): the tap loop runs
+// along a row for one tap offset at a time, so the pixels and their taps
+// are consecutive floats and the loop vectorizes (docs/denoise.md "Cost").
+struct Guides {
+  int width = 0, height = 0;
+  LargeVector<float> n[3];
+  LargeVector<float> d;        // 1 / Z; -1 where the pixel holds no W (never read)
+  LargeVector<float> gx, gy;   // gradient of d in pixels
+  LargeVector<uint32_t> object;
+  LargeVector<float> live;      // 1 where the pixel holds W, else 0
+  LargeVector<float> albedo[3];  // un-premultiplied; empty without albedo
+};
+
+// W (un-premultiplied) and its variance: what an iteration reads and writes.
+struct State {
+  LargeVector<float> w[3], var;
+  explicit State(size_t n) {
+    for (auto& c : w) c.resize(n);
+    var.resize(n);
+  }
+};
+
+// Parameters of one pass of taps (an a-trous iteration, or the variance
+// prefilter: 3 taps at step 1, no luminance term).
+struct TapPass {
+  const float* kernel;
+  int radius;  // taps -radius..radius
+  int step;    // pixels between taps
+  bool luminance;
+  bool varOnly;  // the prefilter: var = weighted mean of the taps' var, W copied
+};
+
+// exp(-x) for x in [0, kMaxExponent], to ~2e-7 relative: 2^(-x log2 e)
+// split into an integer power (the exponent bits) and a degree-5
+// polynomial of 2^f on [-0.5, 0.5] (Taylor of e^(f ln 2)). The weights are
+// ratios of sums of these, so the error is far below the noise; unlike
+// std::exp it vectorizes, and it gives the same bits on every machine.
+inline float expNeg(float x) {
+  const float t = -x * 1.44269504f;
+  // Round to nearest by adding and subtracting 1.5 * 2^23 (|t| < 44).
+  const float k = (t + 12582912.0f) - 12582912.0f;
+  const float f = (t - k) * 0.69314718f;
+  const float p = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6 + f * (1.0f / 24 + f * (1.0f / 120)))));
+  const int32_t bits = (int32_t(k) + 127) << 23;
+  float scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  return p * scale;
+}
+
+// 4-wide float and int vectors (GCC/Clang vector extensions; SSE2 on
+// x86-64, the baseline the project builds for).
+using V4 = float __attribute__((vector_size(16)));
+using VI4 = int32_t __attribute__((vector_size(16)));
+inline V4 load4(const float* p) {
+  V4 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store4(float* p, V4 v) { std::memcpy(p, &v, sizeof v); }
+inline V4 vabs(V4 a) { return a < 0.0f ? -a : a; }
+inline V4 vmax(V4 a, V4 b) { return a > b ? a : b; }
+inline V4 vmin(V4 a, V4 b) { return a < b ? a : b; }
+// expNeg of 4 values, operation for operation.
+inline V4 expNeg4(V4 x) {
+  const V4 t = -x * 1.44269504f;
+  const V4 k = (t + 12582912.0f) - 12582912.0f;
+  const V4 f = (t - k) * 0.69314718f;
+  const V4 p = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6 + f * (1.0f / 24 + f * (1.0f / 120)))));
+  const VI4 bits = (__builtin_convertvector(k, VI4) + 127) << 23;
+  V4 scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  return p * scale;
+}
+
+// Per-thread sums of one row: weight, W (3), variance.
+struct RowSums {
+  std::vector<float> w, c[3], v;
+  void reset(int width) {
+    w.assign(size_t(width), 0.0f);
+    for (auto& x : c) x.assign(size_t(width), 0.0f);
+    v.assign(size_t(width), 0.0f);
+  }
+};
+
+// The planes of one row (p's) and the row sums, for tapSpan.
+struct TapRowArgs {
+  const float *n0, *n1, *n2, *d, *gx, *gy, *live;
+  const uint32_t* object;
+  const float *w0, *w1, *w2, *var;
+  const float *a0, *a1, *a2;  // albedo, or nullptr
+  float *sw, *sc0, *sc1, *sc2, *sv;
+};
+// One tap offset: q = p + off (in pixels of the planes), its kernel weight
+// and its offset in x and y (signed and absolute).
+struct TapOffset {
+  ptrdiff_t off;
+  float k, dx, dy, adx, ady;
+};
+
+// The taps at one offset for the pixels x0..x1-1 of a row. Branch-free in x
+// (the options are template parameters; a tap outside the pixel's object or
+// on a pixel without W gets weight 0 by a select), so it vectorizes.
+template <bool Albedo, bool Luminance, bool VarOnly>
+void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
+  const float* __restrict n0 = r.n0;
+  const float* __restrict n1 = r.n1;
+  const float* __restrict n2 = r.n2;
+  const float* __restrict d = r.d;
+  const float* __restrict live = r.live;
+  const float* __restrict gx = r.gx;
+  const float* __restrict gy = r.gy;
+  const uint32_t* __restrict obj = r.object;
+  const float* __restrict w0 = r.w0;
+  const float* __restrict w1 = r.w1;
+  const float* __restrict w2 = r.w2;
+  const float* __restrict var = r.var;
+  float* __restrict sw = r.sw;
+  float* __restrict sc0 = r.sc0;
+  float* __restrict sc1 = r.sc1;
+  float* __restrict sc2 = r.sc2;
+  float* __restrict sv = r.sv;
+  const ptrdiff_t off = o.off;
+  const float sn = s.sigmaNormal, sz = s.sigmaDepth, ez = s.depthTolerance;
+  const float sl2 = s.sigmaLuminance * s.sigmaLuminance, el2 = s.luminanceTolerance * s.luminanceTolerance;
+  // 4 pixels at a time with GCC's vector extensions (the same operations in
+  // the same order as the scalar loop below, which finishes the row: the
+  // bits do not depend on where a row is split). GCC 12 does not
+  // vectorize the scalar loop by itself ("control flow in loop").
+  int x = x0;
+  for (; x + 4 <= x1; x += 4) {
+    const ptrdiff_t q = x + off;
+    const V4 dot = load4(n0 + x) * load4(n0 + q) + load4(n1 + x) * load4(n1 + q) + load4(n2 + x) * load4(n2 + q);
+    V4 e = sn * vmax(V4{} , 1.0f - dot);
+    const V4 dx4 = load4(d + x), gx4 = load4(gx + x), gy4 = load4(gy + x), dq4 = load4(d + q);
+    const V4 miss = dq4 - (dx4 + gx4 * o.dx + gy4 * o.dy);
+    const V4 tol = sz * (vabs(gx4) * o.adx + vabs(gy4) * o.ady) + ez * dx4;
+    e += miss * miss / (tol * tol);
+    if constexpr (Albedo) {
+      const V4 da = vmax(vabs(load4(r.a0 + x) - load4(r.a0 + q)),
+                         vmax(vabs(load4(r.a1 + x) - load4(r.a1 + q)), vabs(load4(r.a2 + x) - load4(r.a2 + q))));
+      e += da * invAlbedo;
+    }
+    const V4 wq0 = load4(w0 + q), wq1 = load4(w1 + q), wq2 = load4(w2 + q), vq = load4(var + q);
+    if constexpr (Luminance) {
+      const V4 dl = vmax(vabs(wq0 - load4(w0 + x)), vmax(vabs(wq1 - load4(w1 + x)), vabs(wq2 - load4(w2 + x))));
+      e += dl * dl / (sl2 * (load4(var + x) + vq) + el2);
+    }
+    const V4 wk = o.k * expNeg4(vmin(e, V4{} + kMaxExponent));
+    const V4 lw = wk * load4(live + q);
+    VI4 oq, ox;
+    std::memcpy(&oq, obj + q, sizeof oq);
+    std::memcpy(&ox, obj + x, sizeof ox);
+    const V4 wt = oq == ox ? lw : V4{};
+    store4(sw + x, load4(sw + x) + wt);
+    store4(sc0 + x, load4(sc0 + x) + wt * wq0);
+    store4(sc1 + x, load4(sc1 + x) + wt * wq1);
+    store4(sc2 + x, load4(sc2 + x) + wt * wq2);
+    store4(sv + x, load4(sv + x) + (VarOnly ? wt : wt * wt) * vq);
+  }
+  for (; x < x1; ++x) {
+    const ptrdiff_t q = x + off;
+    const float dot = n0[x] * n0[q] + n1[x] * n1[q] + n2[x] * n2[q];
+    float e = sn * std::max(0.0f, 1.0f - dot);
+    // Inverse depth is affine in the image on a plane: predict q's from
+    // p's gradient; the miss is measured against what the gradient may be
+    // off by over the offset, plus a share of the depth itself.
+    const float miss = d[q] - (d[x] + gx[x] * o.dx + gy[x] * o.dy);
+    const float tol = sz * (std::abs(gx[x]) * o.adx + std::abs(gy[x]) * o.ady) + ez * d[x];
+    e += miss * miss / (tol * tol);
+    if constexpr (Albedo) {
+      const float da = std::max(std::abs(r.a0[x] - r.a0[q]), std::max(std::abs(r.a1[x] - r.a1[q]), std::abs(r.a2[x] - r.a2[q])));
+      e += da * invAlbedo;
+    }
+    if constexpr (Luminance) {
+      const float dl = std::max(std::abs(w0[q] - w0[x]), std::max(std::abs(w1[q] - w1[x]), std::abs(w2[q] - w2[x])));
+      // Gaussian in the difference over its standard error (no square
+      // root per tap: std::sqrt's errno path keeps the loop scalar).
+      e += dl * dl / (sl2 * (var[x] + var[q]) + el2);
+    }
+    const float wk = o.k * expNeg(std::min(e, kMaxExponent));
+    // d > 0 marks a pixel with W; folded in as a factor (a second compare
+    // would mix mask widths and keep the loop scalar).
+    const float wt = obj[q] == obj[x] ? wk * live[q] : 0.0f;
+    sw[x] += wt;
+    sc0[x] += wt * w0[q];
+    sc1[x] += wt * w1[q];
+    sc2[x] += wt * w2[q];
+    sv[x] += (VarOnly ? wt : wt * wt) * var[q];
+  }
+}
+
+// One pass of taps over row y: dst = the normalized weighted mean of src's
+// taps, dst.var = sum w^2 var / (sum w)^2 (the variance of that mean for
+// independent pixels; docs/denoise.md "Variance"). Every weight is
+// kernel(i) kernel(j) exp(-E), E the sum of the terms of core/denoise.h.
+// Hot: no allocation (the row sums are the thread's, sized once), no
+// branch in the inner loop over x (a tap outside the pixel's object or on
+// a pixel without W gets weight 0 by a select).
+void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const State& src, State& dst, int y,
+            RowSums& sums) {
+  const int w = g.width, h = g.height;
+  const bool albedo = !g.albedo[0].empty();
+  const float invAlbedo = 1.0f / s.sigmaAlbedo;
+  const size_t row = size_t(y) * size_t(w);
+  sums.reset(w);
+  float* __restrict sw = sums.w.data();
+  float* __restrict sc0 = sums.c[0].data();
+  float* __restrict sc1 = sums.c[1].data();
+  float* __restrict sc2 = sums.c[2].data();
+  float* __restrict sv = sums.v.data();
+  const float* n0 = g.n[0].data() + row;
+  const float* n1 = g.n[1].data() + row;
+  const float* n2 = g.n[2].data() + row;
+  const float* dp = g.d.data() + row;
+  const float* gxp = g.gx.data() + row;
+  const float* gyp = g.gy.data() + row;
+  const uint32_t* op = g.object.data() + row;
+  const float* livep = g.live.data() + row;
+  const float* w0 = src.w[0].data() + row;
+  const float* w1 = src.w[1].data() + row;
+  const float* w2 = src.w[2].data() + row;
+  const float* vp = src.var.data() + row;
+  for (int j = -t.radius; j <= t.radius; ++j) {
+    const int qy = y + j * t.step;
+    if (qy < 0 || qy >= h) continue;
+    const ptrdiff_t dyRows = ptrdiff_t(j) * t.step * w;
+    const float dyPx = float(j * t.step), ady = std::abs(dyPx);
+    for (int i = -t.radius; i <= t.radius; ++i) {
+      const int dx = i * t.step;
+      const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+      const ptrdiff_t off = dyRows + dx;
+      const float k = t.kernel[i + t.radius] * t.kernel[j + t.radius];
+      const float dxPx = float(dx), adx = std::abs(dxPx);
+      const float* pa0 = albedo ? g.albedo[0].data() + row : nullptr;
+      const float* pa1 = albedo ? g.albedo[1].data() + row : nullptr;
+      const float* pa2 = albedo ? g.albedo[2].data() + row : nullptr;
+      const TapRowArgs r{n0, n1, n2, dp, gxp, gyp, livep, op, w0, w1, w2, vp, pa0, pa1, pa2, sw, sc0, sc1, sc2, sv};
+      const TapOffset o{off, k, dxPx, dyPx, adx, ady};
+      if (albedo) {
+        if (t.luminance) tapSpan<true, true, false>(r, o, s, invAlbedo, x0, x1);
+        else tapSpan<true, false, false>(r, o, s, invAlbedo, x0, x1);
+      } else if (t.luminance) {
+        tapSpan<false, true, false>(r, o, s, invAlbedo, x0, x1);
+      } else if (t.varOnly) {
+        tapSpan<false, false, true>(r, o, s, invAlbedo, x0, x1);
+      } else {
+        tapSpan<false, false, false>(r, o, s, invAlbedo, x0, x1);
+      }
+    }
+  }
+  // A pixel with W has its centre tap (weight > 0), so sw > 0 there; the
+  // others are copied through.
+  for (int x = 0; x < w; ++x) {
+    const size_t p = row + size_t(x);
+    const bool ok = dp[x] > 0.0f;
+    dst.w[0][p] = ok && !t.varOnly ? sc0[x] / sw[x] : w0[x];
+    dst.w[1][p] = ok && !t.varOnly ? sc1[x] / sw[x] : w1[x];
+    dst.w[2][p] = ok && !t.varOnly ? sc2[x] / sw[x] : w2[x];
+    dst.var[p] = !ok ? vp[x] : t.varOnly ? sv[x] / sw[x] : sv[x] / (sw[x] * sw[x]);
+  }
+}
+
+void checkPlane(const void* p, const char* field) {
+  if (!p) throw Error(std::string("denoise: ") + field + ": plane missing");
+}
+
+}  // namespace
+
+void checkDenoise(const DenoiseInput& in, const DenoiseSettings& s) {
+  if (in.width <= 0 || in.height <= 0)
+    throw Error("denoise: size: " + std::to_string(in.width) + "x" + std::to_string(in.height) + " is empty");
+  for (int c = 0; c < 3; ++c) checkPlane(in.color[c], "color");
+  checkPlane(in.alpha, "alpha");
+  checkPlane(in.variance, "variance");
+  for (int c = 0; c < 3; ++c) checkPlane(in.normal[c], "normal");
+  checkPlane(in.depth, "depth");
+  const int albedoPlanes = (in.albedo[0] != nullptr) + (in.albedo[1] != nullptr) + (in.albedo[2] != nullptr);
+  if (albedoPlanes != 0 && albedoPlanes != 3) throw Error("denoise: albedo: give all three planes or none");
+  auto positive = [](float v, const char* field) {
+    if (!(v > 0.0f) || !std::isfinite(v))
+      throw Error(std::string("denoise: ") + field + ": must be a positive finite number, got " + std::to_string(v));
+  };
+  if (s.iterations < 0 || s.iterations > 10)
+    throw Error("denoise: iterations: must be in 0..10, got " + std::to_string(s.iterations));
+  if (!(s.sigmaNormal >= 0.0f) || !std::isfinite(s.sigmaNormal))
+    throw Error("denoise: sigmaNormal: must be a finite number >= 0, got " + std::to_string(s.sigmaNormal));
+  positive(s.sigmaDepth, "sigmaDepth");
+  positive(s.depthTolerance, "depthTolerance");
+  if (!(s.sigmaLuminance >= 0.0f) || !std::isfinite(s.sigmaLuminance))
+    throw Error("denoise: sigmaLuminance: must be a finite number >= 0, got " + std::to_string(s.sigmaLuminance));
+  positive(s.luminanceTolerance, "luminanceTolerance");
+  positive(s.sigmaAlbedo, "sigmaAlbedo");
+  if (s.kernel != 3 && s.kernel != 5) throw Error("denoise: kernel: must be 3 or 5, got " + std::to_string(s.kernel));
+  if (s.threads < 0) throw Error("denoise: threads: must be >= 0, got " + std::to_string(s.threads));
+}
+
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
+  checkDenoise(in, s);
+  const int w = in.width, h = in.height;
+  const size_t n = size_t(w) * size_t(h);
+
+  // Uninitialized, on huge pages (core/large_vector.h): every element is
+  // written by the passes below before it is read, from all threads.
+  Guides g;
+  g.width = w, g.height = h;
+  for (auto& c : g.n) c.resize(n);
+  g.d.resize(n), g.gx.resize(n), g.gy.resize(n), g.object.resize(n), g.live.resize(n);
+  const bool hasAlbedo = in.albedo[0] != nullptr;
+  if (hasAlbedo)
+    for (auto& c : g.albedo) c.resize(n);
+  State a(n), b(n);
+
+  const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
+  tbb::task_arena arena(threads);
+  tbb::enumerable_thread_specific<RowSums> rowSums;
+  auto rows = [&](auto&& body) {
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
+    });
+  };
+
+  // Un-premultiply W and albedo; invalid pixels (no coverage, background
+  // depth, non-finite data) keep their colour and are never read.
+  rows([&](int y0, int y1) {
+    for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p) {
+      const float al = in.alpha[p], z = in.depth[p];
+      bool ok = al > 0.0f && z > 0.0f && z < kBackgroundDepth && std::isfinite(z) && std::isfinite(in.variance[p]);
+      for (int c = 0; c < 3; ++c) ok = ok && std::isfinite(in.color[c][p]) && std::isfinite(in.normal[c][p]);
+      for (int c = 0; c < 3; ++c) {
+        g.n[c][p] = ok ? in.normal[c][p] : 0.0f;
+        a.w[c][p] = ok ? in.color[c][p] / al : in.color[c][p];
+        if (hasAlbedo) g.albedo[c][p] = ok ? in.albedo[c][p] / al : 0.0f;
+      }
+      g.d[p] = ok ? 1.0f / z : -1.0f;
+      g.live[p] = ok ? 1.0f : 0.0f;
+      g.gx[p] = g.gy[p] = 0.0f;
+      g.object[p] = in.object ? in.object[p] : 0u;
+      a.var[p] = ok ? std::max(0.0f, in.variance[p]) : 0.0f;
+    }
+  });
+
+  // The inverse-depth gradient from the neighbours on p's surface (same
+  // object, normals within 25 degrees): the central difference where both
+  // sides agree within a factor 2, else the smaller one-sided difference
+  // (the other side crosses a depth step), one side where only one joins,
+  // 0 where none does.
+  auto joins = [&](size_t p, size_t q) {
+    return g.d[q] > 0.0f && g.object[q] == g.object[p] &&
+           g.n[0][p] * g.n[0][q] + g.n[1][p] * g.n[1][q] + g.n[2][p] * g.n[2][q] > kGradientNormalDot;
+  };
+  auto gradient = [&](size_t p, bool hasLo, size_t lo, bool hasHi, size_t hi) {
+    const bool l = hasLo && joins(p, lo), u = hasHi && joins(p, hi);
+    const float dl = l ? g.d[p] - g.d[lo] : 0.0f, du = u ? g.d[hi] - g.d[p] : 0.0f;
+    if (l && u) {
+      if (std::abs(dl - du) <= 0.5f * std::max(std::abs(dl), std::abs(du))) return 0.5f * (dl + du);
+      return std::abs(dl) < std::abs(du) ? dl : du;
+    }
+    return l ? dl : du;
+  };
+  rows([&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t p = size_t(y) * size_t(w) + size_t(x);
+        if (!(g.d[p] > 0.0f)) continue;
+        g.gx[p] = gradient(p, x > 0, p - 1, x + 1 < w, p + 1);
+        g.gy[p] = gradient(p, y > 0, p - size_t(w), y + 1 < h, p + size_t(w));
+      }
+  });
+
+  State* src = &a;
+  State* dst = &b;
+  auto pass = [&](const TapPass& t) {
+    rows([&](int y0, int y1) {
+      RowSums& sums = rowSums.local();
+      for (int y = y0; y < y1; ++y) tapRow(g, s, t, *src, *dst, y, sums);
+    });
+    std::swap(src, dst);
+  };
+  // The variance estimate from two halves of the samples is itself noisy
+  // (one degree of freedom): a 3 x 3 guided mean steadies it before the
+  // luminance term reads it (docs/denoise.md "Variance").
+  const bool luminance = s.sigmaLuminance > 0.0f;
+  if (s.iterations > 0 && luminance) pass(TapPass{kBinomial3, 1, 1, false, true});
+  for (int it = 0; it < s.iterations; ++it)
+    pass(s.kernel == 3 ? TapPass{kBinomial3, 1, 1 << it, luminance, false} : TapPass{kB3, 2, 1 << it, luminance, false});
+
+  rows([&](int y0, int y1) {
+    for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
+      for (int c = 0; c < 3; ++c) out[c][p] = g.d[p] > 0.0f ? src->w[c][p] * in.alpha[p] : in.color[c][p];
+  });
+}
+
+}  // namespace obscura

@@ -1,0 +1,273 @@
+// The denoiser on synthetic passes (core/denoise.h, docs/denoise.md): a flat
+// exact W stays exact, a flat noisy W keeps its mean while its variance
+// drops, and step edges in depth, normal and object do not leak. The noise
+// is Gaussian of a known sigma, drawn as two halves of the samples the way
+// the film's W.error is made (se = |a - b| / 2), so the variance the filter
+// reads is an estimate with one degree of freedom, as in a render.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/denoise.h"
+#include "core/film.h"
+
+namespace obscura {
+namespace {
+
+// A synthetic film: W, coverage, the variance estimate and the guides.
+struct Synth {
+  int w, h;
+  std::vector<float> color[3], alpha, var, n[3], z, albedo[3];
+  std::vector<uint32_t> obj;
+  Synth(int w_, int h_) : w(w_), h(h_) {
+    const size_t s = size_t(w) * size_t(h);
+    for (int c = 0; c < 3; ++c) color[c].assign(s, 0.0f), n[c].assign(s, 0.0f), albedo[c].assign(s, 0.0f);
+    alpha.assign(s, 1.0f), var.assign(s, 0.0f), z.assign(s, 4.0f), obj.assign(s, 0u);
+    n[2].assign(s, 1.0f);
+  }
+  size_t at(int x, int y) const { return size_t(y) * size_t(w) + size_t(x); }
+  void setW(size_t p, float v) {
+    for (int c = 0; c < 3; ++c) color[c][p] = v * alpha[p];
+  }
+  // W = mu from two halves a, b ~ N(mu, 2 sigma^2): the pixel is (a + b) / 2
+  // ~ N(mu, sigma^2) and its variance estimate (a - b)^2 / 4.
+  void setNoisy(size_t p, float mu, float sigma, std::mt19937_64& rng) {
+    std::normal_distribution<float> half(mu, sigma * std::sqrt(2.0f));
+    const float a = half(rng), b = half(rng);
+    setW(p, 0.5f * (a + b));
+    var[p] = 0.25f * (a - b) * (a - b);
+  }
+  DenoiseInput input(bool withObject = true, bool withAlbedo = false) const {
+    DenoiseInput in;
+    in.width = w, in.height = h;
+    for (int c = 0; c < 3; ++c) {
+      in.color[c] = color[c].data();
+      in.normal[c] = n[c].data();
+      in.albedo[c] = withAlbedo ? albedo[c].data() : nullptr;
+    }
+    in.alpha = alpha.data(), in.variance = var.data(), in.depth = z.data();
+    in.object = withObject ? obj.data() : nullptr;
+    return in;
+  }
+};
+
+struct Output {
+  std::vector<float> c[3];
+};
+Output run(const DenoiseInput& in, const DenoiseSettings& s = {}) {
+  Output o;
+  for (auto& p : o.c) p.assign(size_t(in.width) * size_t(in.height), -1.0f);
+  float* out[3] = {o.c[0].data(), o.c[1].data(), o.c[2].data()};
+  denoise(in, s, out);
+  return o;
+}
+
+// Sum of squares of the a-trous filter's equivalent kernel with no edges
+// (the kernel's taps at steps 1, 2, 4, ... convolved), in 2D: the variance factor
+// of the linear filter the weights reduce to in a flat region of small
+// differences (an independent computation of what the filter can reach).
+double linearVarianceFactor(int iterations, int taps) {
+  std::vector<double> k{1.0};
+  const double b3[5] = {1 / 16.0, 4 / 16.0, 6 / 16.0, 4 / 16.0, 1 / 16.0}, binomial[3] = {0.25, 0.5, 0.25};
+  const double* kernel = taps == 5 ? b3 : binomial;
+  for (int i = 0; i < iterations; ++i) {
+    const int step = 1 << i;
+    std::vector<double> next(k.size() + size_t((taps - 1) * step), 0.0);
+    for (size_t j = 0; j < k.size(); ++j)
+      for (int t = 0; t < taps; ++t) next[j + size_t(t * step)] += k[j] * kernel[t];
+    k = next;
+  }
+  double s2 = 0;
+  for (double v : k) s2 += v * v;
+  return s2 * s2;
+}
+
+// An open plane whose W is exactly 1 with zero variance stays exactly 1 at
+// every pixel, partially covered ones included (premultiplied: alpha), and
+// uncovered pixels are copied through.
+TEST(Denoise, ExactFlatRegionStaysExact) {
+  Synth s(96, 80);
+  for (int y = 0; y < s.h; ++y)
+    for (int x = 0; x < s.w; ++x) {
+      const size_t p = s.at(x, y);
+      s.z[p] = 1.0f / (0.2f + 0.001f * float(x) + 0.0005f * float(y));  // a slanted plane: 1/Z affine
+      if (x < 4) s.alpha[p] = 0.0f, s.z[p] = kBackgroundDepth, s.n[2][p] = 0.0f;
+      else if (x < 6) s.alpha[p] = 0.25f * float(x - 3);
+      s.setW(p, 1.0f);
+    }
+  const Output o = run(s.input());
+  for (int y = 0; y < s.h; ++y)
+    for (int x = 0; x < s.w; ++x)
+      for (int c = 0; c < 3; ++c) ASSERT_EQ(o.c[c][s.at(x, y)], s.color[c][s.at(x, y)]) << x << "," << y;
+}
+
+// A flat noisy region: the mean over the image is unchanged within its
+// standard error (from the spread over independent trials), and the
+// per-pixel variance drops by a factor the test measures and reports, at
+// least a tenth of the linear a-trous filter's.
+TEST(Denoise, FlatNoisyRegionKeepsItsMean) {
+  const int w = 192, h = 192, trials = 12, border = 62;  // 2 * (1 + 2 + 4 + 8 + 16): the 5-tap footprint's radius
+  const float mu = 0.6f, sigma = 0.1f;
+  std::mt19937_64 rng(7);
+  std::vector<double> meanIn, meanOut;
+  double sqIn = 0, sqOut = 0;
+  size_t nInterior = 0;
+  for (int t = 0; t < trials; ++t) {
+    Synth s(w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        s.z[s.at(x, y)] = 1.0f / (0.2f + 0.0005f * float(y));
+        s.setNoisy(s.at(x, y), mu, sigma, rng);
+      }
+    const Output o = run(s.input());
+    double si = 0, so = 0;
+    for (size_t p = 0; p < o.c[0].size(); ++p) si += s.color[0][p], so += o.c[0][p];
+    meanIn.push_back(si / double(o.c[0].size()));
+    meanOut.push_back(so / double(o.c[0].size()));
+    for (int y = border; y < h - border; ++y)
+      for (int x = border; x < w - border; ++x) {
+        const size_t p = s.at(x, y);
+        sqIn += (s.color[0][p] - mu) * (s.color[0][p] - mu);
+        sqOut += (o.c[0][p] - mu) * (o.c[0][p] - mu);
+        ++nInterior;
+      }
+  }
+  auto meanSe = [](const std::vector<double>& v, double& se) {
+    double m = 0, s2 = 0;
+    for (double x : v) m += x;
+    m /= double(v.size());
+    for (double x : v) s2 += (x - m) * (x - m);
+    se = std::sqrt(s2 / double(v.size() - 1) / double(v.size()));
+    return m;
+  };
+  double seIn, seOut;
+  const double mIn = meanSe(meanIn, seIn), mOut = meanSe(meanOut, seOut);
+  EXPECT_NEAR(mIn, mu, 4 * seIn);  // the noise itself
+  EXPECT_NEAR(mOut, mu, 4 * seOut) << "denoised mean " << mOut << " se " << seOut;
+  const double varIn = sqIn / double(nInterior), varOut = sqOut / double(nInterior);
+  const double linear = linearVarianceFactor(DenoiseSettings{}.iterations, DenoiseSettings{}.kernel);
+  EXPECT_NEAR(varIn, sigma * sigma, 4 * sigma * sigma * std::sqrt(2.0 / double(nInterior)));
+  RecordProperty("flat_variance_in", std::to_string(varIn));
+  RecordProperty("flat_variance_out", std::to_string(varOut));
+  RecordProperty("flat_variance_factor", std::to_string(varIn / varOut));
+  RecordProperty("flat_linear_factor", std::to_string(1.0 / linear));
+  std::printf("flat region: variance %.3g -> %.3g (factor %.1f; the linear a-trous filter's %.1f); mean %.5f (se %.2g)\n",
+              varIn, varOut, varIn / varOut, 1.0 / linear, mOut, seOut);
+  EXPECT_LT(varOut, 10.0 * linear * varIn);
+}
+
+// A vertical step edge at x = w/2 between W = mu[0] and W = mu[1], each
+// side noisy with sigma, the sides told apart by one guide (`kind`). Per
+// column near the edge, the denoised mean over rows and trials must be
+// within 4 standard errors (from the spread of the per-trial column means)
+// of its side's true value: no leakage right up to the edge.
+enum class Edge { Depth, Normal, Object, None };
+
+struct EdgeResult {
+  std::vector<double> mean, se;  // per column
+};
+
+EdgeResult stepEdge(Edge kind, const DenoiseSettings& settings, int trials = 16) {
+  const int w = 96, h = 128;
+  const float mu[2] = {0.3f, 0.7f}, sigma = 0.1f;
+  std::mt19937_64 rng(11);
+  std::vector<std::vector<double>> perTrial(static_cast<size_t>(w));
+  for (int t = 0; t < trials; ++t) {
+    Synth s(w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t p = s.at(x, y);
+        const int side = x >= w / 2;
+        if (kind == Edge::Depth) s.z[p] = side ? 5.0f : 4.0f;
+        if (kind == Edge::Normal && side) s.n[0][p] = std::sqrt(0.5f), s.n[2][p] = std::sqrt(0.5f);  // 45 degrees
+        if (kind == Edge::Object) s.obj[p] = side ? 2u : 1u;
+        s.setNoisy(p, mu[side], sigma, rng);
+      }
+    const Output o = run(s.input(), settings);
+    for (int x = 0; x < w; ++x) {
+      double m = 0;
+      for (int y = 0; y < h; ++y) m += o.c[0][s.at(x, y)];
+      perTrial[size_t(x)].push_back(m / h);
+    }
+  }
+  EdgeResult r;
+  for (int x = 0; x < w; ++x) {
+    const auto& v = perTrial[size_t(x)];
+    double m = 0, s2 = 0;
+    for (double a : v) m += a;
+    m /= double(v.size());
+    for (double a : v) s2 += (a - m) * (a - m);
+    r.mean.push_back(m);
+    r.se.push_back(std::sqrt(s2 / double(v.size() - 1) / double(v.size())));
+  }
+  return r;
+}
+
+// Columns within the footprint's reach of the edge, on both sides.
+void expectNoLeak(Edge kind, const char* name) {
+  const EdgeResult r = stepEdge(kind, DenoiseSettings{});
+  const int w = int(r.mean.size());
+  double worst = 0;
+  for (int x = w / 2 - 8; x < w / 2 + 8; ++x) {
+    const double truth = x >= w / 2 ? 0.7 : 0.3;
+    EXPECT_NEAR(r.mean[size_t(x)], truth, 4 * r.se[size_t(x)]) << name << " edge, column " << x - w / 2 << " from it";
+    worst = std::max(worst, std::abs(r.mean[size_t(x)] - truth) / r.se[size_t(x)]);
+  }
+  std::printf("%s edge: worst column |bias| / se = %.2f (columns -8..7 from the edge; se at the edge %.2g)\n", name,
+              worst, r.se[size_t(w / 2)]);
+}
+
+TEST(Denoise, DepthEdgeDoesNotLeak) { expectNoLeak(Edge::Depth, "depth"); }
+TEST(Denoise, NormalEdgeDoesNotLeak) { expectNoLeak(Edge::Normal, "normal"); }
+TEST(Denoise, ObjectEdgeDoesNotLeak) { expectNoLeak(Edge::Object, "object"); }
+
+// The control: the same step with no guide telling the sides apart, and the
+// luminance term off, leaks - so the tests above can see a leak.
+TEST(Denoise, UnguidedEdgeLeaksVisibly) {
+  DenoiseSettings s;
+  s.sigmaLuminance = 0.0f;
+  const EdgeResult r = stepEdge(Edge::None, s, 4);
+  const size_t e = r.mean.size() / 2;
+  EXPECT_GT(std::abs(r.mean[e] - 0.7), 10 * r.se[e]);
+  EXPECT_GT(std::abs(r.mean[e - 1] - 0.3), 10 * r.se[e - 1]);
+}
+
+// The result does not depend on the thread count.
+TEST(Denoise, IndependentOfThreads) {
+  Synth s(64, 48);
+  std::mt19937_64 rng(3);
+  for (int y = 0; y < s.h; ++y)
+    for (int x = 0; x < s.w; ++x) s.setNoisy(s.at(x, y), x < 30 ? 0.4f : 0.9f, 0.1f, rng);
+  DenoiseSettings one, two;
+  one.threads = 1, two.threads = 2;
+  const Output a = run(s.input(), one), b = run(s.input(), two);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(a.c[c], b.c[c]);
+}
+
+// Missing planes and bad settings are one clear error naming the field.
+TEST(Denoise, BadInputIsAnError) {
+  Synth s(8, 8);
+  DenoiseInput in = s.input();
+  in.variance = nullptr;
+  try {
+    run(in);
+    FAIL() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("variance"), std::string::npos) << e.what();
+  }
+  DenoiseSettings bad;
+  bad.sigmaDepth = -1.0f;
+  try {
+    run(s.input(), bad);
+    FAIL() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("sigmaDepth"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace obscura
