@@ -1,5 +1,6 @@
 #include "core/image_io.h"
 
+#include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfChromaticitiesAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -95,10 +96,28 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
                                                               m[10], m[11], m[12], m[13], m[14], m[15])));
     }
   }
-  Imf::FrameBuffer frame;
-  const size_t rowBytes = size_t(film.width()) * sizeof(float);
+  // Float channels are written from the planes in place. OpenEXR's output
+  // does not convert, so half channels go through a buffer of `band` rows
+  // (a multiple of every block height: 16 for ZIP, 32 for PIZ), converted
+  // band by band: never a second copy of the film.
+  const size_t w = size_t(film.width());
+  std::vector<int> halves;
   for (int c : chans)
-    frame.insert(film.name(c), Imf::Slice::Make(Imf::FLOAT, film.plane(c), data, sizeof(float), rowBytes));
+    if (header.channels().findChannel(film.name(c))->type == Imf::HALF) halves.push_back(c);
+  const int band = halves.empty() ? film.height() : std::min(film.height(), 128);
+  std::vector<Imath::half> halfRows(halves.size() * w * size_t(band));
+  const auto frameFor = [&](int y0) {  // the slices for rows [y0, y0 + band) of the window
+    Imf::FrameBuffer frame;
+    for (int c : chans)
+      if (std::find(halves.begin(), halves.end(), c) == halves.end())
+        frame.insert(film.name(c), Imf::Slice::Make(Imf::FLOAT, film.plane(c), data, sizeof(float), w * sizeof(float)));
+    for (size_t k = 0; k < halves.size(); ++k)
+      frame.insert(film.name(halves[k]),
+                   Imf::Slice::Make(Imf::HALF, halfRows.data() + k * w * size_t(band),
+                                    Imath::V2i(film.originX(), film.originY() + y0), int64_t(w), band,
+                                    sizeof(Imath::half), w * sizeof(Imath::half)));
+    return frame;
+  };
   // Compression runs on OpenEXR's own pool, sized like the render's; an
   // image of one block of scanlines (32 for PIZ, 16 for ZIP) has nothing to
   // share, so it starts no thread.
@@ -108,8 +127,16 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   if (Imf::globalThreadCount() != threads) Imf::setGlobalThreadCount(threads);
   try {
     Imf::OutputFile file(tmp.c_str(), header);
-    file.setFrameBuffer(frame);
-    file.writePixels(film.height());
+    for (int y0 = 0; y0 < film.height(); y0 += band) {
+      const int rows = std::min(band, film.height() - y0);
+      for (size_t k = 0; k < halves.size(); ++k) {
+        const float* src = film.plane(halves[k]) + size_t(y0) * w;
+        Imath::half* dst = halfRows.data() + k * w * size_t(band);
+        for (size_t i = 0; i < size_t(rows) * w; ++i) dst[i] = Imath::half(src[i]);
+      }
+      file.setFrameBuffer(frameFor(y0));
+      file.writePixels(rows);
+    }
   } catch (const std::exception& e) {
     std::remove(tmp.c_str());
     throw Error(path + ": write failed: " + e.what());

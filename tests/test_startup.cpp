@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "core/error.h"
 #include "core/image_io.h"
 #include "core/metrics.h"
 #include "tests/support.h"
@@ -42,8 +43,10 @@ TEST(Startup, ProgramDoesNotLoadOpenImageIO) {
 // with one line naming the tile and the module, and exit 1.
 TEST(Startup, MissingOiioModuleIsOneErrorLine) {
   const std::string dir = tempDir("startup_no_module");
-  const fs::path lib = fs::canonical(fs::path(OBSCURA_BINARY).parent_path() / "libobscura.so");
-  fs::copy_file(lib, fs::path(dir) / lib.filename(), fs::copy_options::overwrite_existing);
+  // Every name of the library (the soname the program needs among them).
+  for (const auto& e : fs::directory_iterator(fs::path(OBSCURA_BINARY).parent_path()))
+    if (e.path().filename().string().rfind("libobscura.so", 0) == 0)
+      fs::copy_file(fs::canonical(e.path()), fs::path(dir) / e.path().filename(), fs::copy_options::overwrite_existing);
   Film film(4, 4, false);
   writeExr(dir + "/tile.exr", film, {});
   const auto [text, code] = shell("LD_LIBRARY_PATH='" + dir + "' '" OBSCURA_BINARY "' merge '" + dir + "/out.exr' '" + dir +
