@@ -81,6 +81,7 @@ struct RenderArgs : SceneArgs {
   std::string filter = "box";
   int tileSize = 16;
   bool half = false;
+  std::string compression = exrCompressionName(ExrOptions{}.compression);  // --compression
   bool noAovs = false;
   bool quiet = false;
   std::vector<std::string> plugins;
@@ -447,6 +448,7 @@ int runRender(const RenderArgs& args) {
     // render does).
     if (checkpoint && checkpoint->runs() > 1) exr.attributes.push_back({"obscura:checkpointRuns", checkpoint->runs()});
     exr.half = a.half;
+    exr.compression = exrCompressionFromName(a.compression, "--compression");
     // The pass and its preview land together or not at all.
     OutputSet out;
     out.addExr(a.output, film, exr);
@@ -604,6 +606,7 @@ int main(int argc, char** argv) {
   render->add_option("--filter", r.filter, "Pixel filter: box or gaussian (sigma 0.5 px, radius 1.5 px)");
   render->add_option("--tile", r.tileSize, "Tile size in pixels (does not change the image)");
   render->add_flag("--half", r.half, "Write 16-bit half floats instead of 32-bit floats");
+  render->add_option("--compression", r.compression, "EXR compression: none, rle, zips, zip or piz (lossless)")->check(CLI::IsMember({"none", "rle", "zips", "zip", "piz"}, CLI::ignore_case));
   render->add_flag("--no-aovs", r.noAovs, "Write only R,G,B,A (skips albedo, N, Z, shaded)");
   render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
   render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");

@@ -11,7 +11,11 @@ namespace obscura {
 // region, its timings, its ray counts, its thread count and the time the
 // file was written (DateTime). Every other
 // attribute must be the same in every tile.
-bool isPerTileAttribute(const std::string& name);
+inline bool isPerTileAttribute(const std::string& name) {
+  // DateTime: OpenImageIO stamps each file with the time it was written.
+  return name == "DateTime" || name == "obscura:region" || name == "obscura:renderTime" || name == "obscura:bvhBuildTime" ||
+         name == "obscura:threads" || name == "obscura:checkpointRuns" || name.rfind("obscura:rays:", 0) == 0;
+}
 
 // Checks that `tiles` belong to one render - the same header but for the
 // per-tile attributes, the same display window and channels (names and
@@ -23,7 +27,8 @@ bool isPerTileAttribute(const std::string& name);
 // DateTime the time of the merge. Throws
 // obscura::Error "FILE: why" naming the first tile that does not fit (or
 // OUT for a gap); OUT is written atomically and only when every check
-// passed.
+// passed. Reads and writes through OpenImageIO, in libobscura_oiio.so
+// (oiio/merge.cpp; core/oiio_module.h).
 void mergeRegions(const std::string& output, const std::vector<std::string>& tiles);
 
 }  // namespace obscura

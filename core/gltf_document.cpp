@@ -288,7 +288,19 @@ void GltfDocument::read() {
   if (fs::is_directory(path_, ec)) throw Error(path_ + ": cannot open scene: is a directory");
   std::ifstream in(path_, std::ios::binary);
   if (!in) throw Error(path_ + ": cannot open scene: " + std::strerror(errno));
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // In one read when the size is known (a regular file): a byte-wise
+  // istreambuf_iterator copy took ~10 ms of the default scene's start-up.
+  std::vector<unsigned char> bytes;
+  if (in.seekg(0, std::ios::end); in && in.tellg() >= 0) {
+    bytes.resize(size_t(in.tellg()));
+    in.seekg(0);
+    in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (in.gcount() != std::streamsize(bytes.size())) throw Error(path_ + ": cannot read scene: " + std::strerror(errno));
+  } else {
+    in.clear();
+    in.seekg(0);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
   const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
 
   // The JSON text: the whole file, or a .glb's first chunk (header: magic,

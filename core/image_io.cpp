@@ -1,15 +1,32 @@
 #include "core/image_io.h"
 
-#include <OpenImageIO/imageio.h>
+#include <Imath/half.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfChromaticitiesAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfIntAttribute.h>
+#include <OpenEXR/ImfFloatAttribute.h>
+#include <OpenEXR/ImfMatrixAttribute.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
+#include <stb_image_write.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cinttypes>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <ctime>
 #include <filesystem>
 
 #include "core/error.h"
+#include "core/oiio_module.h"
 #include "core/texture.h"
 
 namespace obscura {
@@ -24,101 +41,116 @@ std::string siblingPath(const std::string& path, const char* tag) {
   return (p.parent_path() / name).string();
 }
 
-// Opens `tmp` for `format` or throws naming `path` (the destination).
-std::unique_ptr<OIIO::ImageOutput> openOutput(const std::string& path, const std::string& tmp, const char* format,
-                                              const OIIO::ImageSpec& spec) {
-  checkWritable(path);
-  auto out = OIIO::ImageOutput::create(format);
-  if (!out) throw Error(path + ": OpenImageIO has no '" + format + "' writer: " + OIIO::geterror());
-  if (!out->open(tmp, spec)) {
-    const std::string e = out->geterror();
-    std::remove(tmp.c_str());
-    throw Error(path + ": cannot open for writing: " + e);
-  }
-  return out;
+constexpr std::pair<ExrCompression, Imf::Compression> kCompressions[] = {
+    {ExrCompression::None, Imf::NO_COMPRESSION}, {ExrCompression::Rle, Imf::RLE_COMPRESSION},
+    {ExrCompression::Zips, Imf::ZIPS_COMPRESSION}, {ExrCompression::Zip, Imf::ZIP_COMPRESSION},
+    {ExrCompression::Piz, Imf::PIZ_COMPRESSION}};
+constexpr const char* kCompressionNames[] = {"none", "rle", "zips", "zip", "piz"};
+
+// The local time as the EXR standard `capDate` wants it (ImfStandardAttributes.h).
+std::string captureDate() {
+  const std::time_t now = std::time(nullptr);
+  std::tm t{};
+  localtime_r(&now, &t);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y:%m:%d %H:%M:%S", &t);
+  return text;
 }
 
-// Closes `out`, or removes `tmp` and throws naming `path`.
-void closeOutput(OIIO::ImageOutput& out, bool ok, const std::string& path, const std::string& tmp) {
-  std::string e = ok ? "" : out.geterror();
-  const bool closed = out.close();
-  if (ok && !closed) e = out.geterror();
-  if (!ok || !closed) {
-    std::remove(tmp.c_str());
-    throw Error(path + ": write failed: " + e);
-  }
-}
-
-// Writes the film's channels to `tmp` as an EXR, a band of scanlines at a
-// time (interleaved, OIIO's native layout).
+// Writes the film's channels to `tmp` as a scanline EXR, straight from the
+// planes (one slice per plane, no interleaved copy); OpenEXR converts
+// float to half per channel and compresses blocks on its thread pool.
 void writeExrFile(const std::string& path, const std::string& tmp, const Film& film, const ExrOptions& options) {
+  checkWritable(path);
   const std::vector<int>& chans = film.channels();
-  const int nc = int(chans.size());
-  OIIO::ImageSpec spec(film.width(), film.height(), nc, options.half ? OIIO::TypeDesc::HALF : OIIO::TypeDesc::FLOAT);
   // The data window is the film's window, the display window the frame
   // (equal but for a --region render; README "Regions and merging").
-  spec.x = film.originX(), spec.y = film.originY();
-  spec.full_x = 0, spec.full_y = 0, spec.full_width = film.fullWidth(), spec.full_height = film.fullHeight();
-  spec.channelnames.clear();
-  for (int c : chans) spec.channelnames.emplace_back(film.name(c));
-  if (options.half) {
-    // Per-channel pixel types: OIIO converts the float bands below to each.
-    bool mixed = false;
-    for (int c : chans) {
-      const std::string& n = film.name(c);
-      const bool keep = c < kChannelCount ? exrKeepsFloat(c)
-                                          : std::any_of(options.floatChannelPrefixes.begin(), options.floatChannelPrefixes.end(),
-                                                        [&](const std::string& p) { return n.compare(0, p.size(), p) == 0; });
-      spec.channelformats.push_back(keep ? OIIO::TypeDesc::FLOAT : OIIO::TypeDesc::HALF);
-      mixed |= keep;
-    }
-    if (!mixed) spec.channelformats.clear();
+  const Imath::Box2i data({film.originX(), film.originY()},
+                          {film.originX() + film.width() - 1, film.originY() + film.height() - 1});
+  const Imath::Box2i display({0, 0}, {film.fullWidth() - 1, film.fullHeight() - 1});
+  Imf::Header header(display, data);
+  for (const auto& [ours, theirs] : kCompressions)
+    if (ours == options.compression) header.compression() = theirs;
+  if (options.zipLevel > 0) header.zipCompressionLevel() = options.zipLevel;
+  for (int c : chans) {
+    const std::string& n = film.name(c);
+    const bool keep = !options.half ||
+                      (c < kChannelCount ? exrKeepsFloat(c)
+                                         : std::any_of(options.floatChannelPrefixes.begin(), options.floatChannelPrefixes.end(),
+                                                       [&](const std::string& p) { return n.compare(0, p.size(), p) == 0; }));
+    header.channels().insert(n, Imf::Channel(keep ? Imf::FLOAT : Imf::HALF));
   }
-  spec.alpha_channel = 3;
-  spec.z_channel = -1;
-  for (int i = 0; i < nc; ++i)
-    if (chans[size_t(i)] == kZ) spec.z_channel = i;
-  spec.attribute("compression", "zip");
-  spec.attribute("oiio:ColorSpace", "Linear");
   // CIE xy of the Rec.709 / sRGB primaries R, G, B and of the D65 white
   // (ITU-R BT.709): what linear sRGB textures and a grey sky make.
-  static const float rec709[8] = {0.64f, 0.33f, 0.30f, 0.60f, 0.15f, 0.06f, 0.3127f, 0.3290f};
-  spec.attribute("chromaticities", OIIO::TypeDesc(OIIO::TypeDesc::FLOAT, 8), rec709);
+  header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities(
+                                      {0.64f, 0.33f}, {0.30f, 0.60f}, {0.15f, 0.06f}, {0.3127f, 0.3290f})));
+  header.insert("capDate", Imf::StringAttribute(captureDate()));
   for (const HeaderAttribute& a : options.attributes) {
-    if (auto* s = std::get_if<std::string>(&a.value)) spec.attribute(a.name, *s);
-    else if (auto* i = std::get_if<int>(&a.value)) spec.attribute(a.name, *i);
-    else if (auto* f = std::get_if<float>(&a.value)) spec.attribute(a.name, *f);
+    if (auto* s = std::get_if<std::string>(&a.value)) header.insert(a.name, Imf::StringAttribute(*s));
+    else if (auto* i = std::get_if<int>(&a.value)) header.insert(a.name, Imf::IntAttribute(*i));
+    else if (auto* f = std::get_if<float>(&a.value)) header.insert(a.name, Imf::FloatAttribute(*f));
     else {
       const auto& m = std::get<std::vector<float>>(a.value);
-      if (m.size() == 16) spec.attribute(a.name, OIIO::TypeMatrix44, m.data());
+      if (m.size() == 16)
+        header.insert(a.name, Imf::M44fAttribute(Imath::M44f(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9],
+                                                              m[10], m[11], m[12], m[13], m[14], m[15])));
     }
   }
-  auto out = openOutput(path, tmp, "openexr", spec);
-  // 64 rows: a multiple of ZIP's 16-line blocks, and a few MiB at most.
-  const int band = 64;
+  // Float channels are written from the planes in place. OpenEXR's output
+  // does not convert, so half channels go through a buffer of `band` rows
+  // (a multiple of every block height: 16 for ZIP, 32 for PIZ), converted
+  // band by band: never a second copy of the film.
   const size_t w = size_t(film.width());
-  std::vector<float> rows(w * size_t(std::min(band, film.height())) * size_t(nc));
-  bool ok = true;
-  for (int y0 = 0; ok && y0 < film.height(); y0 += band) {
-    const int y1 = std::min(film.height(), y0 + band);
-    for (int y = y0; y < y1; ++y)
-      for (int i = 0; i < nc; ++i) {
-        const float* src = film.plane(chans[size_t(i)]) + size_t(y) * w;
-        float* dst = rows.data() + size_t(y - y0) * w * size_t(nc) + size_t(i);
-        for (size_t x = 0; x < w; ++x) dst[x * size_t(nc)] = src[x];
+  std::vector<int> halves;
+  for (int c : chans)
+    if (header.channels().findChannel(film.name(c))->type == Imf::HALF) halves.push_back(c);
+  const int band = halves.empty() ? film.height() : std::min(film.height(), 128);
+  std::vector<Imath::half> halfRows(halves.size() * w * size_t(band));
+  const auto frameFor = [&](int y0) {  // the slices for rows [y0, y0 + band) of the window
+    Imf::FrameBuffer frame;
+    for (int c : chans)
+      if (std::find(halves.begin(), halves.end(), c) == halves.end())
+        frame.insert(film.name(c), Imf::Slice::Make(Imf::FLOAT, film.plane(c), data, sizeof(float), w * sizeof(float)));
+    for (size_t k = 0; k < halves.size(); ++k)
+      frame.insert(film.name(halves[k]),
+                   Imf::Slice::Make(Imf::HALF, halfRows.data() + k * w * size_t(band),
+                                    Imath::V2i(film.originX(), film.originY() + y0), int64_t(w), band,
+                                    sizeof(Imath::half), w * sizeof(Imath::half)));
+    return frame;
+  };
+  // Compression runs on OpenEXR's own pool, sized like the render's; an
+  // image of one block of scanlines (32 for PIZ, 16 for ZIP) has nothing to
+  // share, so it starts no thread.
+  int threads = options.threads > 0 ? options.threads
+                                    : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  if (film.height() <= 32) threads = 0;
+  if (Imf::globalThreadCount() != threads) Imf::setGlobalThreadCount(threads);
+  try {
+    Imf::OutputFile file(tmp.c_str(), header);
+    for (int y0 = 0; y0 < film.height(); y0 += band) {
+      const int rows = std::min(band, film.height() - y0);
+      for (size_t k = 0; k < halves.size(); ++k) {
+        const float* src = film.plane(halves[k]) + size_t(y0) * w;
+        Imath::half* dst = halfRows.data() + k * w * size_t(band);
+        for (size_t i = 0; i < size_t(rows) * w; ++i) dst[i] = Imath::half(src[i]);
       }
-    // Scanlines are numbered in the frame: the data window starts at spec.y.
-    ok = out->write_scanlines(spec.y + y0, spec.y + y1, 0, OIIO::TypeDesc::FLOAT, rows.data());
+      file.setFrameBuffer(frameFor(y0));
+      file.writePixels(rows);
+    }
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + e.what());
   }
-  closeOutput(*out, ok, path, tmp);
 }
 
 void writePngFile(const std::string& path, const std::string& tmp, int width, int height, const unsigned char* rgb) {
-  OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
-  spec.attribute("oiio:ColorSpace", "sRGB");
-  auto out = openOutput(path, tmp, "png", spec);
-  const bool ok = out->write_image(OIIO::TypeDesc::UINT8, rgb);
-  closeOutput(*out, ok, path, tmp);
+  checkWritable(path);
+  errno = 0;
+  if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb, width * 3)) {
+    const std::string why = errno ? std::strerror(errno) : "cannot encode the image";
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + why);
+  }
 }
 
 std::vector<unsigned char> previewPixels(const Film& film) {
@@ -252,12 +284,36 @@ void writePngRgb8(const std::string& path, int width, int height, const unsigned
   out.commit();
 }
 
+const char* exrCompressionName(ExrCompression c) { return kCompressionNames[int(c)]; }
+
+ExrCompression exrCompressionFromName(const std::string& name, const std::string& what) {
+  std::string lower = name, all;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+  for (const auto& [c, theirs] : kCompressions) {
+    if (lower == kCompressionNames[int(c)]) return c;
+    all += std::string(all.empty() ? "" : ", ") + kCompressionNames[int(c)];
+  }
+  throw Error(what + ": unknown compression '" + name + "' (one of " + all + ")");
+}
+
+bool isExrFile(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
+  unsigned char magic[4] = {0, 0, 0, 0};
+  const size_t n = std::fread(magic, 1, 4, f);
+  std::fclose(f);
+  return n == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
+}
+
 std::string readExrAttribute(const std::string& path, const std::string& name) {
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw Error(path + ": cannot open: " + OIIO::geterror());
-  const std::string v = in->spec().get_string_attribute(name);
-  in->close();
-  return v;
+  if (!isExrFile(path)) return oiioModule(path).readStringAttribute(path, name);
+  try {
+    const Imf::InputFile in(path.c_str());
+    const auto* s = in.header().findTypedAttribute<Imf::StringAttribute>(name);
+    return s ? s->value() : std::string();
+  } catch (const std::exception& e) {
+    throw Error(path + ": cannot open: " + e.what());
+  }
 }
 
 }  // namespace obscura

@@ -1,5 +1,6 @@
-// Image output through OpenImageIO: the film as a multi-channel EXR, and an
-// sRGB PNG preview. Both are written atomically: to a temporary file in the
+// Image output: the film as a multi-channel EXR (OpenEXR, straight from the
+// film's planes), and an sRGB PNG preview (stb_image_write). Neither loads
+// OpenImageIO, which costs ~0.4 s of start-up (core/oiio_module.h). Both are written atomically: to a temporary file in the
 // destination's directory, then renamed over the destination, so a failed or
 // interrupted write never leaves a truncated file where a good one was.
 // Several files that belong together (a pass and its preview) go through one
@@ -22,6 +23,15 @@ struct HeaderAttribute {
   std::variant<std::string, int, float, std::vector<float>> value;  // vector: 16 floats = 4x4 matrix
 };
 
+// EXR compressions offered (all lossless). Sizes and write times at 1080p
+// are in README "Start-up and file speed" (bench/bench_exr_write.cpp).
+enum class ExrCompression { None, Rle, Zips, Zip, Piz };
+// "none", "rle", "zips", "zip", "piz": the names of the EXR `compression`
+// attribute as OpenImageIO and Nuke show them.
+const char* exrCompressionName(ExrCompression c);
+// Throws obscura::Error "`what`: unknown compression 'x' (one of ...)".
+ExrCompression exrCompressionFromName(const std::string& name, const std::string& what);
+
 struct ExrOptions {
   // 16-bit half floats instead of 32-bit floats for the pass, alpha, albedo,
   // shaded and the extra planes; N.X/Y/Z and Z stay 32-bit (exrKeepsFloat).
@@ -30,6 +40,12 @@ struct ExrOptions {
   // `half` (Cryptomatte ids are float bit patterns: README "Cryptomatte").
   std::vector<std::string> floatChannelPrefixes;
   std::vector<HeaderAttribute> attributes;
+  // Recorded in the file's standard `compression` attribute.
+  ExrCompression compression = ExrCompression::Zip;
+  // zlib level for zip/zips, 1-9; 0 = OpenEXR's default.
+  int zipLevel = 0;
+  // OpenEXR's compression threads; 0 = TBB's current limit (--threads).
+  int threads = 0;
 };
 
 // True for the fixed channels written 32-bit float even under --half: the
@@ -39,6 +55,11 @@ struct ExrOptions {
 bool exrKeepsFloat(int channel);
 
 // Throws obscura::Error naming the path on failure (nothing is left behind).
+// Header: the channels (OpenEXR sorts them by name), the data window (the
+// film's window) and display window (the frame), `compression`,
+// `chromaticities`, `capDate` (the local time, "YYYY:MM:DD HH:MM:SS", which
+// OpenImageIO shows as DateTime) and `options.attributes` (string, int,
+// float, m44f).
 // The EXR is written in bands of scanlines straight from the film's planes,
 // so writing needs no second copy of the film. Its channels may mix half
 // and float (OpenEXR stores a pixel type per channel). The header also
@@ -84,8 +105,12 @@ uint64_t filmBytes(int width, int height, bool aovs);
 // Physical memory the system reports as available (MemAvailable), or 0 if
 // unknown.
 uint64_t availableMemoryBytes();
-// A header attribute of an image file as text ("" if absent); throws
-// obscura::Error naming the path if the file cannot be opened.
+// True if the file starts with OpenEXR's magic number; throws
+// obscura::Error naming the path if it cannot be read.
+bool isExrFile(const std::string& path);
+// A string attribute of an image file's header ("" if absent or not a
+// string); throws obscura::Error naming the path if the file cannot be
+// opened. EXR through OpenEXR, other formats through OpenImageIO's module.
 std::string readExrAttribute(const std::string& path, const std::string& name);
 // sRGB preview of the pass (R,G,B over black); 8-bit PNG.
 void writePreviewPng(const std::string& path, const Film& film);

@@ -1,11 +1,16 @@
 #include "core/metrics.h"
 
-#include <OpenImageIO/imagebuf.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
+#include "core/image_io.h"
+#include "core/oiio_module.h"
 
 namespace obscura {
 
@@ -29,22 +34,31 @@ PassImage passFromFilm(const Film& film) {
 }
 
 PassImage readPass(const std::string& path) {
-  OIIO::ImageBuf buf(path);
-  if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT))
-    throw Error(path + ": cannot read: " + buf.geterror());
-  const OIIO::ImageSpec& spec = buf.spec();
+  // An EXR through OpenEXR (no OpenImageIO start-up); other formats through
+  // the module (core/oiio_module.h).
+  if (!isExrFile(path)) return oiioModule(path).readPass(path);
   PassImage p;
-  p.width = spec.width;
-  p.height = spec.height;
-  std::vector<float>* planes[4] = {&p.r, &p.g, &p.b, &p.a};
   const char* names[4] = {"R", "G", "B", "A"};
-  for (int c = 0; c < 4; ++c) {
-    const int index = spec.channelindex(names[c]);
-    if (index < 0) throw Error(path + ": channel " + names[c] + " is missing (not an obscura pass?)");
-    planes[c]->resize(p.pixels());
-    if (!buf.get_pixels(OIIO::ROI(0, p.width, 0, p.height, 0, 1, index, index + 1), OIIO::TypeDesc::FLOAT,
-                        planes[c]->data()))
-      throw Error(path + ": cannot read channel " + names[c] + ": " + buf.geterror());
+  try {
+    Imf::InputFile in(path.c_str());
+    const Imath::Box2i data = in.header().dataWindow();
+    p.width = data.max.x - data.min.x + 1;
+    p.height = data.max.y - data.min.y + 1;
+    std::vector<float>* planes[4] = {&p.r, &p.g, &p.b, &p.a};
+    Imf::FrameBuffer frame;
+    for (int c = 0; c < 4; ++c) {
+      if (!in.header().channels().findChannel(names[c]))
+        throw Error(path + ": channel " + names[c] + " is missing (not an obscura pass?)");
+      planes[c]->resize(p.pixels());
+      frame.insert(names[c], Imf::Slice::Make(Imf::FLOAT, planes[c]->data(), data, sizeof(float),
+                                              size_t(p.width) * sizeof(float)));
+    }
+    in.setFrameBuffer(frame);
+    in.readPixels(data.min.y, data.max.y);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(path + ": cannot read: " + e.what());
   }
   return p;
 }

@@ -22,7 +22,9 @@ struct PassImage {
 };
 
 PassImage passFromFilm(const Film& film);
-// Reads R, G, B, A of an EXR written by obscura; throws obscura::Error naming the file.
+// Reads R, G, B, A of an EXR written by obscura (its data window; through
+// OpenEXR), or of another format through OpenImageIO's module
+// (core/oiio_module.h); throws obscura::Error naming the file.
 PassImage readPass(const std::string& path);
 
 // Which pixels count: those the reference covers fully (A = 1: every

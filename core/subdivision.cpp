@@ -1,6 +1,5 @@
 #include "core/subdivision.h"
 
-#include <OpenImageIO/imageio.h>
 #include <opensubdiv/far/error.h>
 #include <opensubdiv/far/primvarRefiner.h>
 #include <opensubdiv/far/topologyDescriptor.h>
@@ -20,6 +19,7 @@
 #include <string>
 
 #include "core/error.h"
+#include "core/oiio_module.h"
 #include "core/settings.h"
 
 namespace obscura {
@@ -471,73 +471,9 @@ void CageUvs::at(uint32_t face, float u, float v, float& s, float& t) const {
   }
 }
 
-namespace {
-
-// libpng reports a damaged file through its default handler too, which
-// prints "libpng error: ..." straight to stderr (OpenImageIO installs its own
-// handler only on some of its read structs), beside the error OpenImageIO
-// returns. While a map is read (at load time, on the loading thread) fd 2
-// goes to a temporary file; afterwards libpng's lines are dropped - the
-// error OpenImageIO returns says the same - and anything else is passed on.
-class QuietLibpng {
- public:
-  QuietLibpng() {
-    std::fflush(stderr);
-    tmp_ = std::tmpfile();
-    saved_ = tmp_ ? ::dup(2) : -1;
-    if (saved_ >= 0 && ::dup2(::fileno(tmp_), 2) < 0) ::close(saved_), saved_ = -1;
-  }
-  ~QuietLibpng() {
-    if (saved_ < 0) {
-      if (tmp_) std::fclose(tmp_);
-      return;
-    }
-    std::fflush(stderr);
-    ::dup2(saved_, 2);
-    ::close(saved_);
-    std::rewind(tmp_);
-    char line[4096];
-    while (std::fgets(line, sizeof line, tmp_))
-      if (std::strncmp(line, "libpng ", 7) != 0) std::fputs(line, stderr);
-    std::fclose(tmp_);
-  }
-  QuietLibpng(const QuietLibpng&) = delete;
-  QuietLibpng& operator=(const QuietLibpng&) = delete;
-
- private:
-  std::FILE* tmp_ = nullptr;
-  int saved_ = -1;
-};
-
-// OpenImageIO's error text, which may span lines, as one clause.
-std::string oneLine(std::string s) {
-  for (char& c : s)
-    if (c == '\n' || c == '\r') c = ';';
-  std::string out;
-  for (size_t i = 0; i < s.size(); ++i) {
-    if (s[i] == ';' && (out.empty() || out.back() == ';' || i + 1 == s.size())) continue;
-    out += s[i];
-    if (s[i] == ';') out += ' ';
-  }
-  while (!out.empty() && (out.back() == ' ' || out.back() == ';')) out.pop_back();
-  return out;
-}
-
-}  // namespace
-
 HeightMap::HeightMap(const std::string& path) {
-  QuietLibpng quiet;  // around opening and reading: both may meet the damage
-  // ImageInput rather than ImageBuf: ImageBuf leaks the error text of a
-  // file that fails to read (OpenImageIO 2.4, seen by LeakSanitizer).
-  auto in = OIIO::ImageInput::open(path);
-  if (!in) throw Error(path + ": cannot read the height map: " + oneLine(OIIO::geterror()));
-  const OIIO::ImageSpec& spec = in->spec();
-  w_ = spec.width, h_ = spec.height;
-  if (w_ < 1 || h_ < 1 || spec.nchannels < 1) throw Error(path + ": the height map is empty");
-  texels_.resize(size_t(w_) * size_t(h_));
-  // The first channel of the first subimage, rows top first.
-  if (!in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, texels_.data()))
-    throw Error(path + ": cannot read the height map: " + oneLine(in->geterror()));
+  // Any format OpenImageIO reads, so through its module (core/oiio_module.h).
+  oiioModule(path).readFirstChannel(path, w_, h_, texels_);
   for (const float t : texels_)
     if (!std::isfinite(t)) throw Error(path + ": the height map has a non-finite texel");
   const auto [lo, hi] = std::minmax_element(texels_.begin(), texels_.end());

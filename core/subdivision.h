@@ -51,7 +51,8 @@ struct SubdividedMesh {
   std::vector<uint32_t> weld;
 };
 
-// A scalar height map read through OpenImageIO (PNG, EXR, TIFF, ...; 8/16-bit
+// A scalar height map read through OpenImageIO (its module, loaded by the
+// first map: core/oiio_module.h) (PNG, EXR, TIFF, ...; 8/16-bit
 // or float; the first channel), sampled bilinearly with repeat wrapping,
 // v = 0 at the bottom row (OpenGL / OBJ convention).
 class HeightMap {
