@@ -126,19 +126,19 @@ class TileRenderer {
   void cameraRays(const PixelRect& r, SampleCursor& c, size_t n, ThreadScratch& ts) const {
     IntersectBatch& cam = ts.camera;
     cam.clear();
+    // The pixel filter's film positions (shared with the G-buffer:
+    // core/gbuffer.h) first, then the still camera's directions across
+    // lanes (RasterCamera::directions: the normalizations overlap).
+    float fx[kChunk], fy[kChunk];
     for (size_t l = 0; l < n; ++l) {
-      float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
-      cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx, fy);
-      if (!s_.motionBlur) {
-        const RasterCamera& raster = shutter_.still();
-        cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_);
-      } else {
+      cameraSampleFilm(s_.filter, c.filterSeeds, c.si, c.px, c.py, fx[l], fy[l]);
+      if (s_.motionBlur) {
         // The sample's moment in the shutter, from a dimension of its own:
         // the other dimensions - and so a still scene's image - are those
         // of a render without motion blur.
         const float time = Sampler::get1D(c.key, c.si, kDimShutterTime);
         const RasterCamera raster = shutter_.at(time);
-        cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_, time);
+        cam.pushCamera(raster.org, raster.direction(fx[l], fy[l]), tnear_, tfar_, time);
       }
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key;
@@ -150,6 +150,12 @@ class TileRenderer {
         c.key = sampler_.pixelKey(uint32_t(c.px), uint32_t(c.py));
         c.filterSeeds = Sampler::seeds2D(c.key, kDimPixelFilter);
       }
+    }
+    if (!s_.motionBlur) {
+      const RasterCamera& raster = shutter_.still();
+      Vec3 dir[kChunk];
+      raster.directions(fx, fy, n, dir);
+      for (size_t l = 0; l < n; ++l) cam.pushCamera(raster.org, dir[l], tnear_, tfar_);
     }
   }
 
