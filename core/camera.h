@@ -3,6 +3,10 @@
 // follows the image's aspect ratio.
 #pragma once
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -67,6 +71,33 @@ struct RasterCamera {
     axis = c.toWorld.vector(Vec3(0, 0, -1));
   }
   Vec3 direction(float fx, float fy) const { return normalize(d0 + dx * fx + dy * fy); }
+  // out[i] = direction(fx[i], fy[i]) for i < n, bit for bit, four lanes at a
+  // time: the same operations in the same order (IEEE sqrt and division are
+  // correctly rounded in SSE lanes as in scalar code). One ray at a time,
+  // the square root and division of each normalization stalled the render
+  // loop's camera stage (a quarter of its time, perf); across lanes they
+  // overlap.
+  void directions(const float* fx, const float* fy, size_t n, Vec3* out) const {
+    size_t i = 0;
+#if defined(__SSE2__)
+    const auto axisLanes = [&](float o, float a, float b, __m128 x, __m128 y) {
+      return _mm_add_ps(_mm_add_ps(_mm_set1_ps(o), _mm_mul_ps(_mm_set1_ps(a), x)), _mm_mul_ps(_mm_set1_ps(b), y));
+    };
+    for (; i + 4 <= n; i += 4) {
+      const __m128 x = _mm_loadu_ps(fx + i), y = _mm_loadu_ps(fy + i);
+      const __m128 vx = axisLanes(d0.x, dx.x, dy.x, x, y), vy = axisLanes(d0.y, dx.y, dy.y, x, y),
+                   vz = axisLanes(d0.z, dx.z, dy.z, x, y);
+      const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(vx, vx), _mm_mul_ps(vy, vy)), _mm_mul_ps(vz, vz));
+      const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(len2));
+      alignas(16) float ox[4], oy[4], oz[4];
+      _mm_store_ps(ox, _mm_mul_ps(vx, inv));
+      _mm_store_ps(oy, _mm_mul_ps(vy, inv));
+      _mm_store_ps(oz, _mm_mul_ps(vz, inv));
+      for (int k = 0; k < 4; ++k) out[i + size_t(k)] = Vec3(ox[k], oy[k], oz[k]);
+    }
+#endif
+    for (; i < n; ++i) out[i] = direction(fx[i], fy[i]);
+  }
   Vec3 axis;  // the view axis, camera-to-world of (0, 0, -1)
 };
 

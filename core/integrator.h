@@ -133,10 +133,25 @@ inline Vec3 cosineDirection(const SurfaceHit& h, const Lobe& lobe, uint32_t rays
 // i * rays + k belonging to hits[i].
 inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, const LobeControls& controls,
                            OcclusionBatch& batch) {
+  // A pixel's hits come one after another (the render loop is pixel-major),
+  // keyed by one key or by two that alternate (a pixel's sample streams), so
+  // the scramble seeds of the last two keys are kept and hashed once per
+  // key's run instead of once per ray: the bits of cosineDirection, three
+  // hashes fewer per ray.
+  uint32_t keys[2] = {0, 0};
+  Sampler::Seeds2 seeds[2] = {};
+  int held = 0, last = 0;  // keys held; the slot used last
   for (const SurfaceHit& h : hits) {
+    int slot = held > 0 && keys[0] == h.pixelKey ? 0 : held > 1 && keys[1] == h.pixelKey ? 1 : -1;
+    if (slot < 0) {
+      slot = held < 2 ? held++ : 1 - last;  // the slot not used last
+      keys[slot] = h.pixelKey;
+      seeds[slot] = Sampler::seeds2D(h.pixelKey, kFirstIntegratorDim);
+    }
+    last = slot;
     const Lobe lobe = controls.at(h);
     for (uint32_t k = 0; k < rays; ++k) {
-      const Vec3 w = cosineDirection(h, lobe, rays, k);
+      const Vec3 w = lobe.direction(Sampler::get2D(seeds[slot], h.sampleIndex * rays + k));
       batch.push(spawnOrigin(h, w), w, controls.tnear, R, h);
     }
   }

@@ -221,21 +221,21 @@ class TileRenderer {
   void cameraRays(const PixelRect& r, SampleCursor& c, size_t n, ThreadScratch& ts) const {
     IntersectBatch& cam = ts.camera;
     cam.clear();
+    // The pixel filter's film positions (shared with the G-buffer:
+    // core/gbuffer.h) first, then the still camera's directions across
+    // lanes (RasterCamera::directions: the normalizations overlap).
+    float fx[kChunk], fy[kChunk];
     for (size_t l = 0; l < n; ++l) {
       // Sample si draws from replicate si & 1 at index si >> 1 (core/sampler.h).
       const uint32_t g = c.si & 1U, index = c.si >> 1;
-      float fx, fy;  // the pixel filter's film position (shared with the G-buffer: core/gbuffer.h)
-      cameraSampleFilm(s_.filter, c.filterSeeds[g], index, c.px, c.py, fx, fy);
-      if (!s_.motionBlur) {
-        const RasterCamera& raster = shutter_.still();
-        cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_);
-      } else {
+      cameraSampleFilm(s_.filter, c.filterSeeds[g], index, c.px, c.py, fx[l], fy[l]);
+      if (s_.motionBlur) {
         // The sample's moment in the shutter, from a dimension of its own:
         // the other dimensions - and so a still scene's image - are those
         // of a render without motion blur.
         const float time = Sampler::get1D(c.key[g], index, kDimShutterTime);
         const RasterCamera raster = shutter_.at(time);
-        cam.pushCamera(raster.org, raster.direction(fx, fy), tnear_, tfar_, time);
+        cam.pushCamera(raster.org, raster.direction(fx[l], fy[l]), tnear_, tfar_, time);
       }
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key[g];
@@ -244,6 +244,12 @@ class TileRenderer {
         if (++c.px == r.x1) c.px = r.x0, ++c.py;
         seekPixel(r, c);
       }
+    }
+    if (!s_.motionBlur) {
+      const RasterCamera& raster = shutter_.still();
+      Vec3 dir[kChunk];
+      raster.directions(fx, fy, n, dir);
+      for (size_t l = 0; l < n; ++l) cam.pushCamera(raster.org, dir[l], tnear_, tfar_);
     }
   }
 

@@ -89,7 +89,11 @@ inline void wrapPair(double f, int n, WrapMode mode, int& i0, int& i1) {
     return;
   }
   const int period = mode == WrapMode::MirroredRepeat ? 2 * n : n;
-  int m = std::abs(f) < 0x1p31 ? int(f) % period : int(std::fmod(f, double(period)));
+  // Inside the first period (uvs in [0, 1) for repeat) the remainder is f
+  // itself: no integer division, the common case of every lookup.
+  int m = f >= 0.0 && f < double(period) ? int(f)
+          : std::abs(f) < 0x1p31       ? int(f) % period
+                                       : int(std::fmod(f, double(period)));
   if (m < 0) m += period;
   const int m1 = m + 1 == period ? 0 : m + 1;
   if (mode == WrapMode::MirroredRepeat) {
