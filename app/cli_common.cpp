@@ -406,6 +406,9 @@ ExrOptions passHeader(const PassInfo& i) {
     str("obscura:passes", list);
     str("obscura:primaryPass", i.layers.front().layer);
   }
+  // Sample counts are integers up to 2^24: half holds them exactly only to
+  // 2048, so the spp plane stays float under --half (like N and Z).
+  exr.floatChannelPrefixes.push_back(kSppPlane);
   exr.attributes.push_back({"obscura:spp", i.settings.spp});
   if (adaptiveSampling(i.settings)) {
     // README "Adaptive sampling": the settings, and what they took.

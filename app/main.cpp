@@ -24,6 +24,7 @@
 #include "core/integrator.h"
 #include "core/plugin.h"
 #include "core/progress.h"
+#include "core/pixel_sums.h"
 #include "core/render.h"
 #include "app/cli_common.h"
 #include "app/compare.h"
@@ -217,7 +218,14 @@ void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace
   const uint64_t need = filmBytes(win.width(), win.height(), s.aovs) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
                         (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
                         (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
-                        cryptomatteBytes(s.cryptomatte, win.width(), win.height());
+                        cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
+                        // Adaptive sampling keeps every pixel's sums across rounds (core/render.cpp);
+                        // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and
+                        // working planes: core/denoise.cpp).
+                        (adaptiveSampling(s) ? uint64_t(win.size()) * (sizeof(PixelSums) + sizeof(HalfSums) +
+                                                                       uint64_t(layers) * sizeof(PassSums))
+                                             : 0) +
+                        (s.denoise ? uint64_t(win.size()) * 24 * sizeof(float) : 0);
   const uint64_t avail = availableMemoryBytes();
   if (avail > 0 && need > avail) {
     char msg[160];

@@ -178,7 +178,8 @@ void checkWritable(const std::string& path) {
 }
 
 uint64_t filmBytes(int width, int height, bool aovs) {
-  return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * uint64_t(aovs ? kChannelCount : 4) *
+  // With the AOVs, the fixed channels and the W.error and spp planes.
+  return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * uint64_t(aovs ? kChannelCount + 2 : 4) *
          sizeof(float);
 }
 

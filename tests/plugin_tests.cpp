@@ -226,6 +226,42 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
   EXPECT_NEAR(meanCovered(run({"spread=0.5"}), kB), cone, 4.0 * std::sqrt((1 - s * s / 2 - cone * cone) / N));
 }
 
+// Adaptive sampling and the denoiser work on a plugin's pass as on a
+// built-in's: the image does not depend on threads, pixels stop between
+// --min-spp and --spp on their error, and a target no pixel can meet leaves
+// every pixel equal to the fixed render.
+TEST(Plugin, BentNormalAdaptsAndDenoises) {
+  loadPlugin(OBSCURA_BENT_PLUGIN);
+  Scene scene;
+  addPlane(scene, 1e4f, 0.0f);
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
+  RenderSettings s = passSettings(24, 16, 64);
+  s.aovs = true;
+  s.targetError = 0.05f;
+  s.minSpp = 8;
+  s.denoise = true;
+  RenderStats stats;
+  const Film a = renderWith(scene, cam, "bent-normal", {}, s, &stats);
+  s.threads = 1;
+  const Film b = renderWith(scene, cam, "bent-normal", {}, s);
+  for (int c : a.channels())
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 24; ++x) ASSERT_EQ(a.at(c, x, y), b.at(c, x, y)) << a.name(c) << " at " << x << "," << y;
+  EXPECT_GT(stats.meanSpp, 8.0);
+  EXPECT_LT(stats.meanSpp, 64.0);
+  // A target of 0: every pixel takes --spp samples, equal to the fixed render.
+  s.targetError = 1e-30f;
+  s.denoise = false;
+  const Film all = renderWith(scene, cam, "bent-normal", {}, s);
+  RenderSettings fixed = passSettings(24, 16, 64);
+  fixed.aovs = true;
+  const Film ref = renderWith(scene, cam, "bent-normal", {}, fixed);
+  for (int c = 0; c < 4; ++c)
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 24; ++x) ASSERT_EQ(all.at(c, x, y), ref.at(c, x, y)) << c << " at " << x << "," << y;
+}
+
 // A plugin takes part in a multi-pass render like a built-in (core/render.h):
 // its layer equals its solo render bit for bit, and so does the built-in's.
 TEST(Plugin, BentNormalInAMultiPassRender) {

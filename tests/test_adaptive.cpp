@@ -18,6 +18,7 @@
 #include "core/adaptive.h"
 #include "core/camera.h"
 #include "core/error.h"
+#include "core/integrator.h"
 #include "core/render.h"
 #include "core/scene.h"
 #include "support.h"
@@ -273,6 +274,38 @@ TEST(Adaptive, ScreenSpaceRoundsAreWholeLayers) {
     }
   EXPECT_GT(atMax, 100);
   EXPECT_GT(other, 10);  // the open floor far from the wall stopped
+}
+
+// Every registered integrator (built-ins; plugins loaded in this process
+// too) renders adaptively and denoised: the same image at 1 and 2 threads,
+// each pixel's count within [min-spp, spp], its error finite and >= 0.
+TEST(Adaptive, EveryIntegratorAdaptsAndDenoisesDeterministically) {
+  const auto scene = wallScene();
+  const std::string ripples = writeRipples(tempDir("adaptive_every"));
+  for (const IntegratorDescriptor& d : IntegratorRegistry::instance().all()) {
+    std::vector<std::string> params;
+    for (const ParamSpec& p : d.params) {
+      if (p.name == "map") params.push_back("map=" + ripples);
+      if (p.name == "distance") params.push_back("distance=0.5");  // containment needs a finite R
+    }
+    RenderSettings s = adaptiveSettings(0.05f, 32, 4);
+    s.denoise = true;
+    s.threads = 1;
+    RenderStats stats;
+    const Film a = renderWith(*scene, downCamera(), d.name, params, s, &stats);
+    s.threads = 2;
+    expectSameFilm(a, renderWith(*scene, downCamera(), d.name, params, s), d.name + ": threads 1 vs 2");
+    const int spp = a.find(kSppPlane), err = a.find(kErrorPlane);
+    ASSERT_GE(a.find("noisy.R"), 0) << d.name;
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        ASSERT_GE(a.at(spp, x, y), 4.0f) << d.name;
+        ASSERT_LE(a.at(spp, x, y), 32.0f) << d.name;
+        ASSERT_TRUE(std::isfinite(a.at(err, x, y)) && a.at(err, x, y) >= 0.0f) << d.name;
+      }
+    EXPECT_LE(stats.meanSpp, 32.0) << d.name;
+    EXPECT_GE(stats.meanSpp, 4.0) << d.name;
+  }
 }
 
 TEST(Adaptive, SettingsOutOfRangeAreRefused) {

@@ -355,12 +355,12 @@ TEST(Cryptomatte, RenderedLayersDecodeToTheScene) {
   for (const char* c : {"CryptoObject00.R", "CryptoObject00.G", "CryptoObject01.B", "CryptoObject02.A"})
     EXPECT_EQ(half.planes.at(c), full.planes.at(c)) << c;
   EXPECT_EQ(half.planes.count("CryptoMaterial00.R"), 0u);
-  // 32-bit: the 12 Cryptomatte channels, and Z and N.X/Y/Z (README "Depth
-  // and camera conventions"); the rest is half.
+  // 32-bit: the 12 Cryptomatte channels, Z and N.X/Y/Z (README "Depth
+  // and camera conventions") and spp (integer counts); the rest is half.
   int formats = 0;
   for (size_t c = 0; c < half.spec.channelformats.size(); ++c) {
     const std::string& name = half.spec.channelnames[c];
-    const bool keep = name.rfind("CryptoObject", 0) == 0 || name == "Z" || name.rfind("N.", 0) == 0;
+    const bool keep = name.rfind("CryptoObject", 0) == 0 || name == "Z" || name.rfind("N.", 0) == 0 || name == "spp";
     EXPECT_EQ(half.spec.channelformats[c] == OIIO::TypeDesc::FLOAT, keep) << name;
     formats += half.spec.channelformats[c] == OIIO::TypeDesc::FLOAT && name.rfind("Crypto", 0) == 0;
   }

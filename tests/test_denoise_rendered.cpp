@@ -199,5 +199,83 @@ TEST(DenoiseRendered, CreaseBiasAndVariance) {
   }
 }
 
+// A step between two planes at different depths, through the render's own
+// --denoise path (RenderSettings::denoise: W.error, the object guide): the
+// floor z = 0 and, for x > 0, a slab 2 high whose top is an open plane
+// (ao W exactly 1) and whose side is a wall 2 high at x = 0. With R = 1 < 2
+// the wall is infinite for the floor's rays, so a floor point at distance d
+// from it has W = creaseAo(d, 1). Seen straight down from above x = 0, the
+// left half of the image is floor and the right half slab top: the same
+// normal, a depth step of 2. Denoised over S seeds: the top stays exactly 1
+// (nothing of the darker floor leaks up), and the floor next to the wall
+// keeps its closed form within the noise of the S-seed mean (nothing of the
+// top's 1 leaks down): its bias^2 stays below the noisy variance of the
+// S-seed mean, the criterion of the crease test above (what remains is the
+// filter's smoothing of the floor's own gradient next to the wall).
+TEST(DenoiseRendered, DepthStepDoesNotLeak) {
+  Scene scene;
+  addPlane(scene, 50.0f);
+  const float H = 2.0f;
+  scene.addWorldPrimitive({{0, -50, H}, {50, -50, H}, {50, 50, H}, {0, 50, H}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene.addWorldPrimitive({{0, -50, 0}, {0, 50, 0}, {0, 50, H}, {0, -50, H}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene.commit();
+  const int w = 64, h = 8, spp = 8, seeds = 12;
+  const Camera cam = makeLookAtCamera(Vec3(0, 0, 8), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.1f, "down");
+  const RasterCamera rc(cam, w, h);
+  // Column x's footprint on the floor: d in [d1, d0] from the wall (x < 0).
+  const auto floorX = [&](float fx) {
+    const Vec3 d = rc.direction(fx, 0.5f * float(h));
+    return double(rc.org.x) - double(rc.org.z) * double(d.x) / double(d.z);
+  };
+  std::vector<double> sumN(size_t(w), 0), sumD(size_t(w), 0), sqN(size_t(w), 0);
+  for (int s = 0; s < seeds; ++s) {
+    RenderSettings st = passSettings(w, h, spp, uint32_t(100 + s));
+    st.aovs = true;
+    st.denoise = true;
+    const Film f = renderWith(scene, cam, "ao", {"distance=1"}, st);
+    const int noisy = f.find("noisy.R");
+    ASSERT_GE(noisy, 0);
+    for (int x = 0; x < w; ++x)
+      for (int y = 0; y < h; ++y) {
+        ASSERT_EQ(f.at(kA, x, y), 1.0f);
+        if (floorX(float(x + 1)) > 0.0) {
+          // The slab top (or the column on the edge, whose footprint is partly top).
+          if (floorX(float(x)) > 1e-3) ASSERT_EQ(f.at(kR, x, y), 1.0f) << "top pixel " << x << "," << y;
+          continue;
+        }
+        sumN[size_t(x)] += f.at(noisy, x, y), sqN[size_t(x)] += double(f.at(noisy, x, y)) * f.at(noisy, x, y);
+        sumD[size_t(x)] += f.at(kR, x, y);
+      }
+  }
+  // The floor columns within R of the wall: per column, the exact value is
+  // the closed form averaged over the footprint (Simpson), the noisy and
+  // denoised means over seeds x rows.
+  const double n = double(seeds * h);
+  double bias2 = 0, var = 0, near = 0;
+  int columns = 0;
+  for (int x = 0; x < w; ++x) {
+    const double x0 = floorX(float(x)), x1 = floorX(float(x + 1));
+    if (x1 > 0.0 || -x0 > 1.0) continue;
+    double exact = 0;
+    const int m = 100;
+    for (int i = 0; i <= m; ++i) exact += (i == 0 || i == m ? 1.0 : i % 2 ? 4.0 : 2.0) * creaseAo(-(x0 + (x1 - x0) * i / m), 1.0);
+    exact /= 3.0 * m;
+    const double meanN = sumN[size_t(x)] / n, varN = (sqN[size_t(x)] - n * meanN * meanN) / (n - 1);
+    // The noisy pass is unbiased (checks the closed form and footprint).
+    EXPECT_NEAR(meanN, exact, 4.0 * std::sqrt(varN / n) + 1e-9) << "column " << x;
+    const double b = sumD[size_t(x)] / n - exact;
+    bias2 += b * b, var += varN, ++columns;
+    if (x1 > -0.06) near = b;  // the column at the wall
+  }
+  ASSERT_GE(columns, 5);
+  bias2 /= columns, var /= columns;
+  // A leak of the slab's 1 into the floor would raise the column at the wall
+  // (W = creaseAo(0, 1) = 0.5 there) by a weight times 0.5.
+  std::printf("depth step: floor within R of the wall, denoised bias^2 %.3g vs noisy variance / seeds %.3g over %d "
+              "columns; at the wall %+.4f\n",
+              bias2, var / seeds, columns, near);
+  EXPECT_LT(bias2, var / seeds);
+}
+
 }  // namespace
 }  // namespace obscura::test
