@@ -156,6 +156,19 @@ TEST(CompareConfig, BadStringsGiveAClearError) {
   }
 }
 
+// The cells a compare run kept from an earlier one (its "(kept)" lines).
+size_t keptCells(const std::string& stderrText) {
+  size_t n = 0;
+  for (size_t p = stderrText.find("(kept)"); p != std::string::npos; p = stderrText.find("(kept)", p + 1)) ++n;
+  return n;
+}
+
+// `args` run again without -q, so the progress lines show what is kept.
+CliResult runVerbose(std::vector<std::string> args, const std::string& stderrPath) {
+  args.erase(std::find(args.begin(), args.end(), "-q"));
+  return runCli(args, stderrPath);
+}
+
 // The cavity as a glTF file: albedo a everywhere, a camera at the centre
 // looking at the wall opposite the hole.
 std::string writeCavityGltf(const std::string& dir, double alpha, float a) {
@@ -236,13 +249,10 @@ TEST(CompareEndToEnd, CavityRankingFollowsTheClosedForms) {
   const auto passTime = std::filesystem::last_write_time(dir + "/out/passes/ao@64.exr");
   std::vector<std::string> second = args;
   second.insert(second.end(), {"--spp", "16,64"});
-  second.erase(std::find(second.begin(), second.end(), "-q"));
-  const CliResult r2 = runCli(second, dir + "/err2.txt");
+  const CliResult r2 = runVerbose(second, dir + "/err2.txt");
   ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
   EXPECT_NE(r2.stderrText.find("reference: cached"), std::string::npos) << r2.stderrText;
-  size_t kept = 0;
-  for (size_t p = r2.stderrText.find("(kept)"); p != std::string::npos; p = r2.stderrText.find("(kept)", p + 1)) ++kept;
-  EXPECT_EQ(kept, 4u) << r2.stderrText;
+  EXPECT_EQ(keptCells(r2.stderrText), 4u) << r2.stderrText;
   EXPECT_EQ(std::filesystem::last_write_time(dir + "/out/passes/ao@64.exr"), passTime);
   std::ifstream csv(dir + "/out/results.csv");
   size_t rows = 0;
@@ -400,13 +410,9 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
       }
     std::ofstream(dir + "/out/results.csv") << old;
   }
-  std::vector<std::string> third = args;
-  third.erase(std::find(third.begin(), third.end(), "-q"));
-  const CliResult r3 = runCli(third, dir + "/err3.txt");
+  const CliResult r3 = runVerbose(args, dir + "/err3.txt");
   ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
-  size_t kept = 0;
-  for (size_t p = r3.stderrText.find("(kept)"); p != std::string::npos; p = r3.stderrText.find("(kept)", p + 1)) ++kept;
-  EXPECT_EQ(kept, 2u) << r3.stderrText;
+  EXPECT_EQ(keptCells(r3.stderrText), 2u) << r3.stderrText;
   EXPECT_EQ(readCsvRows(dir + "/out/results.csv").size(), 6u);
 }
 
@@ -443,13 +449,9 @@ TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
     std::getline(in, line);
     while (std::getline(in, line)) EXPECT_GE(std::count(line.begin(), line.end(), ','), 14) << line;
   }
-  std::vector<std::string> again = args;
-  again.erase(std::find(again.begin(), again.end(), "-q"));
-  const CliResult r2 = runCli(again, dir + "/err2.txt");
+  const CliResult r2 = runVerbose(args, dir + "/err2.txt");
   ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
-  size_t reused = 0;
-  for (size_t p = r2.stderrText.find("(kept)"); p != std::string::npos; p = r2.stderrText.find("(kept)", p + 1)) ++reused;
-  EXPECT_EQ(reused, kept) << r2.stderrText;
+  EXPECT_EQ(keptCells(r2.stderrText), kept) << r2.stderrText;
   EXPECT_EQ(rows(), 18u);
   // The finished run on the default scene wrote the whole report.
   for (const char* file : {"results.json", "summary.md", "error_vs_time.svg", "contact_sheet.svg", "contact_sheet.png",
