@@ -7,9 +7,11 @@
 // their image (reference, scene, camera, resolution, config with every
 // parameter value, spp, seed, seeds): a finished cell's row in results.csv
 // is kept and not recomputed, so an interrupted run resumes where it
-// stopped. Time is the render loop's wall time (scene loading and the BVH
-// build are the same for every cell and left out); with several seeds it
-// is the median.
+// stopped. Time is the render loop's wall time plus the denoiser's for a
+// config with denoise=on (what it costs to get that pass; scene loading and
+// the BVH build are the same for every cell and left out); with several
+// seeds it is the median. A config may carry render settings beside its
+// parameters (target=E, min-spp=N, denoise=on; parseCompareConfig).
 #include "app/compare.h"
 
 #include <tbb/global_control.h>
@@ -102,7 +104,13 @@ std::vector<double> parseTargets(const std::string& s) {
 
 using Cell = ReportCell;
 
-const char* kCsvHeader = "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass";
+// results.csv: the columns up to `pass` are those of the files written
+// before configs carried render settings; those files are still read (their
+// cells are plain: no target, no denoiser, mean spp = spp).
+const char* kCsvHeaderV1 = "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass";
+const char* kCsvHeader =
+    "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
+    "mean_spp,denoise_s";
 
 std::string csvQuote(const std::string& s) {
   std::string q = "\"";
@@ -120,7 +128,9 @@ std::string csvRow(const Cell& c) {
   return c.key + "," + csvQuote(c.config) + "," + c.integrator + "," + csvQuote(c.params) + "," + std::to_string(c.spp) +
          "," + std::to_string(c.seeds) + "," + fmt(c.seconds) + "," + std::to_string(c.rays) + "," + fmt(c.error.rmse) +
          "," + fmt(c.error.relMse) + "," + fmt(c.error.mae) + "," + fmt(c.error.p99) + "," +
-         (c.bv ? fmt(c.bv->bias2) : "") + "," + (c.bv ? fmt(c.bv->variance) : "") + "," + csvQuote(c.pass);
+         (c.bv ? fmt(c.bv->bias2) : "") + "," + (c.bv ? fmt(c.bv->variance) : "") + "," + csvQuote(c.pass) + "," +
+         (c.targetError > 0 ? fmt(c.targetError) : "") + "," + (c.minSpp > 0 ? std::to_string(c.minSpp) : "") + "," +
+         (c.denoise ? "on" : "off") + "," + fmt(c.meanSpp) + "," + fmt(c.denoiseSeconds);
 }
 
 // Splits one CSV line (quoted fields with "" escapes).
@@ -150,10 +160,11 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
   std::map<std::string, Cell> cells;
   std::ifstream in(path);
   std::string line;
-  if (!in || !std::getline(in, line) || line != kCsvHeader) return cells;
+  if (!in || !std::getline(in, line) || (line != kCsvHeader && line != kCsvHeaderV1)) return cells;
+  const size_t fields = line == kCsvHeader ? 20 : 15;
   while (std::getline(in, line)) {
     const std::vector<std::string> f = csvFields(line);
-    if (f.size() != 15) continue;
+    if (f.size() != fields) continue;
     try {
       Cell c;
       c.key = f[0], c.config = f[1], c.integrator = f[2], c.params = f[3];
@@ -163,6 +174,13 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
       c.error.p99 = std::stod(f[11]);
       if (!f[12].empty()) c.bv = BiasVariance{std::stod(f[12]), std::stod(f[13])};
       c.pass = f[14];
+      c.meanSpp = c.spp;
+      if (fields == 20) {
+        if (!f[15].empty()) c.targetError = std::stod(f[15]);
+        if (!f[16].empty()) c.minSpp = std::stoi(f[16]);
+        c.denoise = f[17] == "on";
+        c.meanSpp = std::stod(f[18]), c.denoiseSeconds = std::stod(f[19]);
+      }
       cells[c.key] = c;
     } catch (const std::exception&) {
       // a damaged row is recomputed
@@ -186,8 +204,70 @@ Film filmFromPass(const PassImage& p) {
 }  // namespace
 
 CompareConfig parseCompareConfig(const std::string& text) {
-  IntegratorSpec spec = parseIntegratorSpec("-c", text);
-  return CompareConfig{text, std::move(spec.integrator), std::move(spec.assignments), std::move(spec.canonical)};
+  // The render settings a config may carry are taken out first; the rest is
+  // the integrator's and checked by parseIntegratorSpec ("ao:" goes to it
+  // whole, for its own message).
+  const std::string where = "-c '" + text + "': ";
+  const size_t colon = text.find(':');
+  const std::string rest = colon == std::string::npos ? "" : text.substr(colon + 1);
+  const bool wellFormed = colon == std::string::npos ||
+                          (!rest.empty() && rest.front() != ',' && rest.back() != ',' && rest.find(",,") == std::string::npos);
+  if (!wellFormed && !rest.empty()) throw Error(where + "expected integrator:key=value,... without empty items");
+  CompareConfig c;
+  c.text = text;
+  std::string kept;
+  std::vector<std::string> seen;
+  bool stripped = false;
+  if (wellFormed && colon != std::string::npos) {
+    std::stringstream ss(rest);
+    std::string item;
+    while (std::getline(ss, item, ',')) {
+      const size_t eq = item.find('=');
+      const std::string key = eq == std::string::npos ? "" : item.substr(0, eq), value = item.substr(eq + 1);
+      if (key != "target" && key != "min-spp" && key != "denoise") {
+        kept += (kept.empty() ? "" : ",") + item;
+        continue;
+      }
+      stripped = true;
+      if (std::find(seen.begin(), seen.end(), key) != seen.end()) throw Error(where + key + " is given twice");
+      seen.push_back(key);
+      char* end = nullptr;
+      if (key == "target") {
+        // A standard error of W, absolute (README "Adaptive sampling"); the
+        // renderer keeps it as a float.
+        c.targetError = std::strtod(value.c_str(), &end);
+        if (value.empty() || *end != '\0' || !(c.targetError > 0) || !(c.targetError <= 1e30))
+          throw Error(where + "target must be a positive standard error of W (absolute, e.g. target=0.01), got '" + value + "'");
+      } else if (key == "min-spp") {
+        const long n = std::strtol(value.c_str(), &end, 10);
+        if (value.empty() || *end != '\0' || n < 1 || n > (1 << 24))
+          throw Error(where + "min-spp must be a sample count in [1, 16777216], got '" + value + "'");
+        c.minSpp = int(n);
+      } else if (value == "on" || value == "off") {
+        c.denoise = value == "on";
+      } else {
+        throw Error(where + "denoise must be on or off, got '" + value + "'");
+      }
+    }
+    if (c.minSpp > 0 && c.targetError == 0)
+      throw Error(where + "min-spp needs target=E (without it every pixel takes the cell's spp)");
+  }
+  const std::string integratorText = !stripped ? text : kept.empty() ? text.substr(0, colon) : text.substr(0, colon) + ":" + kept;
+  IntegratorSpec spec;
+  try {
+    spec = parseIntegratorSpec("-c", integratorText);
+  } catch (const Error& e) {
+    // Name the config as typed, not the part left after the settings.
+    const std::string msg = e.what(), prefix = "-c '" + integratorText + "': ";
+    throw Error(msg.rfind(prefix, 0) == 0 ? where + msg.substr(prefix.size()) : msg);
+  }
+  c.integrator = std::move(spec.integrator);
+  c.assignments = std::move(spec.assignments);
+  c.canonical = std::move(spec.canonical);
+  if (c.targetError > 0) c.canonical += ":target=" + formatFloat(c.targetError);
+  if (c.minSpp > 0) c.canonical += ":min-spp=" + std::to_string(c.minSpp);
+  if (c.denoise) c.canonical += ":denoise=on";
+  return c;
 }
 
 namespace {
@@ -275,20 +355,30 @@ class CompareRun {
   void report(const Reference& ref, const std::vector<Cell>& cells) const;
 
  private:
-  std::optional<PassImage> renderPass(const IntegratorDescriptor& d, const ParamSet& p, int spp, uint32_t seed,
-                                      RenderStats& stats) const {
+  // The settings of one render: the plan's, the cell's spp and seed, and the
+  // config's own (target error, min-spp, denoiser). A min-spp above the
+  // cell's spp is cut to it, so one config runs at every spp of the list.
+  RenderSettings settingsFor(const CompareConfig* cfg, int spp, uint32_t seed) const {
     RenderSettings s = plan_.base;
     s.spp = spp;
     s.seed = seed;
+    if (cfg) {
+      s.targetError = float(cfg->targetError);
+      s.minSpp = std::min(cfg->minSpp, spp);
+      s.denoise = cfg->denoise;
+      s.aovs = s.aovs || cfg->denoise;  // the denoiser is guided by N, Z and W.error
+    }
+    return s;
+  }
+  std::optional<PassImage> renderPass(const IntegratorDescriptor& d, const ParamSet& p, const RenderSettings& s,
+                                      RenderStats& stats) const {
     auto integ = d.create(p);
     Film film = render(scene_, camera_, *integ, d.needs(p), s, stats, cancel_);
     if (cancel_ && cancel_->load()) return std::nullopt;
     return passFromFilm(film);
   }
-  ExrOptions header(const IntegratorDescriptor& d, const ParamSet& p, int spp, uint32_t seed, const RenderStats& stats) const {
-    RenderSettings s = plan_.base;
-    s.spp = spp;
-    s.seed = seed;
+  ExrOptions header(const IntegratorDescriptor& d, const ParamSet& p, const RenderSettings& s,
+                    const RenderStats& stats) const {
     return passHeader(PassInfo{.scenePath = a_.scene, .camera = camera_, .integrator = d, .params = p, .settings = s,
                                .stats = stats, .filterName = "box", .robust = a_.robust, .sceneArgs = &a_,
                                .scene = &scene_, .bvhSeconds = scene_.buildSeconds()});
@@ -348,9 +438,9 @@ std::optional<Reference> CompareRun::reference() const {
   const ParamSet giParams(gi.params, gi.name);
   RenderStats s1, s2;
   const uint32_t refSeed = uint32_t(a_.seed) ^ 0x9e3779b9U;  // never a cell's seed
-  const auto h1 = renderPass(gi, giParams, a_.referenceSpp / 2, refSeed, s1);
+  const auto h1 = renderPass(gi, giParams, settingsFor(nullptr, a_.referenceSpp / 2, refSeed), s1);
   if (!h1) return std::nullopt;
-  const auto h2 = renderPass(gi, giParams, a_.referenceSpp - a_.referenceSpp / 2, refSeed + 1, s2);
+  const auto h2 = renderPass(gi, giParams, settingsFor(nullptr, a_.referenceSpp - a_.referenceSpp / 2, refSeed + 1), s2);
   if (!h2) return std::nullopt;
   ref.image = averagePasses(*h1, *h2);
   ref.noiseRmse = referenceNoise(*h1, *h2);
@@ -359,7 +449,7 @@ std::optional<Reference> CompareRun::reference() const {
   both.rays.camera += s2.rays.camera;
   both.rays.occlusion += s2.rays.occlusion;
   both.rays.closest += s2.rays.closest;
-  ExrOptions exr = header(gi, giParams, a_.referenceSpp, refSeed, both);
+  ExrOptions exr = header(gi, giParams, settingsFor(nullptr, a_.referenceSpp, refSeed), both);
   char noise[32];  // round-trips: a cached reference reports the same noise
   std::snprintf(noise, sizeof noise, "%.17g", ref.noiseRmse);
   exr.attributes.push_back({"obscura:referenceNoise", std::string(noise)});
@@ -371,27 +461,35 @@ std::optional<Reference> CompareRun::reference() const {
 std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d,
                                             const ParamSet& params, int spp, const Reference& ref, Cell c) const {
   std::vector<PassImage> renders;
-  std::vector<double> seconds;
-  double mse = 0, rel = 0, mae = 0, p99 = 0;
+  std::vector<double> seconds, denoiseSeconds;
+  double mse = 0, rel = 0, mae = 0, p99 = 0, meanSpp = 0;
   for (int k = 0; k < a_.seeds; ++k) {
     RenderStats stats;
-    auto img = renderPass(d, params, spp, uint32_t(a_.seed) + uint32_t(k), stats);
+    const RenderSettings s = settingsFor(&cfg, spp, uint32_t(a_.seed) + uint32_t(k));
+    auto img = renderPass(d, params, s, stats);
     if (!img) return std::nullopt;
     const ErrorMetrics e = errorMetrics(*img, ref.image);
     mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
     c.error.values = e.values;
-    seconds.push_back(stats.seconds);
+    // The time to this pass: the render loop and the denoiser after it
+    // (RenderStats keeps them apart; a denoised cell pays both).
+    seconds.push_back(stats.seconds + stats.denoiseSeconds);
+    denoiseSeconds.push_back(stats.denoiseSeconds);
+    meanSpp += stats.meanSpp > 0 ? stats.meanSpp : double(spp);
     if (k == 0) {
       c.rays = stats.rays.camera + stats.rays.occlusion + stats.rays.closest;
       c.pass = "passes/" + safeFileName(cfg.text) + "@" + std::to_string(spp) + ".exr";
-      writeExr((plan_.dir / c.pass).string(), filmFromPass(*img), header(d, params, spp, uint32_t(a_.seed), stats));
+      writeExr((plan_.dir / c.pass).string(), filmFromPass(*img), header(d, params, s, stats));
     }
     renders.push_back(std::move(*img));
   }
   const double K = double(a_.seeds);
   c.error.rmse = std::sqrt(mse / K), c.error.relMse = rel / K, c.error.mae = mae / K, c.error.p99 = p99 / K;
   std::sort(seconds.begin(), seconds.end());
+  std::sort(denoiseSeconds.begin(), denoiseSeconds.end());
   c.seconds = seconds[seconds.size() / 2];
+  c.denoiseSeconds = denoiseSeconds[denoiseSeconds.size() / 2];
+  c.meanSpp = meanSpp / K;
   if (a_.seeds >= 2) c.bv = biasVariance(renders, ref.image, std::max(ref.noiseRmse, 0.0));
   return c;
 }
@@ -430,11 +528,12 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) co
       Cell c;
       c.key = key, c.config = cfg.text, c.integrator = d.name, c.params = paramText;
       c.spp = spp, c.seeds = a_.seeds;
+      c.targetError = cfg.targetError, c.minSpp = cfg.minSpp, c.denoise = cfg.denoise;
       std::optional<Cell> measured = measureCell(cfg, d, params, spp, ref, std::move(c));
       if (!measured) return false;
       if (!a_.quiet)
-        std::fprintf(stderr, "        %.3f s  %.3g Mrays  RMSE %.4g  MAE %.4g  p99 %.4g%s\n", measured->seconds,
-                     double(measured->rays) * 1e-6, measured->error.rmse, measured->error.mae, measured->error.p99,
+        std::fprintf(stderr, "        %.3f s  %.3g Mrays  mean spp %.4g  RMSE %.4g  MAE %.4g  p99 %.4g%s\n",
+                     measured->seconds, double(measured->rays) * 1e-6, measured->meanSpp, measured->error.rmse, measured->error.mae, measured->error.p99,
                      measured->bv ? (" bias2 " + fmt(measured->bv->bias2) + " var " + fmt(measured->bv->variance)).c_str()
                                   : "");
       cells.push_back(std::move(*measured));

@@ -29,13 +29,23 @@ struct CompareArgs : SceneArgs {
 };
 
 // One parsed CONFIG: the integrator and its parameters as the user typed
-// them. Throws obscura::Error naming the config on a malformed string, an
-// unknown integrator or a bad parameter.
+// them, and the render settings a config may carry beside them (README
+// "Compare"): `target=E` (adaptive sampling to a standard error E of W; the
+// cell's spp is then the most a pixel takes), `min-spp=N` (with target) and
+// `denoise=on|off`. Those are not integrator parameters: they are taken out
+// before the parameters are checked. Throws obscura::Error naming the config
+// on a malformed string, an unknown integrator or a bad parameter or setting.
 struct CompareConfig {
   std::string text;        // as typed
   std::string integrator;
-  std::vector<std::string> assignments;  // key=value
-  std::string canonical;   // integrator and every parameter's value: the cache key
+  std::vector<std::string> assignments;  // key=value, the integrator's parameters only
+  // The integrator, every parameter's value and the settings that differ
+  // from a plain render (":target=E", ":min-spp=N", ":denoise=on"): the
+  // cache key, so a plain config keeps the key it had before these existed.
+  std::string canonical;
+  double targetError = 0;  // 0: fixed spp
+  int minSpp = 0;          // 0: the renderer's default (README "Adaptive sampling")
+  bool denoise = false;
 };
 CompareConfig parseCompareConfig(const std::string& text);
 

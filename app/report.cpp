@@ -210,6 +210,14 @@ void writePassPreview(const fs::path& path, const PassImage& p) {
   writePngRgb8(path.string(), p.width, p.height, px.data());
 }
 
+// "N spp", and for an adaptive cell "N spp (mean M)": N is then the most a
+// pixel took.
+std::string cellSpp(const ReportCell& c) {
+  std::string t = std::to_string(c.spp) + " spp";
+  if (c.targetError > 0) t += " (mean " + num(c.meanSpp) + ")";
+  return t;
+}
+
 // The summary as Markdown (for docs/trade.md and reports): the table, the
 // targets and the Pareto front.
 std::string summaryMarkdown(const CompareReport& r) {
@@ -217,22 +225,25 @@ std::string summaryMarkdown(const CompareReport& r) {
   bool bv = false;
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value();
   std::ostringstream s;
-  s << "| config | spp | time s | Mrays | RMSE | relMSE | MAE | p99 |" << (bv ? " bias² | variance |" : "") << "\n";
-  s << "|---|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
+  s << "| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 |" << (bv ? " bias² | variance |" : "")
+    << "\n";
+  s << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
   for (const ReportCell& c : cells) {
-    s << "| `" << c.config << "` | " << c.spp << " | " << num(c.seconds) << " | " << num(double(c.rays) * 1e-6) << " | "
+    s << "| `" << c.config << "` | " << c.spp << " | " << num(c.meanSpp) << " | " << num(c.seconds) << " | "
+      << (c.denoise ? num(c.denoiseSeconds) : "") << " | " << num(double(c.rays) * 1e-6) << " | "
       << num(c.error.rmse) << " | " << num(c.error.relMse) << " | " << num(c.error.mae) << " | " << num(c.error.p99) << " |";
     if (bv) s << " " << (c.bv ? num(c.bv->bias2) : "") << " | " << (c.bv ? num(c.bv->variance) : "") << " |";
     s << "\n";
   }
   s << "\n";
   if (r.referenceNoise >= 0) s << "Reference noise (RMSE of the gi reference itself): " << num(r.referenceNoise) << ".\n\n";
+  s << "Time includes the denoiser for `denoise=on` configs; spp is a `target=` config's most per pixel.\n\n";
   s << "| RMSE target | fastest config reaching it |\n|---:|---|\n";
   for (const double t : r.targets) {
     const auto best = fastestReaching(cells, t);
-    s << "| " << num(t) << " | "
-      << (best ? "`" + cells[*best].config + "` @ " + std::to_string(cells[*best].spp) + " spp, " + num(cells[*best].seconds) + " s"
-               : std::string("not reached"))
+    s << "| " << num(t) << " | " << (best ? "`" + cells[*best].config + "` @ " + cellSpp(cells[*best]) + ", " +
+                                                num(cells[*best].seconds) + " s"
+                                          : std::string("not reached"))
       << " |\n";
   }
   s << "\nPareto front:";
@@ -332,13 +343,17 @@ void writeCompareReport(const CompareReport& r) {
                   {"p99", "99th percentile of |e|"},
                   {"bias2", "mean (mean over seeds - W_ref)^2 - variance / seeds"},
                   {"variance", "mean per-value variance across seeds (of one render)"},
-                  {"time", "render loop wall time, median over seeds"}};
+                  {"time", "render loop wall time plus the denoiser's (denoise=on), median over seeds"},
+                  {"meanSpp", "camera samples per pixel on average, mean over seeds (below spp only with a target)"}};
   j["cells"] = nlohmann::json::array();
   for (const ReportCell& c : cells) {
     nlohmann::json e = {{"config", c.config}, {"integrator", c.integrator}, {"params", c.params},
                         {"spp", c.spp}, {"seeds", c.seeds}, {"seconds", c.seconds}, {"rays", c.rays},
                         {"rmse", c.error.rmse}, {"relMse", c.error.relMse}, {"mae", c.error.mae},
-                        {"p99", c.error.p99}, {"pass", c.pass}};
+                        {"p99", c.error.p99}, {"pass", c.pass}, {"meanSpp", c.meanSpp},
+                        {"denoise", c.denoise}, {"denoiseSeconds", c.denoiseSeconds}};
+    if (c.targetError > 0) e["targetError"] = c.targetError;
+    if (c.minSpp > 0) e["minSpp"] = c.minSpp;
     if (c.bv) e["bias2"] = c.bv->bias2, e["variance"] = c.bv->variance;
     j["cells"].push_back(e);
   }
@@ -348,7 +363,9 @@ void writeCompareReport(const CompareReport& r) {
   for (const double t : r.targets) {
     const auto best = fastestReaching(cells, t);
     nlohmann::json e = {{"rmse", t}};
-    if (best) e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"seconds", cells[*best].seconds}};
+    if (best)
+      e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"meanSpp", cells[*best].meanSpp},
+                      {"seconds", cells[*best].seconds}};
     else e["fastest"] = nullptr;
     j["targets"].push_back(e);
   }
@@ -364,24 +381,24 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   bool bv = false;
   size_t width = 6;
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), width = std::max(width, c.config.size());
-  std::fprintf(out, "%-*s %7s %9s %8s %9s %9s %9s %9s", int(width), "config", "spp", "time s", "Mrays", "RMSE", "relMSE",
-               "MAE", "p99");
+  std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s", "Mrays",
+               "RMSE", "relMSE", "MAE", "p99");
   if (bv) std::fprintf(out, " %9s %9s", "bias^2", "variance");
   std::fprintf(out, "\n");
   for (const ReportCell& c : cells) {
-    std::fprintf(out, "%-*s %7d %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp, c.seconds,
-                 double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99);
+    std::fprintf(out, "%-*s %7d %8.4g %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp, c.meanSpp,
+                 c.seconds, double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99);
     if (c.bv) std::fprintf(out, " %9.3g %9.3g", c.bv->bias2, c.bv->variance);
     std::fprintf(out, "\n");
   }
   if (r.referenceNoise >= 0)
     std::fprintf(out, "\nreference noise (RMSE of the gi reference itself): %.3g — errors near it are not resolved\n",
                  r.referenceNoise);
-  std::fprintf(out, "\nfastest config reaching each RMSE target:\n");
+  std::fprintf(out, "\nfastest config reaching each RMSE target (time includes the denoiser):\n");
   for (const double t : r.targets) {
     const auto best = fastestReaching(cells, t);
     if (best)
-      std::fprintf(out, "  RMSE <= %-8.3g %s @ %d spp (%.3f s)\n", t, cells[*best].config.c_str(), cells[*best].spp,
+      std::fprintf(out, "  RMSE <= %-8.3g %s @ %s (%.3f s)\n", t, cells[*best].config.c_str(), cellSpp(cells[*best]).c_str(),
                    cells[*best].seconds);
     else
       std::fprintf(out, "  RMSE <= %-8.3g not reached by any config\n", t);

@@ -20,8 +20,16 @@ namespace obscura {
 struct ReportCell {
   std::string key;  // hash of everything that determines the cell's images (results.csv; resumption)
   std::string config, integrator, params;
-  int spp = 0, seeds = 0;
-  double seconds = 0;
+  int spp = 0, seeds = 0;  // spp: the most a pixel takes when targetError > 0
+  // The config's render settings (README "Compare"): adaptive sampling to
+  // targetError (0: fixed spp) and the denoiser; meanSpp is the samples a
+  // pixel took on average (mean over seeds), denoiseSeconds the filter's
+  // time (median over seeds), already inside `seconds`.
+  double targetError = 0;
+  int minSpp = 0;
+  bool denoise = false;
+  double meanSpp = 0, denoiseSeconds = 0;
+  double seconds = 0;  // render loop + denoiser, median over seeds
   uint64_t rays = 0;
   ErrorMetrics error;
   std::optional<BiasVariance> bv;

@@ -48,8 +48,13 @@ fi
 
 # The ray-traced configs every scene is measured with: the approximations from
 # the cheapest up, then one-bounce GI and full GI at the same spp.
+# Then the time-to-error axis (README "Compare"): adaptive sampling to a
+# standard error of 0.02 per pixel (spp = the most a pixel takes), the
+# denoiser on the fixed-spp pass, and both; their time includes the denoiser.
 configs=(-c ao -c transfer -c transfer:depth=1 -c transfer:depth=2 -c multibounce
-  -c multibounce:mapping=improved -c gi:max-depth=1 -c gi)
+  -c multibounce:mapping=improved -c gi:max-depth=1 -c gi
+  -c ao:target=0.02 -c ao:denoise=on -c ao:target=0.02,denoise=on
+  -c transfer:target=0.02 -c transfer:denoise=on -c transfer:target=0.02,denoise=on)
 
 # The screen-space configs at radius R (vo's `radius`, ssat's `distance`).
 # They cannot take R = inf as `ao` does, so each scene names its own R (the
@@ -127,12 +132,15 @@ cells = traced["cells"] + ss["cells"]
 num = lambda v: "%.3g" % v
 screen_space = lambda c: c["integrator"] in ("vo", "ssat")
 
-print("| config | spp | time s | Mrays | RMSE | relMSE | MAE | p99 | bias² | variance |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+# mean spp: what a target= config's pixels took on average (spp is their
+# most); denoise s: the filter's share of the time (time includes it).
+print("| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 | bias² | variance |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for c in cells:
     bv = (num(c["bias2"]), num(c["variance"])) if "bias2" in c else ("", "")
-    print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s |" % (
-        c["config"], c["spp"], num(c["seconds"]), num(c["rays"] * 1e-6), num(c["rmse"]),
+    print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+        c["config"], c["spp"], num(c.get("meanSpp", c["spp"])), num(c["seconds"]),
+        num(c["denoiseSeconds"]) if c.get("denoise") else "", num(c["rays"] * 1e-6), num(c["rmse"]),
         num(c["relMse"]), num(c["mae"]), num(c["p99"]), *bv))
 print()
 noise = traced["reference"].get("noiseRmse")
@@ -147,7 +155,8 @@ def fastest(pool, t):
     if not ok:
         return "not reached"
     b = min(ok, key=lambda c: c["seconds"])
-    return "`%s` @ %d spp, %s s" % (b["config"], b["spp"], num(b["seconds"]))
+    mean = " (mean %s)" % num(b["meanSpp"]) if "targetError" in b else ""
+    return "`%s` @ %d spp%s, %s s" % (b["config"], b["spp"], mean, num(b["seconds"]))
 for t in (x["rmse"] for x in traced["targets"]):
     print("| %s | %s |" % (num(t), fastest(cells, t)))
 print()
@@ -234,6 +243,8 @@ that close can swap places on the Pareto front.
 Ray-traced configs at spp $spp; screen-space configs (\`vo\`, \`ssat\`: spp = G-buffer layers of
 16 samples each, README "Screen-space passes") and their ray-traced targets at the same R at spp $ss_spp.
 Errors are of W against the reference (README "Compare"); bias² and variance split the MSE of one render.
+\`target=0.02\` configs sample adaptively to a standard error of 0.02 per pixel (spp is then the most a pixel
+takes, "mean spp" what they took); \`denoise=on\` configs are denoised, and their time includes the denoiser.
 
 EOF
   for entry in "${documented[@]}"; do

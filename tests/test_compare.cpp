@@ -107,11 +107,28 @@ TEST(CompareConfig, ParsesAndCanonicalizes) {
   // Every parameter's value is in the key, so spelling out a default is the same config.
   EXPECT_EQ(parseCompareConfig("ao").canonical, parseCompareConfig("ao:distance=inf").canonical);
   EXPECT_NE(parseCompareConfig("ao").canonical, parseCompareConfig("ao:rays=2").canonical);
+  // Render settings beside the parameters: taken out, kept, and in the key
+  // only when they change the render (a plain config keeps its old key).
+  const CompareConfig t = parseCompareConfig("ao:distance=1,target=0.02,min-spp=8,denoise=on");
+  EXPECT_EQ(t.assignments, (std::vector<std::string>{"distance=1"}));
+  EXPECT_DOUBLE_EQ(t.targetError, 0.02);
+  EXPECT_EQ(t.minSpp, 8);
+  EXPECT_TRUE(t.denoise);
+  EXPECT_EQ(parseCompareConfig("ao:denoise=off").canonical, parseCompareConfig("ao").canonical);
+  EXPECT_FALSE(parseCompareConfig("ao:denoise=off").denoise);
+  EXPECT_NE(parseCompareConfig("ao:denoise=on").canonical, parseCompareConfig("ao").canonical);
+  EXPECT_NE(parseCompareConfig("ao:target=0.02").canonical, parseCompareConfig("ao:target=0.01").canonical);
+  EXPECT_EQ(parseCompareConfig("ao:target=0.02").canonical, parseCompareConfig("ao:target=2e-2").canonical);
+  EXPECT_NE(parseCompareConfig("ao:target=0.02").canonical, parseCompareConfig("ao:target=0.02,min-spp=4").canonical);
+  EXPECT_TRUE(parseCompareConfig("ao:target=0.02").assignments.empty());
 }
 
 TEST(CompareConfig, BadStringsGiveAClearError) {
   for (const std::string bad : {"", ":", "nope", "nope:x=1", "ao:", "ao:distance", "ao:=1", "ao:distance=-1",
-                                "ao:bogus=1", "ao:distance=1,", "transfer:depth=x", "multibounce:mapping=fancy"}) {
+                                "ao:bogus=1", "ao:distance=1,", "transfer:depth=x", "multibounce:mapping=fancy",
+                                "ao:target=-1", "ao:target=0", "ao:target=x", "ao:target=", "ao:denoise=maybe",
+                                "ao:min-spp=8", "ao:target=0.1,min-spp=0", "ao:target=0.1,target=0.2",
+                                "ao:target=0.1,bogus=1", "ao:target=0.1,", "nope:target=0.1"}) {
     try {
       parseCompareConfig(bad);
       ADD_FAILURE() << "accepted '" << bad << "'";
@@ -128,6 +145,28 @@ TEST(CompareConfig, BadStringsGiveAClearError) {
   EXPECT_NE(r.stderrText.find("obscura: error: -c 'transfer:depth=-1'"), std::string::npos) << r.stderrText;
   EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
   EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  for (const std::string bad : {"ao:target=-1", "ao:denoise=maybe"}) {
+    const CliResult b = runCli({"compare", "-o", dir + "/out", "-c", "ao", "-c", bad, "-q"}, dir + "/err2.txt");
+    EXPECT_EQ(b.exitCode, 1);
+    EXPECT_NE(b.stderrText.find("obscura: error: -c '" + bad + "': " + bad.substr(3, bad.find('=') - 3)),
+              std::string::npos)
+        << b.stderrText;
+    EXPECT_EQ(std::count(b.stderrText.begin(), b.stderrText.end(), '\n'), 1) << b.stderrText;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
+  }
+}
+
+// The cells a compare run kept from an earlier one (its "(kept)" lines).
+size_t keptCells(const std::string& stderrText) {
+  size_t n = 0;
+  for (size_t p = stderrText.find("(kept)"); p != std::string::npos; p = stderrText.find("(kept)", p + 1)) ++n;
+  return n;
+}
+
+// `args` run again without -q, so the progress lines show what is kept.
+CliResult runVerbose(std::vector<std::string> args, const std::string& stderrPath) {
+  args.erase(std::find(args.begin(), args.end(), "-q"));
+  return runCli(args, stderrPath);
 }
 
 // The cavity as a glTF file: albedo a everywhere, a camera at the centre
@@ -210,13 +249,10 @@ TEST(CompareEndToEnd, CavityRankingFollowsTheClosedForms) {
   const auto passTime = std::filesystem::last_write_time(dir + "/out/passes/ao@64.exr");
   std::vector<std::string> second = args;
   second.insert(second.end(), {"--spp", "16,64"});
-  second.erase(std::find(second.begin(), second.end(), "-q"));
-  const CliResult r2 = runCli(second, dir + "/err2.txt");
+  const CliResult r2 = runVerbose(second, dir + "/err2.txt");
   ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
   EXPECT_NE(r2.stderrText.find("reference: cached"), std::string::npos) << r2.stderrText;
-  size_t kept = 0;
-  for (size_t p = r2.stderrText.find("(kept)"); p != std::string::npos; p = r2.stderrText.find("(kept)", p + 1)) ++kept;
-  EXPECT_EQ(kept, 4u) << r2.stderrText;
+  EXPECT_EQ(keptCells(r2.stderrText), 4u) << r2.stderrText;
   EXPECT_EQ(std::filesystem::last_write_time(dir + "/out/passes/ao@64.exr"), passTime);
   std::ifstream csv(dir + "/out/results.csv");
   size_t rows = 0;
@@ -239,6 +275,145 @@ TEST(CompareEndToEnd, CavityRankingFollowsTheClosedForms) {
                               dir + "/err4.txt");
   EXPECT_EQ(r4.exitCode, 1);
   EXPECT_NE(r4.stderrText.find("is 24x24 but --res is 32x32"), std::string::npos) << r4.stderrText;
+}
+
+// results.csv as rows of named fields (header line first).
+std::vector<std::map<std::string, std::string>> readCsvRows(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::map<std::string, std::string>> rows;
+  const auto split = [](const std::string& l) {  // quoted fields with "" escapes
+    std::vector<std::string> f(1);
+    bool q = false;
+    for (size_t i = 0; i < l.size(); ++i) {
+      if (q && l[i] == '"' && i + 1 < l.size() && l[i + 1] == '"') f.back() += '"', ++i;
+      else if (l[i] == '"') q = !q;
+      else if (!q && l[i] == ',') f.emplace_back();
+      else f.back() += l[i];
+    }
+    return f;
+  };
+  if (!std::getline(in, line)) return rows;
+  const std::vector<std::string> names = split(line);
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = split(line);
+    std::map<std::string, std::string> row;
+    for (size_t i = 0; i < names.size() && i < f.size(); ++i) row[names[i]] = f[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// A plain config, an adaptive one (target=) and a denoised one on the
+// default scene: results.csv carries the settings and what they took, the
+// adaptive cell takes fewer samples than its maximum, the denoised cell's
+// time includes the filter, the headers record both, and the "fastest cell
+// per RMSE target" of results.json is the one an independent scan of the
+// CSV rows finds.
+TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
+  const std::string dir = tempDir("compare_target_denoise");
+  const std::vector<std::string> args = {"compare", "-o", dir + "/out", "--res", "32x18", "--reference-spp", "16",
+                                         "--spp", "8,64", "-q", "-c", "ao", "-c", "ao:target=0.1", "-c",
+                                         "ao:denoise=on"};
+  const CliResult r1 = runCli(args, dir + "/err1.txt");
+  ASSERT_EQ(r1.exitCode, 0) << r1.stderrText;
+  const auto rows = readCsvRows(dir + "/out/results.csv");
+  ASSERT_EQ(rows.size(), 6u);
+  std::map<std::string, std::map<std::string, std::string>> cell;  // "config@spp"
+  for (const auto& row : rows) {
+    for (const char* col : {"target", "min_spp", "denoise", "mean_spp", "denoise_s", "time_s", "rmse"})
+      EXPECT_TRUE(row.count(col)) << col;
+    cell[row.at("config") + "@" + row.at("spp")] = row;
+  }
+  // Plain: every pixel takes spp; no target, no denoiser.
+  EXPECT_EQ(std::stod(cell.at("ao@64").at("mean_spp")), 64.0);
+  EXPECT_EQ(cell.at("ao@64").at("target"), "");
+  EXPECT_EQ(cell.at("ao@64").at("denoise"), "off");
+  // Adaptive: ao's W is a mean of 0/1 values, so a pixel's standard error
+  // after n samples is at most 0.5 / sqrt(n) (less with stratification):
+  // at n >= 25 every pixel is below 0.1, so the cell cannot take all 64.
+  const auto& t = cell.at("ao:target=0.1@64");
+  EXPECT_EQ(std::stod(t.at("target")), 0.1);
+  const double meanSpp = std::stod(t.at("mean_spp"));
+  EXPECT_LT(meanSpp, 64.0);
+  EXPECT_GE(meanSpp, 16.0);  // the first round: min(16, spp) samples (README "Adaptive sampling")
+  {
+    const ReadBack b = readExr(dir + "/out/" + t.at("pass"));
+    ASSERT_TRUE(b.ok);
+    EXPECT_FLOAT_EQ(b.spec.get_float_attribute("obscura:targetError"), 0.1f);
+    EXPECT_NEAR(b.spec.get_float_attribute("obscura:meanSpp"), meanSpp, 1e-3 * meanSpp);
+    EXPECT_EQ(b.spec.get_int_attribute("obscura:spp"), 64);
+  }
+  // Denoised: the filter ran, its time is inside the cell's time.
+  const auto& d = cell.at("ao:denoise=on@64");
+  EXPECT_EQ(d.at("denoise"), "on");
+  const double ds = std::stod(d.at("denoise_s"));
+  EXPECT_GT(ds, 0.0);
+  EXPECT_GE(std::stod(d.at("time_s")), ds);
+  {
+    const ReadBack b = readExr(dir + "/out/" + d.at("pass"));
+    ASSERT_TRUE(b.ok);
+    EXPECT_EQ(b.spec.get_string_attribute("obscura:denoise"), "atrous");
+    EXPECT_FLOAT_EQ(b.spec.get_float_attribute("obscura:denoiseTime"), float(ds));
+  }
+
+  // The fastest cell per target: run again (every cell kept) with targets at
+  // each cell's RMSE, so each is reached, and one below them all.
+  std::string targets;
+  double lowest = INFINITY;
+  for (const auto& row : rows) {
+    targets += (targets.empty() ? "" : ",") + row.at("rmse");
+    lowest = std::min(lowest, std::stod(row.at("rmse")));
+  }
+  targets += "," + std::to_string(lowest / 2);
+  std::vector<std::string> again = args;
+  again.insert(again.end(), {"--targets", targets});
+  const CliResult r2 = runCli(again, dir + "/err2.txt");
+  ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+  std::ifstream in(dir + "/out/results.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["targets"].size(), rows.size() + 1);
+  size_t none = 0;
+  for (const auto& e : j["targets"]) {
+    const double target = e["rmse"].get<double>();
+    // Independently: the least time among the CSV rows with RMSE <= target.
+    double best = INFINITY;
+    for (const auto& row : rows)
+      if (std::stod(row.at("rmse")) <= target) best = std::min(best, std::stod(row.at("time_s")));
+    if (!std::isfinite(best)) {
+      EXPECT_TRUE(e["fastest"].is_null()) << target;
+      ++none;
+      continue;
+    }
+    ASSERT_FALSE(e["fastest"].is_null()) << target;
+    const auto& row = cell.at(e["fastest"]["config"].get<std::string>() + "@" + std::to_string(e["fastest"]["spp"].get<int>()));
+    EXPECT_LE(std::stod(row.at("rmse")), target);
+    EXPECT_EQ(std::stod(row.at("time_s")), best) << target;
+    EXPECT_DOUBLE_EQ(e["fastest"]["seconds"].get<double>(), best) << target;
+  }
+  EXPECT_EQ(none, 1u);
+  const auto summary = readBytes(dir + "/out/summary.md");
+  EXPECT_NE(std::string(summary.begin(), summary.end()).find("not reached"), std::string::npos);
+
+  // A results.csv of the format before these columns (its first 15) is still
+  // read: the plain cells are kept, the others recomputed.
+  {
+    std::ifstream csv(dir + "/out/results.csv");
+    std::string header, line, old;
+    std::getline(csv, header);
+    old = header.substr(0, header.find(",target,")) + "\n";
+    while (std::getline(csv, line))
+      if (line.find("target=") == std::string::npos && line.find("denoise=") == std::string::npos) {
+        size_t cut = line.size();
+        for (int k = 0; k < 5; ++k) cut = line.rfind(',', cut - 1);
+        old += line.substr(0, cut) + "\n";
+      }
+    std::ofstream(dir + "/out/results.csv") << old;
+  }
+  const CliResult r3 = runVerbose(args, dir + "/err3.txt");
+  ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
+  EXPECT_EQ(keptCells(r3.stderrText), 2u) << r3.stderrText;
+  EXPECT_EQ(readCsvRows(dir + "/out/results.csv").size(), 6u);
 }
 
 // Ctrl-C: the run stops with exit code 130, says so, and results.csv holds
@@ -274,13 +449,9 @@ TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
     std::getline(in, line);
     while (std::getline(in, line)) EXPECT_GE(std::count(line.begin(), line.end(), ','), 14) << line;
   }
-  std::vector<std::string> again = args;
-  again.erase(std::find(again.begin(), again.end(), "-q"));
-  const CliResult r2 = runCli(again, dir + "/err2.txt");
+  const CliResult r2 = runVerbose(args, dir + "/err2.txt");
   ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
-  size_t reused = 0;
-  for (size_t p = r2.stderrText.find("(kept)"); p != std::string::npos; p = r2.stderrText.find("(kept)", p + 1)) ++reused;
-  EXPECT_EQ(reused, kept) << r2.stderrText;
+  EXPECT_EQ(keptCells(r2.stderrText), kept) << r2.stderrText;
   EXPECT_EQ(rows(), 18u);
   // The finished run on the default scene wrote the whole report.
   for (const char* file : {"results.json", "summary.md", "error_vs_time.svg", "contact_sheet.svg", "contact_sheet.png",
