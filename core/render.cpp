@@ -509,6 +509,16 @@ void checkSettings(const RenderSettings& s) {
   }
   if (s.denoise && !s.aovs)
     throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
+  // The filter reads neighbours up to 62 pixels away: a region's edge pixels
+  // would be filtered with fewer neighbours than the full frame's, so merged
+  // tiles would show seams; and a checkpoint's saved tiles do not keep the
+  // object guide, so a resumed render would be filtered differently.
+  if (s.denoise && hasRegion(s))
+    throw Error("--denoise: not available with --region (the filter reads neighbouring pixels across tile edges); "
+                "render the full frame to denoise it");
+  if (s.denoise && s.checkpoint)
+    throw Error("--denoise: not available with --checkpoint (saved tiles do not keep the denoiser's object guide); "
+                "render without --checkpoint to denoise");
 }
 
 // The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the

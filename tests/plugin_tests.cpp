@@ -195,12 +195,23 @@ TEST(Plugin, ReadmeRowMatchesThePlugin) {
 // +-z, so the tangents add zeros there) - and the cone of sin(thetaMax) = s
 // has B_z = E[cos] = 2 (1 - (1 - s^2)^(3/2)) / (3 s^2), per-ray
 // Var(z) = E[cos^2] - B_z^2 = 1 - s^2/2 - B_z^2.
-TEST(Plugin, BentNormalOfAnOpenPlane) {
-  loadPlugin(OBSCURA_BENT_PLUGIN);
+// The bent-normal plugin loaded, and an open plane seen from above at an
+// angle: every pixel covered, nothing occludes (bent normal = n, W exact).
+struct BentNormalPlane {
   Scene scene;
-  addPlane(scene, 1e4f, 0.0f);
-  scene.commit();
-  const Camera cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
+  Camera cam;
+  BentNormalPlane() {
+    loadPlugin(OBSCURA_BENT_PLUGIN);
+    addPlane(scene, 1e4f, 0.0f);
+    scene.commit();
+    cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
+  }
+};
+
+TEST(Plugin, BentNormalOfAnOpenPlane) {
+  const BentNormalPlane plane;
+  const Scene& scene = plane.scene;
+  const Camera& cam = plane.cam;
   const int w = 32, h = 32, spp = 32, rays = 2;
   const auto run = [&](std::vector<std::string> p) {
     p.push_back("rays=" + std::to_string(rays));
@@ -231,11 +242,9 @@ TEST(Plugin, BentNormalOfAnOpenPlane) {
 // --min-spp and --spp on their error, and a target no pixel can meet leaves
 // every pixel equal to the fixed render.
 TEST(Plugin, BentNormalAdaptsAndDenoises) {
-  loadPlugin(OBSCURA_BENT_PLUGIN);
-  Scene scene;
-  addPlane(scene, 1e4f, 0.0f);
-  scene.commit();
-  const Camera cam = makeLookAtCamera(Vec3(0.5f, -3, 2), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.8f, "plane");
+  const BentNormalPlane plane;
+  const Scene& scene = plane.scene;
+  const Camera& cam = plane.cam;
   RenderSettings s = passSettings(24, 16, 64);
   s.aovs = true;
   s.targetError = 0.05f;

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <map>
 
 #include "core/adaptive.h"
@@ -375,11 +376,18 @@ TEST(DenoiseCli, KeepsTheRawPassAndShadedFollows) {
   };
   const std::vector<CliResult> rs = runClis({with({}, "raw.exr"), with({"--denoise", "--threads", "1"}, "d1.exr"),
                                              with({"--denoise", "--threads", "2"}, "d2.exr"),
-                                             with({"--denoise", "--no-aovs"}, "bad.exr")},
+                                             with({"--denoise", "--no-aovs"}, "bad.exr"),
+                                             with({"--denoise", "--region", "0,0,32,18"}, "region.exr"),
+                                             with({"--denoise", "--checkpoint", "0"}, "ck.exr")},
                                             dir);
   for (size_t k = 0; k < 3; ++k) ASSERT_EQ(rs[k].exitCode, 0) << rs[k].stderrText;
-  EXPECT_EQ(rs[3].exitCode, 1);
-  EXPECT_NE(rs[3].stderrText.find("--denoise: the denoiser is guided by the AOVs"), std::string::npos) << rs[3].stderrText;
+  const char* refusals[] = {"--denoise: the denoiser is guided by the AOVs", "--denoise: not available with --region",
+                            "--denoise: not available with --checkpoint"};
+  for (size_t k = 3; k < rs.size(); ++k) {
+    EXPECT_EQ(rs[k].exitCode, 1) << refusals[k - 3];
+    EXPECT_NE(rs[k].stderrText.find(refusals[k - 3]), std::string::npos) << rs[k].stderrText;
+  }
+  for (const char* out : {"region.exr", "ck.exr", "ck.exr.checkpoint"}) EXPECT_FALSE(std::filesystem::exists(dir + "/" + out)) << out;
   const ReadBack raw = readExr(dir + "/raw.exr"), d1 = readExr(dir + "/d1.exr"), d2 = readExr(dir + "/d2.exr");
   ASSERT_TRUE(raw.ok && d1.ok && d2.ok);
   EXPECT_EQ(d1.spec.get_string_attribute("obscura:denoise"), "atrous");
