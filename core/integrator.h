@@ -142,7 +142,7 @@ inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, floa
   if (rays == 0) return;
   constexpr size_t kBlock = 256;
   uint32_t seedIndex[kBlock], seedX[kBlock], seedY[kBlock], index[kBlock];
-  float u[kBlock], v[kBlock];
+  float u[kBlock], v[kBlock], x[kBlock], y[kBlock], z[kBlock];
   uint32_t keys[2] = {0, 0};
   Sampler::Seeds2 seeds[2] = {};
   int held = 0, last = 0;  // keys held; the slot used last
@@ -168,12 +168,15 @@ inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, floa
       if (k < rays) break;  // the block is full within this hit
     }
     Sampler::get2DLanes(seedIndex, seedX, seedY, index, n, u, v);
-    // Warp and push the block's rays, walking (hit, ray) again.
+    // Lobe::direction in two steps: the cone's local directions across the
+    // block's lanes (SIMD, the same bits), then each hit's frame.
+    squareToCosineConeLanes(u, v, controls.sinThetaMax, n, x, y, z);
+    // Push the block's rays, walking (hit, ray) again.
     for (size_t j = 0; j < n; ++hit, ray = 0) {
       const SurfaceHit& h = hits[hit];
       const Lobe lobe = controls.at(h);
       for (; ray < rays && j < n; ++ray, ++j) {
-        const Vec3 w = lobe.direction({u[j], v[j]});
+        const Vec3 w = lobe.frame.toWorld(Vec3(x[j], y[j], z[j]));
         batch.push(spawnOrigin(h, w), w, controls.tnear, R, h);
       }
       if (ray < rays) break;  // the hit goes on in the next block
