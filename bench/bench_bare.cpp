@@ -25,7 +25,8 @@
 // its render loop; the bare loop: its parallel_for, arena included). With
 // --exe (default: the `obscura` next to this bench's directory) and a file
 // scene it also times the whole process `obscura render SCENE -q -i ao ...`
-// (wall clock of the command, EXR written to /tmp) and prints its Mrays/s.
+// (wall clock and the child's user + system CPU seconds, EXR written to
+// /tmp) and prints its Mrays/s.
 //
 // --trade: the sampler's trade. The bare loop once more with its hash RNG
 // and once with Obscura's Owen-scrambled Sobol' sampler in its place (the
