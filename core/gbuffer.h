@@ -31,9 +31,9 @@ namespace obscura {
 // (px, py): the pixel filter's importance-sampled offset from dimension
 // kDimPixelFilter of the pixel's stream (`filterSeeds` = Sampler::seeds2D(key,
 // kDimPixelFilter)).
-inline void cameraSampleFilm(PixelFilter filter, const Sampler::Seeds2& filterSeeds, uint32_t si, int px, int py,
-                             float& fx, float& fy) {
-  const Sample2 f = Sampler::get2D(filterSeeds, si);
+// cameraFilmPosition maps the drawn sample f to the film (the render loop
+// draws its lanes' samples at once, Sampler::get2DLanes).
+inline void cameraFilmPosition(PixelFilter filter, Sample2 f, int px, int py, float& fx, float& fy) {
   if (filter == PixelFilter::Box) {
     fx = float(px) + f.u;
     fy = float(py) + f.v;
@@ -42,6 +42,10 @@ inline void cameraSampleFilm(PixelFilter filter, const Sampler::Seeds2& filterSe
     fx = float(px) + 0.5f + gauss.sample(f.u);
     fy = float(py) + 0.5f + gauss.sample(f.v);
   }
+}
+inline void cameraSampleFilm(PixelFilter filter, const Sampler::Seeds2& filterSeeds, uint32_t si, int px, int py,
+                             float& fx, float& fy) {
+  cameraFilmPosition(filter, Sampler::get2D(filterSeeds, si), px, py, fx, fy);
 }
 
 // The camera's view space: camera at the origin looking down -z, +y up, +x

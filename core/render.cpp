@@ -48,6 +48,11 @@ struct ThreadScratch {
   int32_t laneHit[kChunk];      // index into hits, or -1
   uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
   uint32_t laneSample[kChunk];  // sample index within the pixel
+  // The pixel filter's draw of each lane (cameraRays): seeds, index, pixel.
+  struct FilterLanes {
+    uint32_t seedIndex[kChunk], seedX[kChunk], seedY[kChunk], index[kChunk];
+    int px[kChunk], py[kChunk];
+  } filter;
   std::vector<SampleEstimate> W;  // pass k's estimate of hit i: W[k * kChunk + i]
   std::vector<PixelSums> sums;  // the tile's pixels (the primary pass and the AOVs)
   std::vector<PassSums> passSums;  // the other passes: pixel j, pass k >= 1 at j * (passes - 1) + k - 1
@@ -221,22 +226,19 @@ class TileRenderer {
   void cameraRays(const PixelRect& r, SampleCursor& c, size_t n, ThreadScratch& ts) const {
     IntersectBatch& cam = ts.camera;
     cam.clear();
-    // The pixel filter's film positions (shared with the G-buffer:
-    // core/gbuffer.h) first, then the still camera's directions across
-    // lanes (RasterCamera::directions: the normalizations overlap).
+    // Each lane's pixel, filter seeds and index first; then the filter
+    // samples of all lanes at once (Sampler::get2DLanes: SIMD), their film
+    // positions (shared with the G-buffer: core/gbuffer.h), and the still
+    // camera's directions across lanes (RasterCamera::directions: the
+    // normalizations overlap).
     float fx[kChunk], fy[kChunk];
+    ThreadScratch::FilterLanes& f = ts.filter;
     for (size_t l = 0; l < n; ++l) {
       // Sample si draws from replicate si & 1 at index si >> 1 (core/sampler.h).
-      const uint32_t g = c.si & 1U, index = c.si >> 1;
-      cameraSampleFilm(s_.filter, c.filterSeeds[g], index, c.px, c.py, fx[l], fy[l]);
-      if (s_.motionBlur) {
-        // The sample's moment in the shutter, from a dimension of its own:
-        // the other dimensions - and so a still scene's image - are those
-        // of a render without motion blur.
-        const float time = Sampler::get1D(c.key[g], index, kDimShutterTime);
-        const RasterCamera raster = shutter_.at(time);
-        cam.pushCamera(raster.org, raster.direction(fx[l], fy[l]), tnear_, tfar_, time);
-      }
+      const uint32_t g = c.si & 1U;
+      f.seedIndex[l] = c.filterSeeds[g].index, f.seedX[l] = c.filterSeeds[g].x, f.seedY[l] = c.filterSeeds[g].y;
+      f.index[l] = c.si >> 1;
+      f.px[l] = c.px, f.py[l] = c.py;
       ts.lanePixel[l] = c.pix;
       ts.laneKey[l] = c.key[g];
       ts.laneSample[l] = c.si;
@@ -245,7 +247,18 @@ class TileRenderer {
         seekPixel(r, c);
       }
     }
-    if (!s_.motionBlur) {
+    Sampler::get2DLanes(f.seedIndex, f.seedX, f.seedY, f.index, n, fx, fy);
+    for (size_t l = 0; l < n; ++l) cameraFilmPosition(s_.filter, {fx[l], fy[l]}, f.px[l], f.py[l], fx[l], fy[l]);
+    if (s_.motionBlur) {
+      for (size_t l = 0; l < n; ++l) {
+        // The sample's moment in the shutter, from a dimension of its own:
+        // the other dimensions - and so a still scene's image - are those
+        // of a render without motion blur.
+        const float time = Sampler::get1D(ts.laneKey[l], f.index[l], kDimShutterTime);
+        const RasterCamera raster = shutter_.at(time);
+        cam.pushCamera(raster.org, raster.direction(fx[l], fy[l]), tnear_, tfar_, time);
+      }
+    } else {
       const RasterCamera& raster = shutter_.still();
       Vec3 dir[kChunk];
       raster.directions(fx, fy, n, dir);

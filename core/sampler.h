@@ -12,6 +12,7 @@
 // while pairs stay mutually decorrelated through their seeds.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 namespace obscura {
@@ -104,6 +105,22 @@ inline uint32_t sobol1Reversed(uint32_t i) {
          detail::kSobol1Reversed.t[2][(i >> 16) & 0xff] ^ detail::kSobol1Reversed.t[3][i >> 24];
 }
 
+// The same product without tables, as five shift-and-XOR steps: by Lucas'
+// theorem the Pascal matrix mod 2 has a 1 in row k, column j exactly when
+// the bits of k are a subset of those of j, so bit k of reverse(sobol1(i))
+// is the XOR of the bits j of i with j a superset of k (k, j in 0..31): the
+// superset-sum transform over GF(2), one step per bit of k. Branch-free and
+// table-free, so it runs across SIMD lanes (Sampler::get2DLanes); the tests
+// check it against the tables.
+constexpr uint32_t sobol1ReversedShifts(uint32_t x) {
+  x ^= (x >> 1) & 0x55555555U;
+  x ^= (x >> 2) & 0x33333333U;
+  x ^= (x >> 4) & 0x0f0f0f0fU;
+  x ^= (x >> 8) & 0x00ff00ffU;
+  x ^= (x >> 16) & 0x0000ffffU;
+  return x;
+}
+
 // reverseBits32 of both halves of a 64-bit word at once.
 // (Bits within bytes, then a 64-bit byte swap, which also swaps the halves:
 // a rotation by 32 puts them back.)
@@ -156,6 +173,14 @@ class Sampler {
     const uint64_t xy = reverseBits32x2(uint64_t(px) | uint64_t(py) << 32);
     return {bitsToUnitFloat(uint32_t(xy)), bitsToUnitFloat(uint32_t(xy >> 32))};
   }
+
+  // get2D for n lanes at once, bit for bit: lane l's sample index[l] with
+  // the seeds {seedIndex[l], seedX[l], seedY[l]} into (u[l], v[l]). The
+  // scalar form's integer steps, across SIMD lanes (core/sampler.cpp; the
+  // hash and reversal steps are a quarter of the render loop's own time
+  // when taken one lane at a time).
+  static void get2DLanes(const uint32_t* seedIndex, const uint32_t* seedX, const uint32_t* seedY,
+                         const uint32_t* index, size_t n, float* u, float* v);
 
   // nestedUniformScramble(sobol0(i), seed) = reverse(LK(i, seed)), as above.
   static float get1D(uint32_t key, uint32_t index, uint32_t dim) {

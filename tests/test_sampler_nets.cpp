@@ -4,6 +4,7 @@
 // properties that make them worth using.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "core/sampler.h"
@@ -44,6 +45,38 @@ TEST(SobolSequence, UnscrambledDimensionsMatchTheirDefinition) {
     for (int b = 0; b < 32; ++b) r |= ((i >> b) & 1U) << (31 - b);
     ASSERT_EQ(sobol0(i), r);
   }
+}
+
+// The table-free form of the reversed dimension 1 (the superset-sum steps)
+// against the definition above, and the lane form of get2D against the
+// scalar one, bit for bit, on every lane count up to a few SIMD widths and
+// on unaligned lanes (the loop's vector body and its scalar remainder).
+TEST(SobolSequence, LaneFormsMatchTheScalarForm) {
+  for (uint32_t i = 0; i < (1U << 16); ++i)
+    ASSERT_EQ(sobol1ReversedShifts(i), reverseBits32(sobol1Reference(i))) << i;
+  for (uint64_t k = 0; k < (1ULL << 32); k += 65537ULL * 3 + 1)
+    ASSERT_EQ(sobol1ReversedShifts(uint32_t(k)), reverseBits32(sobol1Reference(uint32_t(k))));
+  constexpr size_t kMax = 77;
+  std::vector<uint32_t> si(kMax + 1), sx(kMax + 1), sy(kMax + 1), index(kMax + 1);
+  std::vector<float> u(kMax + 1), v(kMax + 1);
+  const Sampler sampler(7);
+  for (size_t n = 0; n <= kMax; ++n)
+    for (size_t offset : {size_t(0), size_t(1)}) {
+      const size_t m = std::min(n, kMax + 1 - offset);
+      for (size_t l = 0; l < m; ++l) {
+        // Lanes of a few pixels and dimensions, indices small and large.
+        const Sampler::Seeds2 s = Sampler::seeds2D(sampler.pixelKey(uint32_t(l / 5), 3), uint32_t(l % 3));
+        si[offset + l] = s.index, sx[offset + l] = s.x, sy[offset + l] = s.y;
+        index[offset + l] = l % 2 ? uint32_t(l) : mixBits32(uint32_t(l + n));
+      }
+      Sampler::get2DLanes(si.data() + offset, sx.data() + offset, sy.data() + offset, index.data() + offset, m,
+                          u.data() + offset, v.data() + offset);
+      for (size_t l = 0; l < m; ++l) {
+        const Sample2 e = Sampler::get2D({si[offset + l], sx[offset + l], sy[offset + l]}, index[offset + l]);
+        ASSERT_EQ(u[offset + l], e.u) << n << " " << l;
+        ASSERT_EQ(v[offset + l], e.v) << n << " " << l;
+      }
+    }
 }
 
 // The scrambled sequence of every pixel and dimension pair: the first 2^m
