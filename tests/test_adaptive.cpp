@@ -112,19 +112,70 @@ TEST(Adaptive, MeetsTheTargetAgainstTheClosedForm) {
   }
   ASSERT_GT(open, 40);
   ASSERT_GT(n, 200);
-  // The RMSE over the pixels near the wall is at most the target: each
-  // pixel stopped when its (dilated) standard error was at most E, or at
-  // 2048 samples, where the standard error of a [0, 1] mean is at most
-  // 0.5 / sqrt(2048) = 0.011 < E.
-  const double rmse = std::sqrt(sq / n);
-  EXPECT_LE(rmse, E) << "rmse " << rmse << " over " << n << " pixels";
-  // And it stopped early: fewer samples than the maximum on average, the
-  // header's mean equal to the plane's.
+  // The RMSE over the pixels near the wall against the target, with its
+  // noise over these pixels, is Adaptive.TheRealizedErrorTracksTheTarget's
+  // (several seeds). Here: it stopped early, fewer samples than the maximum
+  // on average, the header's mean equal to the plane's.
   EXPECT_NEAR(stats.meanSpp, sppSum / (kW * kH), 1e-9 * stats.meanSpp);
   EXPECT_LT(stats.meanSpp, 0.5 * 2048);
   EXPECT_GT(stats.rounds, 2);
-  std::printf("adaptive E %.3f: rmse %.4f over %d pixels, mean spp %.1f in %d rounds\n", E, rmse, n, stats.meanSpp,
-              stats.rounds);
+  std::printf("adaptive E %.3f: rmse %.4f over %d pixels, mean spp %.1f in %d rounds\n", E, std::sqrt(sq / n), n,
+              stats.meanSpp, stats.rounds);
+}
+
+// The realized RMSE of an adaptive render is at least this fraction of the
+// target (Adaptive.TheRealizedErrorTracksTheTarget): the stop rule does not
+// take more than (1 / 0.85)^2 = 1.4 times the samples the target needs. The
+// largest-of-nine rule it replaced realized 0.6 E (docs/math.md §13).
+constexpr double kRealizedFloor = 0.85;
+
+TEST(Adaptive, TheRealizedErrorTracksTheTarget) {
+  // The stop rule's claim (docs/math.md §13): a pixel stops once the
+  // pooled error of its neighbourhood (and its own) is at most E, so the
+  // realized error of the pixels that had to adapt is close to E - at most
+  // E, and not far below it (the rule does not run pixels to many times
+  // the samples they need). Measured against the closed form over the
+  // pixels near the wall (0 < V < 1, every pixel fully covered: the
+  // composited error is the error of W) and several seeds; the tolerance
+  // is the standard error of the mean squared error over those pixels.
+  const auto scene = wallScene();
+  const Camera cam = downCamera();
+  const float E = 0.02f;
+  const int seeds = 4;
+  std::vector<double> sq;
+  double sppSum = 0;
+  for (int k = 0; k < seeds; ++k) {
+    RenderSettings s = adaptiveSettings(E, 4096, 16);
+    s.seed = uint32_t(2000 + k);
+    const Film f = renderAo(*scene, s);
+    const int spp = f.find(kSppPlane);
+    for (int x = 0; x < kW; ++x) {
+      if (groundX(cam, float(x + 1)) >= kR) continue;  // V = 1 over part of the footprint: not adapting
+      const double expected = columnV(cam, x);
+      for (int y = 0; y < kH; ++y) {
+        ASSERT_EQ(f.at(kA, x, y), 1.0f);
+        // 4096 samples would put a [0, 1] mean's standard error at most
+        // 0.5 / 64 < E: every pixel here stopped by the rule.
+        ASSERT_LT(f.at(spp, x, y), 4096.0f) << x << "," << y;
+        const double e = double(f.at(kR, x, y)) - expected;
+        sq.push_back(e * e);
+        sppSum += f.at(spp, x, y);
+      }
+    }
+  }
+  const double n = double(sq.size());
+  ASSERT_GT(n, 600);
+  double mse = 0;
+  for (double v : sq) mse += v;
+  mse /= n;
+  double var = 0;
+  for (double v : sq) var += (v - mse) * (v - mse);
+  const double seMse = std::sqrt(var / (n - 1) / n);
+  const double e2 = double(E) * double(E);
+  std::printf("target %.3f: realized rmse %.4f (%.3f E; mse %.3g +- %.2g) over %.0f pixels, mean spp %.1f\n", E,
+              std::sqrt(mse), std::sqrt(mse) / E, mse, seMse, n, sppSum / n);
+  EXPECT_LE(mse, e2 + 3.0 * seMse);
+  EXPECT_GE(mse, kRealizedFloor * kRealizedFloor * e2 - 3.0 * seMse);
 }
 
 TEST(Adaptive, DoesNotDependOnThreadsOrTiles) {
