@@ -19,6 +19,8 @@
 #include "core/camera.h"
 #include "core/error.h"
 #include "core/integrator.h"
+#include "core/params.h"
+#include "core/pixel_sums.h"
 #include "core/render.h"
 #include "core/scene.h"
 #include "support.h"
@@ -176,6 +178,38 @@ TEST(Adaptive, TheRealizedErrorTracksTheTarget) {
               std::sqrt(mse), std::sqrt(mse) / E, mse, seMse, n, sppSum / n);
   EXPECT_LE(mse, e2 + 3.0 * seMse);
   EXPECT_GE(mse, kRealizedFloor * kRealizedFloor * e2 - 3.0 * seMse);
+}
+
+TEST(Adaptive, TheCompositedErrorFromTheHalves) {
+  // The schedule's error (core/pixel_sums.h compositedError, docs/math.md
+  // §13) from hand-made sums under ao (resolvePixel: the identity), 16
+  // samples, 8 in each half.
+  const IntegratorDescriptor& d = IntegratorRegistry::instance().find("ao");
+  const auto ao = d.create(ParamSet(d.params, d.name));
+  const Vec3 albedo(1, 1, 1);
+  const auto sums = [](double v) { return Sum3{v, v, v}; };
+  // Fully covered: 8 hits a half, W_e = 6/8, W_o = 4/8: se(W) itself,
+  // |W_e - W_o| / 2.
+  HalfSums even{sums(6), sums(8), 8};
+  EXPECT_FLOAT_EQ(compositedError(sums(10), sums(16), 16, even, *ao, albedo, 16),
+                  standardError(sums(10), sums(16), 16, even, *ao, albedo));
+  EXPECT_FLOAT_EQ(compositedError(sums(10), sums(16), 16, even, *ao, albedo, 16), 0.125f);
+  // A sliver whose 2 hits (W = 1/2) fell in the even half: se(W) is
+  // unknown, the composited passes are P_e = 2/8 * 1/2 and P_o = 0, so
+  // se(P) = |P_e - P_o| sqrt(8 * 8) / 16 = 1/16.
+  even = {sums(1), sums(2), 2};
+  EXPECT_TRUE(std::isinf(standardError(sums(1), sums(2), 2, even, *ao, albedo)));
+  EXPECT_FLOAT_EQ(compositedError(sums(1), sums(2), 2, even, *ao, albedo, 16), 1.0f / 16.0f);
+  // One hit in each half, equal W: the halves agree on coverage and W.
+  even = {sums(0.5), sums(1), 1};
+  EXPECT_EQ(compositedError(sums(1), sums(2), 2, even, *ao, albedo, 16), 0.0f);
+  // Coverage differs (3 hits against 1), W the same: the coverage's noise,
+  // |3/8 - 1/8| * 8 / 16 = 1/8 for W = 1; se(W) sees none.
+  even = {sums(3), sums(3), 3};
+  EXPECT_EQ(standardError(sums(4), sums(4), 4, even, *ao, albedo), 0.0f);
+  EXPECT_FLOAT_EQ(compositedError(sums(4), sums(4), 4, even, *ao, albedo, 16), 0.125f);
+  // No hit: no surface.
+  EXPECT_EQ(compositedError(Sum3{}, Sum3{}, 0, HalfSums{}, *ao, albedo, 16), kNoSurface);
 }
 
 TEST(Adaptive, DoesNotDependOnThreadsOrTiles) {
