@@ -591,8 +591,8 @@ int main(int argc, char** argv) {
   render->add_option("--primary", r.primary, "The --pass layer also written to R,G,B (default: the first)");
   render->add_option("--spp", r.spp, "Camera samples per pixel (with --target-error or --time-limit: the most a pixel takes)");
   render->add_option("--target-error", r.targetError,
-                     "Adaptive sampling: a pixel stops once the standard error of its W (absolute, dilated over its 3x3 "
-                     "neighbours) is at most E, or at --spp samples (README \"Adaptive sampling\")")
+                     "Adaptive sampling: a pixel stops once the standard error of its composited pass (absolute; its own "
+                     "and pooled over its 3x3 neighbours) is at most E, or at --spp samples (README \"Adaptive sampling\")")
       ->type_name("E")
       ->default_str("off");
   render->add_flag("--denoise", r.denoise,

@@ -17,6 +17,12 @@ namespace {
 // two halves' error estimate to mean something (8 samples each), few enough
 // that an open floor converged after a handful wastes little.
 constexpr int kDefaultMinSpp = 16;
+// The next round aims this factor below the target (docs/math.md §13):
+// a pixel stops at the first round whose estimate is below the target, so
+// aiming at the target itself left the realized error above it (measured:
+// 1.0 E on the viking room, 1.06 E in a simulation of the rule; with 1.1,
+// 0.95 E and 1.02 E, for 8 % more samples).
+constexpr double kAim = 1.1;
 }  // namespace
 
 bool adaptiveSampling(const RenderSettings& s) { return s.targetError > 0.0f || s.timeLimit > 0.0; }
@@ -40,7 +46,7 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
     : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds), taken_(window.size(), 0),
-      target_(window.size(), uint32_t(firstRoundSpp(s))), active_(window.size(), 1), dilated_(window.size()) {
+      target_(window.size(), uint32_t(firstRoundSpp(s))), active_(window.size(), 1), pooled_(window.size()) {
   planned_ = uint64_t(window.size()) * uint64_t(firstRoundSpp(s));
   maxTarget_ = uint32_t(firstRoundSpp(s));
 }
@@ -65,41 +71,39 @@ uint64_t SampleSchedule::next(const float* error) {
   for (size_t i = 0; i < taken_.size(); ++i) total_ += target_[i] - taken_[i];
   taken_ = target_;
   const int w = window_.width(), h = window_.height();
-  // The error dilated over each pixel's 3 x 3 neighbours within the window
-  // (a max filter, rows then columns): a pixel stops only when its
-  // neighbourhood agrees, so one lucky estimate - the halves' difference
-  // has one degree of freedom, and is near 0 a few times in a hundred -
-  // does not stop a noisy pixel (docs/math.md §13).
-  std::vector<float> rows(window_.size());
+  // The pixel's decision error: the larger of its own estimate and the
+  // RMS of the estimates over its 3 x 3 neighbourhood's surface pixels
+  // (docs/math.md §13). One estimate has one degree of freedom (it is near
+  // 0 a few times in a hundred); the neighbours share the pixel's variance,
+  // and their pooled mean square has about nine, so a lucky pixel does not
+  // stop while its neighbourhood is noisy. The pixel's own estimate keeps
+  // a noisy pixel among quiet ones going. The largest of the nine (the
+  // rule before) stopped pixels at 0.6 of the target: the maximum of nine
+  // noisy estimates sits well above their typical value.
   tbb::parallel_for(0, h, [&](int y) {
-    const float* e = error + size_t(y) * size_t(w);
-    float* o = rows.data() + size_t(y) * size_t(w);
     for (int x = 0; x < w; ++x) {
-      float m = e[x];
-      if (x > 0) m = std::max(m, e[x - 1]);
-      if (x + 1 < w) m = std::max(m, e[x + 1]);
-      o[x] = m;
-    }
-  });
-  tbb::parallel_for(0, h, [&](int y) {
-    const size_t row = size_t(y) * size_t(w);
-    for (int x = 0; x < w; ++x) {
-      float m = rows[row + size_t(x)];
-      if (y > 0) m = std::max(m, rows[row - size_t(w) + size_t(x)]);
-      if (y + 1 < h) m = std::max(m, rows[row + size_t(w) + size_t(x)]);
-      dilated_[row + size_t(x)] = m;
+      double sq = 0;
+      int k = 0;
+      for (int v = std::max(0, y - 1); v <= std::min(h - 1, y + 1); ++v)
+        for (int u = std::max(0, x - 1); u <= std::min(w - 1, x + 1); ++u)
+          if (const double e = error[size_t(v) * size_t(w) + size_t(u)]; e != double(kNoSurface)) sq += e * e, ++k;
+      // A pixel without a surface (yet) goes by its surface neighbours: a
+      // sliver of coverage it has not hit may be there.
+      const float own = std::max(0.0f, error[size_t(y) * size_t(w) + size_t(x)]);
+      pooled_[size_t(y) * size_t(w) + size_t(x)] = std::max(own, k ? float(std::sqrt(sq / k)) : 0.0f);
     }
   });
   // Each pixel that goes on takes the samples its estimate says it needs -
-  // the error falls as 1/sqrt(n), so n (d/E)^2 - but at least one and at
-  // most half again what it has: the estimate is noisy, and a round that
-  // overshoots cannot be taken back.
+  // the error falls as 1/sqrt(n), so n (d/E)^2, aimed at E / kAim so that
+  // a pixel whose estimate was low is usually done after the next round -
+  // but at least one and at most half again what it has: the estimate is
+  // noisy, and a round that overshoots cannot be taken back.
   uint64_t planned = 0;
   maxTarget_ = 0;
   for (size_t i = 0; i < taken_.size(); ++i) {
     if (!active_[i]) continue;  // stopped pixels stay stopped
     const uint32_t n = taken_[i];
-    const float d = dilated_[i];
+    const float d = pooled_[i];
     if (n >= spp_ || (targetError_ > 0.0f && d <= targetError_)) {
       active_[i] = 0;
       continue;
@@ -107,7 +111,7 @@ uint64_t SampleSchedule::next(const float* error) {
     const double grow = std::max(1.0, std::floor(double(n) * 0.5));
     double want = double(n) + grow;
     if (targetError_ > 0.0f && std::isfinite(d)) {
-      const double ratio = double(d) / double(targetError_);
+      const double ratio = double(d) / double(targetError_) * kAim;
       want = std::min(want, std::ceil(double(n) * ratio * ratio));
     }
     want = std::max(want, double(n) + 1.0);

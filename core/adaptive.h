@@ -3,8 +3,8 @@
 // docs/math.md §13).
 //
 // Every pixel takes the first --min-spp samples; after each round, a pixel
-// whose error estimate, dilated over its 3 x 3 neighbourhood, is at most the
-// target stops, and every other pixel is given its next samples, up to
+// whose error estimate and the pooled (RMS) estimate of its 3 x 3
+// neighbourhood are both at most the target stops, and every other pixel is given its next samples, up to
 // --spp. A pixel's samples are always its first n samples in sample order,
 // the very samples of a fixed-spp render, so a pixel that never stops equals
 // the fixed-spp render bit for bit; and the decisions read only the sums at
@@ -28,6 +28,11 @@ int firstRoundSpp(const RenderSettings& s);
 // of range.
 void checkAdaptiveSettings(const RenderSettings& s);
 
+// SampleSchedule::next's error for a pixel without a surface (no hit yet:
+// the background, exact): its neighbours do not pool it, and it goes by
+// theirs.
+inline constexpr float kNoSurface = -1.0f;
+
 // The pixels' sample counts over a window (row-major within it).
 class SampleSchedule {
  public:
@@ -47,8 +52,10 @@ class SampleSchedule {
   uint32_t maxTarget() const { return maxTarget_; }
   uint64_t planned(const PixelRect& r) const;
   // The round is done: every pixel's samples so far become its target.
-  // Then, from each pixel's standard error (window row-major; +inf where
-  // unknown), plans the next round and returns its samples (0: finished).
+  // Then, from each pixel's error (window row-major: the composited pass's
+  // standard error, compositedError in core/pixel_sums.h; kNoSurface
+  // without a surface; +inf where unknown), plans the next round and
+  // returns its samples (0: finished).
   uint64_t next(const float* error);
   // Drops the round just planned (the time limit): the render ends with
   // the samples taken.
@@ -65,7 +72,7 @@ class SampleSchedule {
   bool uniform_;
   std::vector<uint32_t> taken_, target_;
   std::vector<uint8_t> active_;  // 0 once the pixel has stopped
-  std::vector<float> dilated_;
+  std::vector<float> pooled_;
   uint64_t planned_ = 0, total_ = 0;
   uint32_t maxTarget_ = 0;
   int rounds_ = 1;

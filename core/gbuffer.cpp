@@ -291,8 +291,10 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   std::optional<SampleSchedule> schedule;
   if (adaptiveSampling(s)) schedule.emplace(PixelRect{0, 0, s.width, s.height}, s, true);
   std::vector<float> error(schedule ? n : 0);
-  // The pass's standard error at pixel i from the layer sums (core/pixel_sums.h).
-  const auto pixelError = [&](size_t i) {
+  // The pass's standard error at pixel i from the layer sums
+  // (core/pixel_sums.h), and with `n` samples taken its composited error,
+  // what the schedule decides on.
+  const auto pixelError = [&](size_t i, uint32_t n = 0) {
     const LayerSums& p = sums[i];
     const LayerSums& h = evenSums[i];
     Sum3 num, den;
@@ -300,7 +302,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     HalfSums even;
     even.num.add(h.num), even.den.add(h.den), even.hits = h.hits;
     const Vec3 albedo = wantAlbedo && p.hits ? albedoSums[i] * (1.0f / float(p.hits)) : Vec3(1, 1, 1);
-    return standardError(num, den, p.hits, even, integrator, albedo);
+    return n ? compositedError(num, den, p.hits, even, integrator, albedo, n)
+             : standardError(num, den, p.hits, even, integrator, albedo);
   };
   stats = {};
   uint64_t cameraRays = 0;
@@ -377,7 +380,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       progress.advance(1);
       if (schedule && uint32_t(si + 1) == schedule->maxTarget()) {  // a round ends
         parallelRows(s.height, [&](int y0, int y1) {
-          for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i) error[i] = pixelError(i);
+          for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i) error[i] = pixelError(i, schedule->target(i));
         });
         const uint64_t planned = schedule->next(error.data());
         const double seconds = secondsSince(t0);

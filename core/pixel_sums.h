@@ -6,6 +6,7 @@
 
 #include <cstdint>
 
+#include "core/adaptive.h"
 #include "core/film.h"
 #include "core/integrator.h"
 
@@ -60,6 +61,16 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
 // +inf when one half has no hit (nothing to compare).
 float standardError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfSums& even,
                     const Integrator& integrator, Vec3 albedo);
+
+// The error the adaptive schedule decides on (docs/math.md §13): the
+// standard error of the composited (premultiplied) pass, what the comp
+// shows, from the two halves' composited passes P = (hits / samples) W
+// after n samples: se(W) where the pixel is fully covered, and with the
+// noise of its coverage where it is not. A half without a hit composites
+// to 0, so a sliver of coverage has an estimate too (se(W) has none there).
+// kNoSurface for a pixel without a hit (exact background); +inf when n < 2.
+float compositedError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfSums& even,
+                      const Integrator& integrator, Vec3 albedo, uint32_t n);
 
 // What the W.error plane holds at pixel (fx, fy), once R,G,B,A are
 // written: `se` (standardError), or where it is unknown |W|, the largest

@@ -171,14 +171,15 @@ class TileRenderer {
     resolve(tileRect(tile), window_sums_->sums.data(), window_sums_->passSums.data(), window_sums_->even.data());
   }
 
-  // The primary pass's standard error of every pixel of the window (window
-  // row-major) from the adaptive sums: what the schedule decides on.
+  // The primary pass's composited standard error (compositedError) of
+  // every pixel of the window (window row-major) from the adaptive sums:
+  // what the schedule decides on.
   void windowErrors(float* error) const {
     const int w = window_.width();
     tbb::parallel_for(0, window_.height(), [&](int y) {
       for (int x = 0; x < w; ++x) {
         const size_t i = size_t(y) * size_t(w) + size_t(x);
-        error[i] = pixelError(window_sums_->sums[i], window_sums_->even[i]);
+        error[i] = scheduleError(window_sums_->sums[i], window_sums_->even[i], schedule_->target(i));
       }
     });
   }
@@ -188,6 +189,12 @@ class TileRenderer {
     const PassSlot& primary = passes_[0];
     return standardError(p.num, p.den, p.hits, even, *primary.integrator,
                          p.hits ? pixelAlbedo(p.albedo, p.hits, primary.albedo) : Vec3(1, 1, 1));
+  }
+
+  float scheduleError(const PixelSums& p, const HalfSums& even, uint32_t n) const {
+    const PassSlot& primary = passes_[0];
+    return compositedError(p.num, p.den, p.hits, even, *primary.integrator,
+                           p.hits ? pixelAlbedo(p.albedo, p.hits, primary.albedo) : Vec3(1, 1, 1), n);
   }
 
   // Pixel (px, py)'s slot in the sums and its samples this round.
@@ -456,6 +463,30 @@ float standardError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfS
   const double scale = std::sqrt(double(a) * double(b)) / double(a + b);
   const double d = std::max({std::fabs(double(We.x) - Wo.x), std::fabs(double(We.y) - Wo.y), std::fabs(double(We.z) - Wo.z)});
   return float(d * scale);
+}
+
+float compositedError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfSums& even,
+                      const Integrator& integrator, Vec3 albedo, uint32_t n) {
+  if (hits == 0) return kNoSurface;
+  if (n < 2) return std::numeric_limits<float>::infinity();
+  // The composited pass of each half, P = (hits / samples) W: the even half
+  // took ceil(n/2) samples, the odd half floor(n/2); a half without a hit
+  // composites to 0, so P_e and P_o are defined wherever the pixel has a
+  // hit. They are independent replicates (docs/math.md §13): for a
+  // per-sample variance v of P, Var(P_e - P_o) = v (1/n_e + 1/n_o) and
+  // Var(P) = v / n, so se(P) = |P_e - P_o| sqrt(n_e n_o) / n - se(W)
+  // where the pixel is fully covered, and with its coverage's noise where
+  // it is not.
+  const uint32_t ne = (n + 1) / 2, no = n / 2;
+  const uint32_t a = even.hits, b = hits - even.hits;
+  const Sum3 oddNum{num.x - even.num.x, num.y - even.num.y, num.z - even.num.z};
+  const Sum3 oddDen{den.x - even.den.x, den.y - even.den.y, den.z - even.den.z};
+  const Vec3 We = a ? resolvePass(even.num, even.den, integrator, albedo) : Vec3(0, 0, 0);
+  const Vec3 Wo = b ? resolvePass(oddNum, oddDen, integrator, albedo) : Vec3(0, 0, 0);
+  const double ce = double(a) / double(ne), co = double(b) / double(no);
+  const double d = std::max({std::fabs(ce * We.x - co * Wo.x), std::fabs(ce * We.y - co * Wo.y),
+                             std::fabs(ce * We.z - co * Wo.z)});
+  return float(d * std::sqrt(double(ne) * double(no)) / double(n));
 }
 
 void resolvePassLayer(const PassSums& q, uint32_t hits, const Sum3& albedo, int spp, const Integrator& integrator,

@@ -42,8 +42,9 @@ struct RenderSettings {
   bool motionBlur = false;
   // Adaptive sampling (core/adaptive.h; README "Adaptive sampling"): with
   // a target error or a time limit, pixels are sampled in rounds and each
-  // stops once its standard error of W (dilated over its neighbours) is at
-  // most targetError, or at spp samples. Absolute, in units of W.
+  // stops once the standard error of its composited pass (its own and
+  // pooled over its 3 x 3 neighbours) is at most targetError, or at spp
+  // samples. Absolute, in units of W.
   float targetError = 0;  // 0: off
   int minSpp = 0;         // the first round's samples; 0: min(16, spp)
   double timeLimit = 0;   // seconds; 0: none. No round starts that is predicted to end past it

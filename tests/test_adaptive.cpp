@@ -20,6 +20,8 @@
 #include "core/camera.h"
 #include "core/error.h"
 #include "core/integrator.h"
+#include "core/params.h"
+#include "core/pixel_sums.h"
 #include "core/render.h"
 #include "core/scene.h"
 #include "support.h"
@@ -113,19 +115,102 @@ TEST(Adaptive, MeetsTheTargetAgainstTheClosedForm) {
   }
   ASSERT_GT(open, 40);
   ASSERT_GT(n, 200);
-  // The RMSE over the pixels near the wall is at most the target: each
-  // pixel stopped when its (dilated) standard error was at most E, or at
-  // 2048 samples, where the standard error of a [0, 1] mean is at most
-  // 0.5 / sqrt(2048) = 0.011 < E.
-  const double rmse = std::sqrt(sq / n);
-  EXPECT_LE(rmse, E) << "rmse " << rmse << " over " << n << " pixels";
-  // And it stopped early: fewer samples than the maximum on average, the
-  // header's mean equal to the plane's.
+  // The RMSE over the pixels near the wall against the target, with its
+  // noise over these pixels, is Adaptive.TheRealizedErrorTracksTheTarget's
+  // (several seeds). Here: it stopped early, fewer samples than the maximum
+  // on average, the header's mean equal to the plane's.
   EXPECT_NEAR(stats.meanSpp, sppSum / (kW * kH), 1e-9 * stats.meanSpp);
   EXPECT_LT(stats.meanSpp, 0.5 * 2048);
   EXPECT_GT(stats.rounds, 2);
-  std::printf("adaptive E %.3f: rmse %.4f over %d pixels, mean spp %.1f in %d rounds\n", E, rmse, n, stats.meanSpp,
-              stats.rounds);
+  std::printf("adaptive E %.3f: rmse %.4f over %d pixels, mean spp %.1f in %d rounds\n", E, std::sqrt(sq / n), n,
+              stats.meanSpp, stats.rounds);
+}
+
+// The realized RMSE of an adaptive render is at least this fraction of the
+// target (Adaptive.TheRealizedErrorTracksTheTarget): the stop rule does not
+// take more than (1 / 0.85)^2 = 1.4 times the samples the target needs. The
+// largest-of-nine rule it replaced realized 0.6 E (docs/math.md §13).
+constexpr double kRealizedFloor = 0.85;
+
+TEST(Adaptive, TheRealizedErrorTracksTheTarget) {
+  // The stop rule's claim (docs/math.md §13): a pixel stops once the
+  // pooled error of its neighbourhood (and its own) is at most E, so the
+  // realized error of the pixels that had to adapt is close to E - at most
+  // E, and not far below it (the rule does not run pixels to many times
+  // the samples they need). Measured against the closed form over the
+  // pixels near the wall (0 < V < 1, every pixel fully covered: the
+  // composited error is the error of W) and several seeds; the tolerance
+  // is the standard error of the mean squared error over those pixels.
+  const auto scene = wallScene();
+  const Camera cam = downCamera();
+  const float E = 0.02f;
+  const int seeds = 4;
+  std::vector<double> sq;
+  double sppSum = 0;
+  for (int k = 0; k < seeds; ++k) {
+    RenderSettings s = adaptiveSettings(E, 4096, 16);
+    s.seed = uint32_t(2000 + k);
+    const Film f = renderAo(*scene, s);
+    const int spp = f.find(kSppPlane);
+    for (int x = 0; x < kW; ++x) {
+      if (groundX(cam, float(x + 1)) >= kR) continue;  // V = 1 over part of the footprint: not adapting
+      const double expected = columnV(cam, x);
+      for (int y = 0; y < kH; ++y) {
+        ASSERT_EQ(f.at(kA, x, y), 1.0f);
+        // 4096 samples would put a [0, 1] mean's standard error at most
+        // 0.5 / 64 < E: every pixel here stopped by the rule.
+        ASSERT_LT(f.at(spp, x, y), 4096.0f) << x << "," << y;
+        const double e = double(f.at(kR, x, y)) - expected;
+        sq.push_back(e * e);
+        sppSum += f.at(spp, x, y);
+      }
+    }
+  }
+  const double n = double(sq.size());
+  ASSERT_GT(n, 600);
+  double mse = 0;
+  for (double v : sq) mse += v;
+  mse /= n;
+  double var = 0;
+  for (double v : sq) var += (v - mse) * (v - mse);
+  const double seMse = std::sqrt(var / (n - 1) / n);
+  const double e2 = double(E) * double(E);
+  std::printf("target %.3f: realized rmse %.4f (%.3f E; mse %.3g +- %.2g) over %.0f pixels, mean spp %.1f\n", E,
+              std::sqrt(mse), std::sqrt(mse) / E, mse, seMse, n, sppSum / n);
+  EXPECT_LE(mse, e2 + 3.0 * seMse);
+  EXPECT_GE(mse, kRealizedFloor * kRealizedFloor * e2 - 3.0 * seMse);
+}
+
+TEST(Adaptive, TheCompositedErrorFromTheHalves) {
+  // The schedule's error (core/pixel_sums.h compositedError, docs/math.md
+  // §13) from hand-made sums under ao (resolvePixel: the identity), 16
+  // samples, 8 in each half.
+  const IntegratorDescriptor& d = IntegratorRegistry::instance().find("ao");
+  const auto ao = d.create(ParamSet(d.params, d.name));
+  const Vec3 albedo(1, 1, 1);
+  const auto sums = [](double v) { return Sum3{v, v, v}; };
+  // Fully covered: 8 hits a half, W_e = 6/8, W_o = 4/8: se(W) itself,
+  // |W_e - W_o| / 2.
+  HalfSums even{sums(6), sums(8), 8};
+  EXPECT_FLOAT_EQ(compositedError(sums(10), sums(16), 16, even, *ao, albedo, 16),
+                  standardError(sums(10), sums(16), 16, even, *ao, albedo));
+  EXPECT_FLOAT_EQ(compositedError(sums(10), sums(16), 16, even, *ao, albedo, 16), 0.125f);
+  // A sliver whose 2 hits (W = 1/2) fell in the even half: se(W) is
+  // unknown, the composited passes are P_e = 2/8 * 1/2 and P_o = 0, so
+  // se(P) = |P_e - P_o| sqrt(8 * 8) / 16 = 1/16.
+  even = {sums(1), sums(2), 2};
+  EXPECT_TRUE(std::isinf(standardError(sums(1), sums(2), 2, even, *ao, albedo)));
+  EXPECT_FLOAT_EQ(compositedError(sums(1), sums(2), 2, even, *ao, albedo, 16), 1.0f / 16.0f);
+  // One hit in each half, equal W: the halves agree on coverage and W.
+  even = {sums(0.5), sums(1), 1};
+  EXPECT_EQ(compositedError(sums(1), sums(2), 2, even, *ao, albedo, 16), 0.0f);
+  // Coverage differs (3 hits against 1), W the same: the coverage's noise,
+  // |3/8 - 1/8| * 8 / 16 = 1/8 for W = 1; se(W) sees none.
+  even = {sums(3), sums(3), 3};
+  EXPECT_EQ(standardError(sums(4), sums(4), 4, even, *ao, albedo), 0.0f);
+  EXPECT_FLOAT_EQ(compositedError(sums(4), sums(4), 4, even, *ao, albedo, 16), 0.125f);
+  // No hit: no surface.
+  EXPECT_EQ(compositedError(Sum3{}, Sum3{}, 0, HalfSums{}, *ao, albedo, 16), kNoSurface);
 }
 
 TEST(Adaptive, DoesNotDependOnThreadsOrTiles) {
