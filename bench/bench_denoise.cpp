@@ -10,7 +10,20 @@
 // 1920x1080. With --reference-spp N it also renders an N-spp reference and
 // prints the RMSE of W (fully covered pixels) noisy and denoised.
 //
+// --error-table (docs/denoise.md "Measured against a converged reference"):
+// instead of timing, renders a reference (cached with --reference-cache) and
+// each --sweep spp over --seeds seeds through the render's own --denoise
+// path, denoises the noisy pass again with the settings on the command line
+// (object guide: the Cryptomatte rank-0 id), and prints per spp the RMSE of
+// W noisy and denoised against the reference (its own variance subtracted),
+// bias^2 and variance over seeds, near edges and away from them, W.error's
+// calibration, and the equal-RMSE sample ratio (the spp a fixed render needs
+// to reach the denoised MSE, interpolated log-log on the noisy rows, over the
+// denoised render's spp).
+//
 // Run:   build/bench/obscura_bench_denoise                 viking room, 1920x1080, ao, 16 spp, 3 runs
+//        build/bench/obscura_bench_denoise --error-table --res 1920x1080 --crop 480x270 --param distance=0.5 \
+//            --reference-cache /tmp/viking_ao.ref          the table of docs/denoise.md
 //        build/bench/obscura_bench_denoise --quick         smoke run (320x180, 2 spp, 1 run)
 #include <CLI/CLI.hpp>
 
