@@ -22,8 +22,8 @@
 // denoised render's spp).
 //
 // Run:   build/bench/obscura_bench_denoise                 viking room, 1920x1080, ao, 16 spp, 3 runs
-//        build/bench/obscura_bench_denoise --error-table --res 1920x1080 --crop 480x270 --param distance=0.5 \
-//            --reference-cache /tmp/viking_ao.ref          the table of docs/denoise.md
+//        build/bench/obscura_bench_denoise --error-table --res 1920x1080 --crop 480x270
+//            --param distance=0.5 --reference-cache /tmp/viking_ao.ref   (one line) the table of docs/denoise.md
 //        build/bench/obscura_bench_denoise --quick         smoke run (320x180, 2 spp, 1 run)
 #include <CLI/CLI.hpp>
 
@@ -250,6 +250,8 @@ int main(int argc, char** argv) {
   app.add_option("--sigma-depth", ds.sigmaDepth, "Denoiser depth term");
   app.add_option("--depth-tolerance", ds.depthTolerance, "Denoiser depth tolerance");
   app.add_option("--sigma-albedo", ds.sigmaAlbedo, "Denoiser albedo term");
+  bool ownWeights = false;
+  app.add_flag("--no-symmetric", ownWeights, "Denoiser: each tap its own weight (not the mirrored pair's smaller one)");
   std::vector<std::string> paramText;
   app.add_option("--param", paramText, "Integrator parameter key=value (repeatable)");
   app.add_option("--reference-spp", referenceSpp,
@@ -265,6 +267,7 @@ int main(int argc, char** argv) {
   app.add_option("--sweep", sweepText, "--error-table: sample counts, comma-separated (default 16,32,64,128)");
   app.add_option("--seeds", seeds, "--error-table: seeds per sample count (default 4)");
   CLI11_PARSE(app, argc, argv);
+  ds.symmetric = !ownWeights;
   try {
     if (common.quick) common.res = "320x180", common.spp = 2, common.runs = 1;
     if (common.scenes.empty()) common.scenes = {"viking"};
@@ -297,8 +300,9 @@ int main(int argc, char** argv) {
         std::printf("\n%s: %dx%d, window %d,%d-%d,%d, %s", scene.label.c_str(), size.width, size.height, window.x0,
                     window.y0, window.x1, window.y1, integrator.c_str());
         for (const auto& [k, v] : params) std::printf(" %s=%s", k.c_str(), v.c_str());
-        std::printf("; denoiser kernel %d, %d iterations, sigma n %g z %g (tol %g) l %g a %g\n", ds.kernel, ds.iterations,
-                    ds.sigmaNormal, ds.sigmaDepth, ds.depthTolerance, ds.sigmaLuminance, ds.sigmaAlbedo);
+        std::printf("; denoiser kernel %d, %d iterations, %s taps, sigma n %g z %g (tol %g) l %g a %g\n", ds.kernel,
+                    ds.iterations, ds.symmetric ? "symmetric" : "own-weight", ds.sigmaNormal, ds.sigmaDepth,
+                    ds.depthTolerance, ds.sigmaLuminance, ds.sigmaAlbedo);
         RenderSettings base = benchRenderSettings(size.width, size.height, 1, threads.threads(), 0);
         base.aovs = true;
         base.region = window;
