@@ -228,6 +228,107 @@ void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, 
   }
 }
 
+// A mirrored pair of taps q = p + off and q' = p - off for the pixels
+// x0..x1-1 of a row (docs/denoise.md "Symmetric taps"): both get the
+// smaller of their two weights, so the taps p averages are placed
+// symmetrically about p and a linear change of W across them (ao's gradient
+// towards a crease) cancels in the mean: without this, a pixel next to an
+// edge whose taps across it are cut off averages only the side away from
+// the edge, and a gradient there biases it to first order. Same operations
+// per tap as tapSpan, so the same vectorization.
+template <bool Albedo, bool Luminance>
+void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
+  const float* __restrict n0 = r.n0;
+  const float* __restrict n1 = r.n1;
+  const float* __restrict n2 = r.n2;
+  const float* __restrict d = r.d;
+  const float* __restrict live = r.live;
+  const float* __restrict gx = r.gx;
+  const float* __restrict gy = r.gy;
+  const uint32_t* __restrict obj = r.object;
+  const float* __restrict w0 = r.w0;
+  const float* __restrict w1 = r.w1;
+  const float* __restrict w2 = r.w2;
+  const float* __restrict var = r.var;
+  float* __restrict sw = r.sw;
+  float* __restrict sc0 = r.sc0;
+  float* __restrict sc1 = r.sc1;
+  float* __restrict sc2 = r.sc2;
+  float* __restrict sv = r.sv;
+  const ptrdiff_t off = o.off;
+  const float sn = s.sigmaNormal, sz = s.sigmaDepth, ez = s.depthTolerance;
+  const float sl2 = s.sigmaLuminance * s.sigmaLuminance, el2 = s.luminanceTolerance * s.luminanceTolerance;
+  // The exponent of the tap at q = x + qo predicted along +/- the offset
+  // (sign): the terms of tapSpan.
+  auto exponent4 = [&](int x, ptrdiff_t qo, float sign, VI4& same) {
+    const ptrdiff_t q = x + qo;
+    const V4 dot = load4(n0 + x) * load4(n0 + q) + load4(n1 + x) * load4(n1 + q) + load4(n2 + x) * load4(n2 + q);
+    V4 e = sn * vmax(V4{}, 1.0f - dot);
+    const V4 dx4 = load4(d + x), gx4 = load4(gx + x), gy4 = load4(gy + x), dq4 = load4(d + q);
+    const V4 miss = dq4 - (dx4 + sign * (gx4 * o.dx + gy4 * o.dy));
+    const V4 tol = sz * (vabs(gx4) * o.adx + vabs(gy4) * o.ady) + ez * dx4;
+    e += miss * miss / (tol * tol);
+    if constexpr (Albedo) {
+      const V4 da = vmax(vabs(load4(r.a0 + x) - load4(r.a0 + q)),
+                         vmax(vabs(load4(r.a1 + x) - load4(r.a1 + q)), vabs(load4(r.a2 + x) - load4(r.a2 + q))));
+      e += da * invAlbedo;
+    }
+    if constexpr (Luminance) {
+      const V4 dl = vmax(vabs(load4(w0 + q) - load4(w0 + x)),
+                         vmax(vabs(load4(w1 + q) - load4(w1 + x)), vabs(load4(w2 + q) - load4(w2 + x))));
+      e += dl * dl / (sl2 * (load4(var + x) + load4(var + q)) + el2);
+    }
+    VI4 oq, ox;
+    std::memcpy(&oq, obj + q, sizeof oq);
+    std::memcpy(&ox, obj + x, sizeof ox);
+    // Another object or no W: weight exactly 0 (a select, see below).
+    same = (oq == ox) & (load4(live + q) > 0.0f);
+    return e;
+  };
+  auto exponent1 = [&](int x, ptrdiff_t qo, float sign, bool& same) {
+    const ptrdiff_t q = x + qo;
+    const float dot = n0[x] * n0[q] + n1[x] * n1[q] + n2[x] * n2[q];
+    float e = sn * std::max(0.0f, 1.0f - dot);
+    const float miss = d[q] - (d[x] + sign * (gx[x] * o.dx + gy[x] * o.dy));
+    const float tol = sz * (std::abs(gx[x]) * o.adx + std::abs(gy[x]) * o.ady) + ez * d[x];
+    e += miss * miss / (tol * tol);
+    if constexpr (Albedo) {
+      const float da = std::max(std::abs(r.a0[x] - r.a0[q]), std::max(std::abs(r.a1[x] - r.a1[q]), std::abs(r.a2[x] - r.a2[q])));
+      e += da * invAlbedo;
+    }
+    if constexpr (Luminance) {
+      const float dl = std::max(std::abs(w0[q] - w0[x]), std::max(std::abs(w1[q] - w1[x]), std::abs(w2[q] - w2[x])));
+      e += dl * dl / (sl2 * (var[x] + var[q]) + el2);
+    }
+    same = obj[q] == obj[x] && live[q] > 0.0f;
+    return e;
+  };
+  int x = x0;
+  for (; x + 4 <= x1; x += 4) {
+    VI4 sq, sm;
+    const V4 e = vmax(exponent4(x, off, 1.0f, sq), exponent4(x, -off, -1.0f, sm));
+    const V4 wk = o.k * expNeg4(vmin(e, V4{} + kMaxExponent));
+    const V4 wt = (sq & sm) != 0 ? wk : V4{};
+    const ptrdiff_t q = x + off, m = x - off;
+    store4(sw + x, load4(sw + x) + (wt + wt));
+    store4(sc0 + x, load4(sc0 + x) + wt * (load4(w0 + q) + load4(w0 + m)));
+    store4(sc1 + x, load4(sc1 + x) + wt * (load4(w1 + q) + load4(w1 + m)));
+    store4(sc2 + x, load4(sc2 + x) + wt * (load4(w2 + q) + load4(w2 + m)));
+    store4(sv + x, load4(sv + x) + wt * wt * (load4(var + q) + load4(var + m)));
+  }
+  for (; x < x1; ++x) {
+    bool sq, sm;
+    const float e = std::max(exponent1(x, off, 1.0f, sq), exponent1(x, -off, -1.0f, sm));
+    const float wt = sq && sm ? o.k * expNeg(std::min(e, kMaxExponent)) : 0.0f;
+    const ptrdiff_t q = x + off, m = x - off;
+    sw[x] += wt + wt;
+    sc0[x] += wt * (w0[q] + w0[m]);
+    sc1[x] += wt * (w1[q] + w1[m]);
+    sc2[x] += wt * (w2[q] + w2[m]);
+    sv[x] += wt * wt * (var[q] + var[m]);
+  }
+}
+
 // One pass of taps over row y: dst = the normalized weighted mean of src's
 // taps, dst.var = sum w^2 var / (sum w)^2 (the variance of that mean for
 // independent pixels; docs/denoise.md "Variance"). Every weight is
@@ -259,9 +360,14 @@ void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const S
   const float* w1 = src.w[1].data() + row;
   const float* w2 = src.w[2].data() + row;
   const float* vp = src.var.data() + row;
+  const bool symmetric = s.symmetric && !t.varOnly;
   for (int j = -t.radius; j <= t.radius; ++j) {
     const int qy = y + j * t.step;
     if (qy < 0 || qy >= h) continue;
+    // Symmetric taps: the pairs (j, i) and (-j, -i) together, from the
+    // half with j > 0 or j = 0 < i, both rows inside the image.
+    if (symmetric && j < 0) continue;
+    if (symmetric && j > 0 && (y - j * t.step < 0)) continue;
     const ptrdiff_t dyRows = ptrdiff_t(j) * t.step * w;
     const float dyPx = float(j * t.step), ady = std::abs(dyPx);
     for (int i = -t.radius; i <= t.radius; ++i) {
@@ -275,6 +381,19 @@ void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const S
       const float* pa2 = albedo ? g.albedo[2].data() + row : nullptr;
       const TapRowArgs r{n0, n1, n2, dp, gxp, gyp, livep, op, w0, w1, w2, vp, pa0, pa1, pa2, sw, sc0, sc1, sc2, sv};
       const TapOffset o{off, k, dxPx, dyPx, adx, ady};
+      if (symmetric && (j > 0 || i > 0)) {
+        const int px0 = std::abs(dx), px1 = w - std::abs(dx);
+        if (albedo) {
+          if (t.luminance) tapSpanPair<true, true>(r, o, s, invAlbedo, px0, px1);
+          else tapSpanPair<true, false>(r, o, s, invAlbedo, px0, px1);
+        } else if (t.luminance) {
+          tapSpanPair<false, true>(r, o, s, invAlbedo, px0, px1);
+        } else {
+          tapSpanPair<false, false>(r, o, s, invAlbedo, px0, px1);
+        }
+        continue;
+      }
+      if (symmetric && j == 0 && i < 0) continue;
       if (albedo) {
         if (t.luminance) tapSpan<true, true, false>(r, o, s, invAlbedo, x0, x1);
         else tapSpan<true, false, false>(r, o, s, invAlbedo, x0, x1);

@@ -65,6 +65,11 @@ struct DenoiseSettings {
   float luminanceTolerance = 1e-4f;
   // Albedo term |a_p - a_q|_max / sigmaAlbedo (only with albedo planes).
   float sigmaAlbedo = 0.05f;
+  // Mirrored taps (docs/denoise.md "Symmetric taps"): the taps at p + o and
+  // p - o share the smaller of their two weights, so a linear change of W
+  // across p's taps cancels and a pixel next to an edge is not pulled
+  // towards the side away from it. false: each tap its own weight.
+  bool symmetric = true;
   // Worker threads; 0 = all hardware threads. The result does not depend on
   // it (each pixel is computed by one thread from the previous iteration).
   int threads = 0;
