@@ -280,8 +280,14 @@ ModeResult searchMode(const Mode& m, const Options& o, const BenchIntegrator& in
     tr.t.film = Film();  // keep only the numbers
     char dn[48] = "";
     if (m.denoise) std::snprintf(dn, sizeof dn, "  (denoise %.2f s)", tr.t.stats.denoiseSeconds);
-    std::printf("    %-12s mean spp %8.2f  RMSE %.5f (raw %.5f)  wall %8.2f s  cpu %8.2f s%s\n",
-                paramText(m, p).c_str(), tr.t.stats.meanSpp, tr.e.corrected, tr.e.raw, tr.t.wall, tr.t.cpu, dn);
+    // Rays per second of the render loop: what a sample costs in each mode
+    // (camera rays / pixels is the mean spp, counted independently).
+    const RayCounters& rc = tr.t.stats.rays;
+    const double rays = double(rc.camera + rc.occlusion + rc.closest);
+    std::printf("    %-12s mean spp %8.2f (camera rays/px %8.2f)  RMSE %.5f (raw %.5f)  wall %8.2f s  cpu %8.2f s  "
+                "%6.2f Mrays/s%s\n",
+                paramText(m, p).c_str(), tr.t.stats.meanSpp, double(rc.camera) / (double(width) * double(height)),
+                tr.e.corrected, tr.e.raw, tr.t.wall, tr.t.cpu, rays * 1e-6 / tr.t.stats.seconds, dn);
     std::fflush(stdout);
     trials.push_back(std::move(tr));
     const size_t i = trials.size() - 1;
