@@ -45,8 +45,11 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 }
 
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
-    : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds), taken_(window.size(), 0),
-      target_(window.size(), uint32_t(firstRoundSpp(s))), active_(window.size(), 1), pooled_(window.size()) {
+    : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds) {
+  parallelFill(taken_, window.size(), 0U);
+  parallelFill(target_, window.size(), uint32_t(firstRoundSpp(s)));
+  parallelFill(active_, window.size(), uint8_t(1));
+  pooled_.resize(window.size());
   planned_ = uint64_t(window.size()) * uint64_t(firstRoundSpp(s));
   maxTarget_ = uint32_t(firstRoundSpp(s));
 }
@@ -82,6 +85,7 @@ uint64_t SampleSchedule::next(const float* error) {
   // noisy estimates sits well above their typical value.
   tbb::parallel_for(0, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
+      if (!active_[size_t(y) * size_t(w) + size_t(x)]) continue;  // stopped: never read again
       double sq = 0;
       int k = 0;
       for (int v = std::max(0, y - 1); v <= std::min(h - 1, y + 1); ++v)

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/film.h"
+#include "core/large_vector.h"
 
 namespace obscura {
 
@@ -70,9 +71,10 @@ class SampleSchedule {
   uint32_t spp_;
   float targetError_;
   bool uniform_;
-  std::vector<uint32_t> taken_, target_;
-  std::vector<uint8_t> active_;  // 0 once the pixel has stopped
-  std::vector<float> pooled_;
+  // Whole-window arrays on huge pages (core/large_vector.h).
+  LargeVector<uint32_t> taken_, target_;
+  LargeVector<uint8_t> active_;  // 0 once the pixel has stopped
+  LargeVector<float> pooled_;    // read for active pixels only
   uint64_t planned_ = 0, total_ = 0;
   uint32_t maxTarget_ = 0;
   int rounds_ = 1;

@@ -42,6 +42,12 @@ struct IntegratorNeeds {
   // metallicRoughness textures, Scene::dataTextures). Nothing else computes
   // roughness: a render whose integrator does not set this never decodes them.
   bool roughness = false;
+  // resolvePixel maps W with the pixel's own albedo (multi-bounce AO), so W
+  // changes wherever the albedo does and --denoise takes the albedo planes as
+  // a guide (docs/denoise.md "Albedo"). Passes that read only the occluders'
+  // albedo (transfer, gi) leave it false: the shaded point's texture edges are
+  // no edges of their W, and stopping the filter there only keeps noise.
+  bool pixelAlbedo = false;
 };
 
 // One camera sample's estimate of W as a ratio (see above). The render loop

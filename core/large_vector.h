@@ -10,11 +10,13 @@
 // the kernel) in parallel, instead of by one thread value-initializing
 // them up front (a serial ~10 ms per 100 MB at 1080p, measured in the
 // screen-space bench). Give a value (LargeVector(n, v), assign, or
-// parallelFill) where zeros are needed.
+// parallelFill below) where zeros are needed.
 #pragma once
 
 #include <sys/mman.h>
+#include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <new>
 #include <type_traits>
@@ -62,5 +64,16 @@ struct LargeAllocator {
 
 template <class T>
 using LargeVector = std::vector<T, LargeAllocator<T>>;
+
+// v resized to n elements, every one set to `value`, by all threads: the
+// pages are first touched in parallel (see above) instead of by the thread
+// that resizes.
+template <class T>
+void parallelFill(LargeVector<T>& v, size_t n, const T& value) {
+  v.resize(n);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+    std::fill(v.begin() + std::ptrdiff_t(r.begin()), v.begin() + std::ptrdiff_t(r.end()), value);
+  });
+}
 
 }  // namespace obscura

@@ -12,6 +12,7 @@
 
 #include "core/adaptive.h"
 #include "core/denoise.h"
+#include "core/large_vector.h"
 #include "core/error.h"
 #include "core/gbuffer.h"
 #include "core/pixel_sums.h"
@@ -98,10 +99,13 @@ struct SampleCursor {
 class TileRenderer {
  public:
   // The window's sums across adaptive rounds (window row-major).
+  // On huge pages and first touched by all threads (core/large_vector.h):
+  // at 1080p they hold ~350 MB, and faulting them in from one thread cost
+  // a fifth of an adaptive render's CPU time (measured on this VM).
   struct WindowSums {
-    std::vector<PixelSums> sums;
-    std::vector<PassSums> passSums;
-    std::vector<HalfSums> even;
+    LargeVector<PixelSums> sums;
+    LargeVector<PassSums> passSums;
+    LargeVector<HalfSums> even;
   };
 
   TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
@@ -173,12 +177,15 @@ class TileRenderer {
 
   // The primary pass's composited standard error (compositedError) of
   // every pixel of the window (window row-major) from the adaptive sums:
-  // what the schedule decides on.
+  // what the schedule decides on. Only pixels that took samples this round
+  // are recomputed: the others' sums, and so their errors in `error` from
+  // an earlier round, have not changed (late rounds touch few pixels).
   void windowErrors(float* error) const {
     const int w = window_.width();
     tbb::parallel_for(0, window_.height(), [&](int y) {
       for (int x = 0; x < w; ++x) {
         const size_t i = size_t(y) * size_t(w) + size_t(x);
+        if (schedule_->target(i) == schedule_->taken(i)) continue;
         error[i] = scheduleError(window_sums_->sums[i], window_sums_->even[i], schedule_->target(i));
       }
     });
@@ -630,11 +637,11 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     // written once, from the sums the rounds leave.
     SampleSchedule schedule(renderWindow(s), s);
     TileRenderer::WindowSums sums;
-    std::vector<float> error(window);
+    LargeVector<float> error(window);  // every pixel takes samples in the first round: all written
     arena.execute([&] {
-      sums.sums.resize(window);
-      sums.passSums.resize(window * (slots.size() - 1));
-      sums.even.resize(window);
+      parallelFill(sums.sums, window, PixelSums{});
+      parallelFill(sums.passSums, window * (slots.size() - 1), PassSums{});
+      parallelFill(sums.even, window, HalfSums{});
       tiles.setSchedule(&schedule, &sums);
       for (;;) {
         eachTile(renderTile);
@@ -696,7 +703,7 @@ void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int 
 // the raw pass kept as noisy.R/G/B; the primary's layer copy and shaded.*
 // (albedo x W x sky, premultiplied: albedo_pm W_pm sky / A) follow the
 // denoised W, so the film stays one consistent pass.
-void denoisePrimary(Film& film, bool passReadsAlbedo, const uint32_t* objects, const RenderSettings& s, int layer) {
+void denoisePrimary(Film& film, bool albedoGuide, const uint32_t* objects, const RenderSettings& s, int layer) {
   const size_t n = size_t(film.width()) * size_t(film.height());
   const int noisy = film.addPlane("noisy.R");
   film.addPlane("noisy.G"), film.addPlane("noisy.B");
@@ -709,7 +716,7 @@ void denoisePrimary(Film& film, bool passReadsAlbedo, const uint32_t* objects, c
   for (int c = 0; c < 3; ++c) {
     in.color[c] = film.plane(noisy + c);
     in.normal[c] = film.plane(kNX + c);
-    in.albedo[c] = passReadsAlbedo ? film.plane(kAlbedoR + c) : nullptr;
+    in.albedo[c] = albedoGuide ? film.plane(kAlbedoR + c) : nullptr;
   }
   in.alpha = film.plane(kA);
   in.variance = variance.data();
@@ -826,7 +833,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   }
   if (s.denoise) {
     const auto t0 = std::chrono::steady_clock::now();
-    denoisePrimary(film, passes[0].needs.albedo, objects.empty() ? nullptr : objects.data(), s, layer[0]);
+    denoisePrimary(film, passes[0].needs.pixelAlbedo, objects.empty() ? nullptr : objects.data(), s, layer[0]);
     stats.denoiseSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   return film;

@@ -76,7 +76,7 @@ IntegratorDescriptor multibounceDescriptor() {
        .doc = "AO rays per camera sample"},
   };
   addLobeParams(d.params);
-  d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true}; };
+  d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true, .pixelAlbedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const Mapping m = p.getEnum("mapping") == "gtao" ? Mapping::Gtao : Mapping::Improved;
     return std::make_unique<MultiBounce>(m, toRayDistance(p.getFloat("distance")), uint32_t(p.getInt("rays")),
