@@ -1,0 +1,141 @@
+#include "app/render_setup.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include "core/adaptive.h"
+#include "core/error.h"
+
+namespace obscura {
+
+namespace {
+
+// A layer name: a letter, then letters, digits or '_'; not a channel or
+// layer the film writes itself.
+void checkLayerName(const std::string& layer, const std::string& text) {
+  const bool ok = !layer.empty() && std::isalpha(static_cast<unsigned char>(layer[0])) &&
+                  layer.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") == std::string::npos;
+  if (!ok) throw Error("--pass '" + text + "': the layer name '" + layer + "' must be a letter followed by letters, digits or '_'");
+  for (const char* taken : {"R", "G", "B", "A", "Z", "N", "albedo", "shaded"})
+    if (layer == taken) throw Error("--pass '" + text + "': the layer name '" + layer + "' is taken by a channel Obscura writes");
+  if (layer.rfind("Crypto", 0) == 0) throw Error("--pass '" + text + "': layer names starting 'Crypto' are Cryptomatte's");
+}
+
+// The passes of a render, the primary first: --pass (with --primary), or
+
+// True when a and b name the same file (existing or not).
+bool samePath(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ea, eb;
+  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea);
+  return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
+}
+
+}  // namespace
+
+// True when `path` ends in `ext` (".exr"), ignoring case.
+bool hasExtension(const std::string& path, const std::string& ext) {
+  if (path.size() < ext.size()) return false;
+  for (size_t i = 0; i < ext.size(); ++i)
+    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
+  return true;
+}
+
+void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene) {
+  checkWritable(output);
+  if (samePath(output, scene)) throw Error("-o " + output + ": is the scene file; refusing to overwrite it");
+  if (!preview.empty()) {
+    checkWritable(preview);
+    if (samePath(preview, output)) throw Error("--preview " + preview + ": is the same file as -o");
+    if (samePath(preview, scene)) throw Error("--preview " + preview + ": is the scene file; refusing to overwrite it");
+  }
+  // After the checks above, whose messages say more about such a path.
+  if (!hasExtension(output, ".exr")) throw Error("-o " + output + ": must end in .exr (the pass is written as OpenEXR)");
+  if (!preview.empty() && !hasExtension(preview, ".png"))
+    throw Error("--preview " + preview + ": must end in .png (the preview is written as PNG)");
+}
+
+std::vector<PassSetup> passSetups(const RenderArgs& a) {
+  std::vector<PassSetup> out;
+  const auto add = [&](std::string layer, const std::string& integrator, const std::vector<std::string>& assignments) {
+    const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(integrator);
+    ParamSet params(desc.params, desc.name);
+    for (const auto& p : assignments) params.setAssignment(p);
+    auto integ = desc.create(params);
+    const IntegratorNeeds needs = desc.needs(params);
+    out.push_back({std::move(layer), &desc, std::move(params), std::move(integ), needs});
+  };
+  if (a.passes.empty()) {
+    if (!a.primary.empty()) throw Error("--primary: names a --pass layer, but no --pass was given");
+    add("", a.integrator, a.params);
+    return out;
+  }
+  if (a.integratorGiven) throw Error("--pass: replaces -i and -p (give each pass its integrator and parameters)");
+  for (const std::string& text : a.passes) {
+    const size_t eq = text.find('=');
+    if (eq == std::string::npos) throw Error("--pass '" + text + "': expected LAYER=integrator[:key=value,...]");
+    const std::string layer = text.substr(0, eq);
+    checkLayerName(layer, text);
+    for (const PassSetup& p : out)
+      if (p.layer == layer) throw Error("--pass '" + text + "': layer '" + layer + "' is already a pass");
+    const IntegratorSpec spec = parseIntegratorSpec("--pass", text.substr(eq + 1));
+    add(layer, spec.integrator, spec.assignments);
+  }
+  if (!a.primary.empty()) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const PassSetup& p) { return p.layer == a.primary; });
+    if (it == out.end()) throw Error("--primary: no --pass has the layer '" + a.primary + "'");
+    std::rotate(out.begin(), it, it + 1);
+  }
+  return out;
+}
+
+
+bool anyScreenSpace(const std::vector<PassSetup>& setups) {
+  return std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) { return p.desc->kind == IntegratorKind::ScreenSpace; });
+}
+
+RenderSettings renderSettings(const RenderArgs& args) {
+  RenderSettings s;
+  parseResolution(args.res, s.width, s.height);
+  if (args.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(args.spp));
+  if (args.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(args.threads));
+  if (args.tileSize < 1 || args.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(args.tileSize));
+  if (args.seed < 0 || args.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
+  if (args.filter == "box") s.filter = PixelFilter::Box;
+  else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
+  else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
+  s.spp = args.spp;
+  s.targetError = args.targetError;
+  s.minSpp = args.minSpp;
+  s.timeLimit = args.timeLimit;
+  s.denoise = args.denoise;
+  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
+  checkAdaptiveSettings(s);
+  s.seed = uint32_t(args.seed);
+  s.threads = args.threads;
+  s.tileSize = args.tileSize;
+  s.sky = parseSky(args.sky);
+  s.aovs = !args.noAovs;
+  s.progress = !args.quiet;
+  s.cryptomatte = parseCryptomatte(args.cryptomatte, args.cryptomatteRanks);
+  s.motionBlur = !args.shutter.empty();
+  if (!args.region.empty()) {
+    s.region = parseRegion(args.region);
+    checkRegion(s.region, s.width, s.height);
+  }
+  return s;
+}
+
+ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,
+                        const RenderSettings& s, const RenderStats& stats, const Scene& scene) {
+  std::vector<LayerInfo> layers;
+  if (!a.passes.empty())
+    for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
+  return passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = *setups.front().desc,
+                             .params = setups.front().params, .settings = s, .stats = stats, .filterName = a.filter,
+                             .robust = a.robust, .sceneArgs = &a, .scene = &scene, .bvhSeconds = scene.buildSeconds(),
+                             .layers = layers});
+}
+
+}  // namespace obscura
