@@ -144,40 +144,6 @@ Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, cons
 
 
 
-// Fail before a long render, not after it: outputs whose extension is not
-// the format written (an EXR under a .tif name, a PNG under .jpg: viewers
-// and pipelines go by the name), outputs that cannot be written, outputs
-// that would overwrite the scene or each other, and a film larger than the
-// memory the system has available.
-void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers) {
-  checkOutputPaths(a.output, a.preview, a.scene);
-  // The film's planes, plus the preview's bytes; the EXR is written from the
-  // planes a band at a time, so it needs no second copy.
-  // A screen-space integrator also keeps whole-image state (a G-buffer
-  // layer, the pixel sums, the estimates: core/gbuffer.h).
-  // Each layer adds three planes.
-  // A --region film holds the region only.
-  const PixelRect win = renderWindow(s);
-  const uint64_t need = filmBytes(win.width(), win.height(), s.aovs) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
-                        (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
-                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
-                        cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
-                        // Adaptive sampling keeps every pixel's sums across rounds (core/render.cpp);
-                        // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and
-                        // working planes: core/denoise.cpp).
-                        (adaptiveSampling(s) ? uint64_t(win.size()) * (sizeof(PixelSums) + sizeof(HalfSums) +
-                                                                       uint64_t(layers) * sizeof(PassSums))
-                                             : 0) +
-                        (s.denoise ? uint64_t(win.size()) * 24 * sizeof(float) : 0);
-  const uint64_t avail = availableMemoryBytes();
-  if (avail > 0 && need > avail) {
-    char msg[160];
-    std::snprintf(msg, sizeof msg, "the film needs %.1f GiB, but only %.1f GiB of memory is available", double(need) / (1 << 30),
-                  double(avail) / (1 << 30));
-    throw Error("--res " + a.res + ": " + msg);
-  }
-}
-
 // One image of a sequence: the frame (empty: none) and its outputs.
 struct FrameJob {
   std::string frame;  // as SceneArgs::frame
@@ -237,7 +203,8 @@ int runRender(const RenderArgs& args) {
   for (const FrameJob& job : jobs) {
     RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
-    checkOutputs(fa, s, anyScreenSpace, args.passes.size());
+    checkOutputPaths(fa.output, fa.preview, fa.scene);
+    checkFilmMemory(fa, s, anyScreenSpace, args.passes.size());
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdio>
 #include <filesystem>
 
 #include "core/adaptive.h"
+#include "core/gbuffer.h"
+#include "core/pixel_sums.h"
 #include "core/error.h"
 
 namespace obscura {
@@ -126,6 +129,35 @@ RenderSettings renderSettings(const RenderArgs& args) {
   }
   return s;
 }
+
+void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers) {
+  // The film's planes, plus the preview's bytes; the EXR is written from the
+  // planes a band at a time, so it needs no second copy.
+  // A screen-space integrator also keeps whole-image state (a G-buffer
+  // layer, the pixel sums, the estimates: core/gbuffer.h).
+  // Each layer adds three planes.
+  // A --region film holds the region only.
+  const PixelRect win = renderWindow(s);
+  const uint64_t need = filmBytes(win.width(), win.height(), s.aovs) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
+                        (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
+                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
+                        cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
+                        // Adaptive sampling keeps every pixel's sums across rounds (core/render.cpp);
+                        // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and
+                        // working planes: core/denoise.cpp).
+                        (adaptiveSampling(s) ? uint64_t(win.size()) * (sizeof(PixelSums) + sizeof(HalfSums) +
+                                                                       uint64_t(layers) * sizeof(PassSums))
+                                             : 0) +
+                        (s.denoise ? uint64_t(win.size()) * 24 * sizeof(float) : 0);
+  const uint64_t avail = availableMemoryBytes();
+  if (avail > 0 && need > avail) {
+    char msg[160];
+    std::snprintf(msg, sizeof msg, "the film needs %.1f GiB, but only %.1f GiB of memory is available", double(need) / (1 << 30),
+                  double(avail) / (1 << 30));
+    throw Error("--res " + a.res + ": " + msg);
+  }
+}
+
 
 ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,
                         const RenderSettings& s, const RenderStats& stats, const Scene& scene) {

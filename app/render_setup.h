@@ -73,6 +73,12 @@ bool hasExtension(const std::string& path, const std::string& ext);
 // may be empty. Messages name -o and --preview.
 void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene);
 
+// Refuses a render whose film (and what the render keeps beside it: a
+// screen-space pass's G-buffer, Cryptomatte, adaptive sums, the denoiser's
+// planes, the preview's bytes) would need more memory than the system has
+// available. `layers`: the --pass layers. Names --res.
+void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers);
+
 // The EXR header of a finished render (README "The EXR pass").
 ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,
                         const RenderSettings& s, const RenderStats& stats, const Scene& scene);

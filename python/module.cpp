@@ -1,6 +1,6 @@
 // `import obscura`: the Python module (README "Python"). It mirrors the
 // command line: a Scene loaded with the CLI's scene options, render() with
-// the CLI's render options, compare(), integrators(), load_plugin(). Every
+// the CLI's render options, compare(), merge(), integrators(), load_plugin(). Every
 // render goes through the same functions `obscura render` calls
 // (app/render_setup.h: settings, passes, header; core render(); the EXR
 // writer), so the same settings give the same channels bit for bit and the
@@ -31,6 +31,7 @@
 
 #include "app/cli_common.h"
 #include "app/compare.h"
+#include "app/merge.h"
 #include "app/render_setup.h"
 #include "core/error.h"
 #include "core/image_io.h"
@@ -396,6 +397,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   RenderSettings s = renderSettings(a);
   const bool screenSpace = anyScreenSpace(setups);
   checkRegionPasses(s, screenSpace);
+  checkFilmMemory(a, s, screenSpace, a.passes.size());
   Camera camera;
   if (sc.args.subdivEdge > 0) {
     // Refined for the load's camera and resolution (README "Subdivision").
@@ -643,6 +645,12 @@ PYBIND11_MODULE(obscura, m) {
   m.def("integrators", &integratorList, "The registered integrators with their parameters");
   m.def("load_plugin", [](const std::string& path) { loadPlugin(path); }, py::arg("path"),
         "Loads an integrator plugin (shared library), as --plugin");
+  m.def("merge",
+        [](const std::string& output, const std::vector<std::string>& tiles) {
+          py::gil_scoped_release release;
+          mergeRegions(output, tiles);
+        },
+        py::arg("output"), py::arg("tiles"), "`obscura merge`: region renders assembled into the full frame");
   m.def("compare", &compare, py::arg("scene"), py::arg("output"), py::arg("configs"),
         "compare(scene, output_dir, configs, **options): `obscura compare`; returns results.csv's rows");
 }

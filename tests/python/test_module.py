@@ -90,6 +90,18 @@ def test_render_equals_cli(scene, tmp_path, kwargs, flags):
             assert np.array_equal(v, a[k]) if isinstance(v, np.ndarray) else v == a[k], k
 
 
+def test_regions_merge_to_the_full_render(scene, tmp_path):
+    """obscura.merge of region renders written from Python equals the full render."""
+    full = obscura.render(scene, "ao", spp=2, res=(40, 24), seed=5)
+    tiles = []
+    for i, region in enumerate([(0, 0, 40, 10), (0, 10, 40, 24)]):
+        path = str(tmp_path / f"tile{i}.exr")
+        obscura.render(scene, "ao", spp=2, res=(40, 24), seed=5, region=region).write(path)
+        tiles.append(path)
+    obscura.merge(str(tmp_path / "merged.exr"), tiles)
+    assert_same_image(obscura.read_exr(str(tmp_path / "merged.exr")), full)
+
+
 def test_channels_are_views(scene):
     r = obscura.render(scene, spp=1, res=(32, 18))
     a = r["R"]
