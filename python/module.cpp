@@ -34,6 +34,8 @@
 #include "app/merge.h"
 #include "app/render_setup.h"
 #include "core/error.h"
+#include "core/gltf_document.h"
+#include "core/gltf_loader.h"
 #include "core/image_io.h"
 #include "core/plugin.h"
 #include "core/render.h"
@@ -207,6 +209,9 @@ void runInterruptible(const std::function<void(const std::atomic<bool>&)>& work)
 // --- Scene ----------------------------------------------------------------------
 struct PyScene {
   std::string path;
+  // The parsed file: with_options() builds other poses of it without
+  // reading it again (as `obscura render --frames` does).
+  std::shared_ptr<const SceneSource> source;
   SceneArgs args;
   // With subdiv_edge the refinement is measured from a camera at a
   // resolution (the CLI's --camera and --res): the scene keeps them, and
@@ -218,8 +223,10 @@ struct PyScene {
   double loadSeconds = 0;
 };
 
-std::shared_ptr<PyScene> makeScene(const std::string& path, const py::kwargs& kwargs) {
-  Kwargs kw("Scene", kwargs);
+// A scene from `source` (nullptr: read `path` first) with the options in kwargs.
+std::shared_ptr<PyScene> buildScene(const std::string& path, std::shared_ptr<const SceneSource> source,
+                                    const std::string& function, const py::kwargs& kwargs) {
+  Kwargs kw(function, kwargs);
   auto s = std::make_shared<PyScene>();
   s->path = path;
   takeSceneArgs(kw, s->args);
@@ -232,7 +239,8 @@ std::shared_ptr<PyScene> makeScene(const std::string& path, const py::kwargs& kw
   {
     py::gil_scoped_release release;  // loading cannot stop half-way, but other threads run
     const auto t0 = std::chrono::steady_clock::now();
-    s->scene = loadSceneAndCamera(s->args, path, s->camera, s->width, s->height, s->loadCamera);
+    s->source = source ? std::move(source) : std::make_shared<const SceneSource>(path);
+    s->scene = loadSceneAndCamera(s->args, *s->source, s->camera, s->width, s->height, s->loadCamera);
     s->loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   return s;
@@ -572,11 +580,35 @@ PYBIND11_MODULE(obscura, m) {
 
   py::class_<PyScene, std::shared_ptr<PyScene>>(m, "Scene",
                                                 "A scene loaded once (BVH built) and rendered any number of times")
-      .def(py::init(&makeScene), py::arg("path"),
+      .def(py::init([](const std::string& path, const py::kwargs& kw) { return buildScene(path, nullptr, "Scene", kw); }),
+           py::arg("path"),
            "Scene(path, **options): options as the CLI's scene options (robust, subdiv, subdiv_level, subdiv_backend, "
            "subdiv_edge, max_memory, displace, displace_scale, displace_midlevel, objects, frame, fps, animations, "
            "shutter; res and camera for subdiv_edge)")
+      .def("with_options",
+           [](const PyScene& s, const py::kwargs& kw) { return buildScene(s.path, s.source, "with_options", kw); },
+           "The same file (not read again) built with other options (e.g. frame=12): a new Scene")
       .def_readonly("path", &PyScene::path)
+      .def_property_readonly("materials",
+                             [](const PyScene& s) {
+                               std::vector<std::string> names;
+                               for (const Material& m : s.scene->materials) names.push_back(m.name);
+                               return names;
+                             })
+      .def_property_readonly("animations",
+                             [](const PyScene& s) {
+                               py::list out;
+                               if (const GltfDocument* doc = s.source->document())
+                                 for (const GltfDocument::AnimationInfo& a : doc->animations()) {
+                                   py::dict d;
+                                   d["name"] = a.name;
+                                   d["start"] = a.start;
+                                   d["end"] = a.end;
+                                   d["channels"] = a.channels;
+                                   out.append(d);
+                                 }
+                               return out;
+                             })
       .def_property_readonly("triangles", [](const PyScene& s) { return s.scene->stats().renderedTriangles; })
       .def_property_readonly("unique_triangles", [](const PyScene& s) { return s.scene->stats().uniqueTriangles; })
       .def_property_readonly("meshes", [](const PyScene& s) { return s.scene->stats().meshes; })

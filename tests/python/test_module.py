@@ -90,6 +90,23 @@ def test_render_equals_cli(scene, tmp_path, kwargs, flags):
             assert np.array_equal(v, a[k]) if isinstance(v, np.ndarray) else v == a[k], k
 
 
+def test_scene_options_match_cli(scene, tmp_path):
+    """A Scene built again from the parsed file with other options (a frame,
+    object roles, robust traversal) renders as the CLI does with them."""
+    posed = scene.with_options(frame=12, fps=25, objects=["crate*:occluder=false"], robust=True)
+    assert posed.path == scene.path and posed.triangles == scene.triangles
+    result = obscura.render(posed, "ao", spp=2, res=(48, 27))
+    cli_exr = str(tmp_path / "cli.exr")
+    code, err = cli("render", SCENE, "-o", cli_exr, "-q", "--spp", "2", "--res", "48x27", "--frame", "12", "--fps", "25",
+                    "--object", "crate*:occluder=false", "--robust")
+    assert code == 0, err
+    from_cli = obscura.read_exr(cli_exr)
+    assert_same_image(result, from_cli)
+    for k in ("obscura:frame", "obscura:fps", "obscura:objectOverrides", "obscura:objectRoles", "obscura:robust"):
+        assert result.header[k] == from_cli.header[k], k
+    assert posed.materials == scene.materials and "crate_body" in scene.materials
+
+
 def test_regions_merge_to_the_full_render(scene, tmp_path):
     """obscura.merge of region renders written from Python equals the full render."""
     full = obscura.render(scene, "ao", spp=2, res=(40, 24), seed=5)
