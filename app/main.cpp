@@ -9,8 +9,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 #include <variant>
@@ -60,89 +58,6 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
                   "Motion blur: the shutter OPEN,CLOSE in frames relative to the frame (e.g. -0.25,0.25); needs --frame "
                   "or --frames; ray-traced passes only (default: off)");
 }
-
-
-
-// FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
-std::string fileHash(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "";
-  uint64_t h = 1469598103934665603ull, size = 0;
-  std::vector<char> buf(1 << 20);
-  while (in) {
-    in.read(buf.data(), std::streamsize(buf.size()));
-    const size_t n = size_t(in.gcount());
-    for (size_t i = 0; i < n; ++i) h = (h ^ (unsigned char)buf[i]) * 1099511628211ull;
-    size += n;
-  }
-  char text[64];
-  std::snprintf(text, sizeof text, "%016llx, %llu bytes", (unsigned long long)h, (unsigned long long)size);
-  return text;
-}
-
-// Size and modification time of a file (the files a scene refers to: they
-// may be large, and are not hashed).
-std::string fileStamp(const std::filesystem::path& path) {
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec) return "missing";
-  const auto time = std::filesystem::last_write_time(path, ec);
-  return std::to_string(size) + " bytes, mtime " + std::to_string(time.time_since_epoch().count());
-}
-
-// A header value as text, floats exactly (hex).
-std::string attributeText(const HeaderAttribute& h) {
-  const auto hex = [](float f) {
-    char t[32];
-    std::snprintf(t, sizeof t, "%a", double(f));
-    return std::string(t);
-  };
-  if (const auto* v = std::get_if<std::string>(&h.value)) return *v;
-  if (const auto* v = std::get_if<int>(&h.value)) return std::to_string(*v);
-  if (const auto* v = std::get_if<float>(&h.value)) return hex(*v);
-  std::string all;
-  for (float f : std::get<std::vector<float>>(h.value)) all += (all.empty() ? "" : ",") + hex(f);
-  return all;
-}
-
-// What a --checkpoint file must match to be resumed (README "Checkpoints"):
-// the EXR header's record of the render but for what differs between runs
-// (threads, times, ray counts), the tile size and AOV switch, and the
-// bytes of the files the render reads: the scene (hashed), the files a
-// .gltf names, the height map and plugins (size and time).
-Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header) {
-  // The switches whose effect spreads over many header attributes first, so
-  // that a refusal names them rather than one of their consequences.
-  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
-  for (const HeaderAttribute& h : header.attributes) {
-    const std::string& n = h.name;
-    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n == "obscura:denoiseTime" ||
-        n.rfind("obscura:rays:", 0) == 0)
-      continue;
-    fp.emplace_back(n, attributeText(h));
-  }
-  fp.emplace_back("scene file", fileHash(a.scene));
-  if (hasExtension(a.scene, ".gltf")) {
-    // Buffers and images by relative uri; data: uris are in the hash above.
-    std::ifstream in(a.scene);
-    const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
-    const std::filesystem::path dir = std::filesystem::path(a.scene).parent_path();
-    for (const char* list : {"buffers", "images"})
-      if (doc.is_object() && doc.contains(list) && doc[list].is_array())
-        for (const auto& e : doc[list])
-          if (e.is_object() && e.contains("uri") && e["uri"].is_string()) {
-            const std::string uri = e["uri"].get<std::string>();
-            if (uri.rfind("data:", 0) != 0) fp.emplace_back("scene file " + uri, fileStamp(dir / uri));
-          }
-  }
-  if (!a.displace.empty()) fp.emplace_back("--displace file", fileStamp(a.displace));
-  const char* env = std::getenv("OBSCURA_PLUGIN_PATH");
-  fp.emplace_back("OBSCURA_PLUGIN_PATH", env ? env : "");
-  for (const std::string& p : a.plugins) fp.emplace_back("--plugin " + p, fileStamp(p));
-  return fp;
-}
-
-
 
 // One image of a sequence: the frame (empty: none) and its outputs.
 struct FrameJob {
@@ -208,14 +123,7 @@ int runRender(const RenderArgs& args) {
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");
-  if (args.checkpointGiven) {
-    if (!(args.checkpoint >= 0) || !std::isfinite(args.checkpoint))
-      throw Error("--checkpoint: expected seconds >= 0 (0: after every tile), got " + formatFloat(args.checkpoint));
-    RenderSettings cs = s;
-    Checkpoint probe(jobs[0].output + ".checkpoint", args.checkpoint);
-    cs.checkpoint = &probe;
-    checkCheckpointPasses(cs, anyScreenSpace);
-  }
+  if (args.checkpointGiven) checkCheckpoint(args, s, anyScreenSpace, jobs[0].output + ".checkpoint");
 
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});

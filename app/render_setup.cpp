@@ -1,9 +1,14 @@
 #include "app/render_setup.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cctype>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <variant>
 
 #include "core/adaptive.h"
 #include "core/gbuffer.h"
@@ -33,6 +38,48 @@ bool samePath(const std::string& a, const std::string& b) {
   std::error_code ea, eb;
   if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea);
   return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
+}
+
+// FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
+std::string fileHash(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "";
+  uint64_t h = 1469598103934665603ull, size = 0;
+  std::vector<char> buf(1 << 20);
+  while (in) {
+    in.read(buf.data(), std::streamsize(buf.size()));
+    const size_t n = size_t(in.gcount());
+    for (size_t i = 0; i < n; ++i) h = (h ^ (unsigned char)buf[i]) * 1099511628211ull;
+    size += n;
+  }
+  char text[64];
+  std::snprintf(text, sizeof text, "%016llx, %llu bytes", (unsigned long long)h, (unsigned long long)size);
+  return text;
+}
+
+// Size and modification time of a file (the files a scene refers to: they
+// may be large, and are not hashed).
+std::string fileStamp(const std::filesystem::path& path) {
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return "missing";
+  const auto time = std::filesystem::last_write_time(path, ec);
+  return std::to_string(size) + " bytes, mtime " + std::to_string(time.time_since_epoch().count());
+}
+
+// A header value as text, floats exactly (hex).
+std::string attributeText(const HeaderAttribute& h) {
+  const auto hex = [](float f) {
+    char t[32];
+    std::snprintf(t, sizeof t, "%a", double(f));
+    return std::string(t);
+  };
+  if (const auto* v = std::get_if<std::string>(&h.value)) return *v;
+  if (const auto* v = std::get_if<int>(&h.value)) return std::to_string(*v);
+  if (const auto* v = std::get_if<float>(&h.value)) return hex(*v);
+  std::string all;
+  for (float f : std::get<std::vector<float>>(h.value)) all += (all.empty() ? "" : ",") + hex(f);
+  return all;
 }
 
 }  // namespace
@@ -158,6 +205,46 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSp
   }
 }
 
+void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSpace, const std::string& file) {
+  if (!(a.checkpoint >= 0) || !std::isfinite(a.checkpoint))
+    throw Error("--checkpoint: expected seconds >= 0 (0: after every tile), got " + formatFloat(a.checkpoint));
+  RenderSettings cs = s;
+  Checkpoint probe(file, a.checkpoint);
+  cs.checkpoint = &probe;
+  checkCheckpointPasses(cs, screenSpace);
+}
+
+Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header) {
+  // The switches whose effect spreads over many header attributes first, so
+  // that a refusal names them rather than one of their consequences.
+  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
+  for (const HeaderAttribute& h : header.attributes) {
+    const std::string& n = h.name;
+    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n == "obscura:denoiseTime" ||
+        n.rfind("obscura:rays:", 0) == 0)
+      continue;
+    fp.emplace_back(n, attributeText(h));
+  }
+  fp.emplace_back("scene file", fileHash(a.scene));
+  if (hasExtension(a.scene, ".gltf")) {
+    // Buffers and images by relative uri; data: uris are in the hash above.
+    std::ifstream in(a.scene);
+    const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+    const std::filesystem::path dir = std::filesystem::path(a.scene).parent_path();
+    for (const char* list : {"buffers", "images"})
+      if (doc.is_object() && doc.contains(list) && doc[list].is_array())
+        for (const auto& e : doc[list])
+          if (e.is_object() && e.contains("uri") && e["uri"].is_string()) {
+            const std::string uri = e["uri"].get<std::string>();
+            if (uri.rfind("data:", 0) != 0) fp.emplace_back("scene file " + uri, fileStamp(dir / uri));
+          }
+  }
+  if (!a.displace.empty()) fp.emplace_back("--displace file", fileStamp(a.displace));
+  const char* env = std::getenv("OBSCURA_PLUGIN_PATH");
+  fp.emplace_back("OBSCURA_PLUGIN_PATH", env ? env : "");
+  for (const std::string& p : a.plugins) fp.emplace_back("--plugin " + p, fileStamp(p));
+  return fp;
+}
 
 ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,
                         const RenderSettings& s, const RenderStats& stats, const Scene& scene) {

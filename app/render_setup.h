@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "app/cli_common.h"
+#include "core/checkpoint.h"
 #include "core/params.h"
 
 namespace obscura {
@@ -78,6 +79,16 @@ void checkOutputPaths(const std::string& output, const std::string& preview, con
 // planes, the preview's bytes) would need more memory than the system has
 // available. `layers`: the --pass layers. Names --res.
 void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers);
+
+// --checkpoint SECONDS (a.checkpoint) and the passes it allows, for the
+// checkpoint file `file`; throws naming --checkpoint.
+void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSpace, const std::string& file);
+// What a --checkpoint file must match to be resumed (README "Checkpoints"):
+// the header's record of the render but for what differs between runs
+// (threads, times, ray counts), the tile size and AOV switch, and the
+// files the render reads (the scene hashed; the files a .gltf names, the
+// height map and plugins by size and time).
+Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header);
 
 // The EXR header of a finished render (README "The EXR pass").
 ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,

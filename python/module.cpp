@@ -33,6 +33,7 @@
 #include "app/compare.h"
 #include "app/merge.h"
 #include "app/render_setup.h"
+#include "core/checkpoint.h"
 #include "core/error.h"
 #include "core/gltf_document.h"
 #include "core/gltf_loader.h"
@@ -398,7 +399,14 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   kw.take("cryptomatte", a.cryptomatte);
   kw.take("cryptomatte_ranks", a.cryptomatteRanks);
   kw.takeText("region", a.region);
+  // --checkpoint SECONDS; the file is the CLI's OUTPUT.checkpoint, named here.
+  std::string checkpointFile;
+  if (auto v = kw.take("checkpoint")) a.checkpoint = kw.as<double>("checkpoint", *v), a.checkpointGiven = true;
+  kw.take("checkpoint_file", checkpointFile);
   kw.finish();
+  if (a.checkpointGiven != !checkpointFile.empty())
+    throw Error("render: checkpoint and checkpoint_file go together (seconds between saves, and the file; the CLI's "
+                "is OUTPUT.checkpoint)");
 
   loadPlugins({});  // OBSCURA_PLUGIN_PATH, as the CLI loads it (once per library)
   std::vector<PassSetup> setups = passSetups(a);
@@ -423,6 +431,16 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   auto result = std::make_shared<PyResult>();
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
+  // README "Checkpoints": as the CLI, a damaged file is refused before the
+  // render, one of another render once its header is known.
+  std::optional<Checkpoint> checkpoint;
+  if (a.checkpointGiven) {
+    checkCheckpoint(a, s, screenSpace, checkpointFile);
+    checkpoint.emplace(checkpointFile, a.checkpoint);
+    s.checkpoint = &*checkpoint;
+    checkpoint->read();
+    checkpoint->setFingerprint(renderFingerprint(a, s, renderHeader(a, setups, camera, s, result->stats, *sc.scene)));
+  }
   {
     std::optional<tbb::global_control> limit;
     if (a.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(a.threads));
@@ -431,6 +449,10 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
     });
   }
   result->header = renderHeader(a, setups, camera, s, result->stats, *sc.scene);
+  if (checkpoint) {
+    if (checkpoint->runs() > 1) result->header.attributes.push_back({"obscura:checkpointRuns", checkpoint->runs()});
+    checkpoint->remove();  // the image is complete (in memory): nothing left to resume
+  }
   result->bvhSeconds = sc.scene->buildSeconds();
   result->scenePath = sc.path;
   Film& f = result->film;

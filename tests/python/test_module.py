@@ -271,3 +271,26 @@ def test_readme_documents_every_keyword(scene, call):
     assert len(known) > 3
     for name in known:
         assert f"`{name}`" in section, f"README \"Python\" does not name {call}'s keyword `{name}`"
+
+
+def test_checkpoint_resumes_in_the_cli(scene, tmp_path, monkeypatch):
+    """A render from Python interrupted with checkpoint= leaves the CLI's
+    checkpoint file: `obscura render --checkpoint` resumes it, and the image
+    equals an uninterrupted render (README "Checkpoints")."""
+    out = str(tmp_path / "shot.exr")
+    settings = dict(spp=256, res=(64, 48), seed=2, threads=1)  # 12 tiles, each tens of ms
+    flags = ["-i", "gi", "--spp", "256", "--res", "64x48", "--seed", "2", "--threads", "1"]
+    # The core's test hook: SIGINT right after the checkpoint holds 3 tiles.
+    monkeypatch.setenv("OBSCURA_TEST_CHECKPOINT_KILL", "3:INT")
+    with pytest.raises(KeyboardInterrupt):
+        obscura.render(scene, "gi", checkpoint=0, checkpoint_file=out + ".checkpoint", **settings)
+    monkeypatch.delenv("OBSCURA_TEST_CHECKPOINT_KILL")
+    assert os.path.exists(out + ".checkpoint")
+    code, err = cli("render", SCENE, "-o", out, "--checkpoint", "0", *flags)
+    assert code == 0 and "resuming from" in err, err
+    assert not os.path.exists(out + ".checkpoint")
+    resumed = obscura.read_exr(out)
+    assert resumed.header["obscura:checkpointRuns"] == 2
+    assert_same_image(resumed, obscura.render(scene, "gi", **settings))
+    with pytest.raises(obscura.Error, match="checkpoint and checkpoint_file go together"):
+        obscura.render(scene, checkpoint=5)
