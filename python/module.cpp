@@ -382,9 +382,11 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   kw.take("min_spp", a.minSpp);
   kw.take("time_limit", a.timeLimit);
   kw.take("denoise", a.denoise);
-  bool resGiven = false, cameraGiven = false;
-  if (auto v = kw.take("res")) a.res = kw.text("res", *v, "x"), resGiven = true;
-  if (auto v = kw.take("camera")) a.camera = kw.text("camera", *v, ","), cameraGiven = true;
+  // A scene refined for a view (subdiv_edge) renders that view unless told
+  // otherwise (and is refused another, below).
+  if (sc.args.subdivEdge > 0) a.res = std::to_string(sc.width) + "x" + std::to_string(sc.height), a.camera = sc.camera;
+  kw.takeText("res", a.res, "x");
+  kw.takeText("camera", a.camera);
   kw.take("threads", a.threads);
   kw.take("seed", a.seed);
   kw.takeText("sky", a.sky);
@@ -417,12 +419,9 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   Camera camera;
   if (sc.args.subdivEdge > 0) {
     // Refined for the load's camera and resolution (README "Subdivision").
-    if (!resGiven) a.res = std::to_string(sc.width) + "x" + std::to_string(sc.height), s.width = sc.width, s.height = sc.height;
-    if (!cameraGiven) a.camera = sc.camera;
     if (s.width != sc.width || s.height != sc.height || a.camera != sc.camera)
       throw Error("--subdiv-edge: the scene was refined for camera '" + sc.camera + "' at " + std::to_string(sc.width) + "x" +
                   std::to_string(sc.height) + "; render with those, or load the scene with Scene(..., res=, camera=)");
-    s = renderSettings(a);
     camera = sc.loadCamera;
   } else {
     camera = selectCamera(*sc.scene, a.camera, float(s.width) / float(s.height));

@@ -294,3 +294,31 @@ def test_checkpoint_resumes_in_the_cli(scene, tmp_path, monkeypatch):
     assert_same_image(resumed, obscura.render(scene, "gi", **settings))
     with pytest.raises(obscura.Error, match="checkpoint and checkpoint_file go together"):
         obscura.render(scene, checkpoint=5)
+
+
+def shared_scene(rel):
+    """A third-party scene (README "Two commands"): skipped when absent,
+    unless OBSCURA_REQUIRE_SCENES is set (CI), as the C++ tests do."""
+    root = os.environ.get("OBSCURA_SCENES") or os.environ.get("OBSCURA_DEFAULT_SCENES",
+                                                               os.path.join(SOURCE, "..", "shared", "scenes"))
+    path = os.path.join(root, rel)
+    if not os.path.exists(path):
+        if os.environ.get("OBSCURA_REQUIRE_SCENES", "0") not in ("", "0"):
+            pytest.fail(f"{path}: scene absent (OBSCURA_REQUIRE_SCENES is set)")
+        pytest.skip(f"{path}: scene absent")
+    return path
+
+
+def test_adaptive_subdivision_equals_cli(tmp_path):
+    """subdiv_edge refines for the view given at load; renders of that view
+    equal the CLI's, another view is refused."""
+    cage = shared_scene("spot_cage/spot_control_mesh.obj")
+    scene = obscura.Scene(cage, subdiv="catmull-clark", subdiv_edge=4, res=(64, 48))
+    result = obscura.render(scene, spp=2)
+    out = str(tmp_path / "cli.exr")
+    code, err = cli("render", cage, "-o", out, "-q", "--subdiv", "catmull-clark", "--subdiv-edge", "4", "--res", "64x48",
+                    "--spp", "2")
+    assert code == 0, err
+    assert_same_image(result, obscura.read_exr(out))
+    with pytest.raises(obscura.Error, match=r"--subdiv-edge: the scene was refined for camera '' at 64x48"):
+        obscura.render(scene, res=(32, 24))
