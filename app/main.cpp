@@ -9,8 +9,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 #include <variant>
@@ -30,6 +28,7 @@
 #include "app/compare.h"
 #include "app/interrupt.h"
 #include "app/merge.h"
+#include "app/render_setup.h"
 
 using namespace obscura;
 
@@ -58,237 +57,6 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--shutter", a.shutter,
                   "Motion blur: the shutter OPEN,CLOSE in frames relative to the frame (e.g. -0.25,0.25); needs --frame "
                   "or --frames; ray-traced passes only (default: off)");
-}
-
-struct RenderArgs : SceneArgs {
-  std::string scene = OBSCURA_DEFAULT_SCENE;
-  std::string output;
-  std::string integrator = "ao";
-  std::vector<std::string> params;
-  bool integratorGiven = false;      // -i or -p on the command line
-  std::vector<std::string> passes;   // --pass LAYER=integrator[:key=value,...]
-  std::string primary;               // --primary LAYER
-  int spp = 16;
-  float targetError = 0;  // --target-error; 0 = off
-  int minSpp = 0;         // --min-spp; 0 = min(16, spp)
-  double timeLimit = 0;   // --time-limit SECONDS; 0 = none
-  bool denoise = false;   // --denoise
-  std::string res = "960x540";
-  std::string camera;
-  int threads = 0;
-  long long seed = 0;
-  std::string sky = "1,1,1";
-  std::string preview;
-  std::string filter = "box";
-  int tileSize = 16;
-  bool half = false;
-  std::string compression = exrCompressionName(ExrOptions{}.compression);  // --compression
-  bool noAovs = false;
-  bool quiet = false;
-  std::vector<std::string> plugins;
-  std::string cryptomatte = "none";
-  int cryptomatteRanks = kDefaultCryptomatteRanks;
-  std::string region;  // --region X0,Y0,X1,Y1; empty = the whole frame
-  std::string frames;  // --frames A-B[:STEP]; empty = one image
-  double checkpoint = 0;  // --checkpoint SECONDS
-  bool checkpointGiven = false;
-};
-
-// True when `path` ends in `ext` (".exr"), ignoring case.
-bool hasExtension(const std::string& path, const std::string& ext) {
-  if (path.size() < ext.size()) return false;
-  for (size_t i = 0; i < ext.size(); ++i)
-    if (std::tolower((unsigned char)path[path.size() - ext.size() + i]) != ext[i]) return false;
-  return true;
-}
-
-// FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
-std::string fileHash(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "";
-  uint64_t h = 1469598103934665603ull, size = 0;
-  std::vector<char> buf(1 << 20);
-  while (in) {
-    in.read(buf.data(), std::streamsize(buf.size()));
-    const size_t n = size_t(in.gcount());
-    for (size_t i = 0; i < n; ++i) h = (h ^ (unsigned char)buf[i]) * 1099511628211ull;
-    size += n;
-  }
-  char text[64];
-  std::snprintf(text, sizeof text, "%016llx, %llu bytes", (unsigned long long)h, (unsigned long long)size);
-  return text;
-}
-
-// Size and modification time of a file (the files a scene refers to: they
-// may be large, and are not hashed).
-std::string fileStamp(const std::filesystem::path& path) {
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec) return "missing";
-  const auto time = std::filesystem::last_write_time(path, ec);
-  return std::to_string(size) + " bytes, mtime " + std::to_string(time.time_since_epoch().count());
-}
-
-// A header value as text, floats exactly (hex).
-std::string attributeText(const HeaderAttribute& h) {
-  const auto hex = [](float f) {
-    char t[32];
-    std::snprintf(t, sizeof t, "%a", double(f));
-    return std::string(t);
-  };
-  if (const auto* v = std::get_if<std::string>(&h.value)) return *v;
-  if (const auto* v = std::get_if<int>(&h.value)) return std::to_string(*v);
-  if (const auto* v = std::get_if<float>(&h.value)) return hex(*v);
-  std::string all;
-  for (float f : std::get<std::vector<float>>(h.value)) all += (all.empty() ? "" : ",") + hex(f);
-  return all;
-}
-
-// What a --checkpoint file must match to be resumed (README "Checkpoints"):
-// the EXR header's record of the render but for what differs between runs
-// (threads, times, ray counts), the tile size and AOV switch, and the
-// bytes of the files the render reads: the scene (hashed), the files a
-// .gltf names, the height map and plugins (size and time).
-Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header) {
-  // The switches whose effect spreads over many header attributes first, so
-  // that a refusal names them rather than one of their consequences.
-  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
-  for (const HeaderAttribute& h : header.attributes) {
-    const std::string& n = h.name;
-    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n == "obscura:denoiseTime" ||
-        n.rfind("obscura:rays:", 0) == 0)
-      continue;
-    fp.emplace_back(n, attributeText(h));
-  }
-  fp.emplace_back("scene file", fileHash(a.scene));
-  if (hasExtension(a.scene, ".gltf")) {
-    // Buffers and images by relative uri; data: uris are in the hash above.
-    std::ifstream in(a.scene);
-    const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
-    const std::filesystem::path dir = std::filesystem::path(a.scene).parent_path();
-    for (const char* list : {"buffers", "images"})
-      if (doc.is_object() && doc.contains(list) && doc[list].is_array())
-        for (const auto& e : doc[list])
-          if (e.is_object() && e.contains("uri") && e["uri"].is_string()) {
-            const std::string uri = e["uri"].get<std::string>();
-            if (uri.rfind("data:", 0) != 0) fp.emplace_back("scene file " + uri, fileStamp(dir / uri));
-          }
-  }
-  if (!a.displace.empty()) fp.emplace_back("--displace file", fileStamp(a.displace));
-  const char* env = std::getenv("OBSCURA_PLUGIN_PATH");
-  fp.emplace_back("OBSCURA_PLUGIN_PATH", env ? env : "");
-  for (const std::string& p : a.plugins) fp.emplace_back("--plugin " + p, fileStamp(p));
-  return fp;
-}
-
-// True when a and b name the same file (existing or not).
-bool samePath(const std::string& a, const std::string& b) {
-  namespace fs = std::filesystem;
-  std::error_code ea, eb;
-  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea);
-  return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
-}
-
-
-// Fail before a long render, not after it: outputs whose extension is not
-// the format written (an EXR under a .tif name, a PNG under .jpg: viewers
-// and pipelines go by the name), outputs that cannot be written, outputs
-// that would overwrite the scene or each other, and a film larger than the
-// memory the system has available.
-void checkOutputs(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers) {
-  checkWritable(a.output);
-  if (samePath(a.output, a.scene)) throw Error("-o " + a.output + ": is the scene file; refusing to overwrite it");
-  if (!a.preview.empty()) {
-    checkWritable(a.preview);
-    if (samePath(a.preview, a.output)) throw Error("--preview " + a.preview + ": is the same file as -o");
-    if (samePath(a.preview, a.scene)) throw Error("--preview " + a.preview + ": is the scene file; refusing to overwrite it");
-  }
-  // After the checks above, whose messages say more about such a path.
-  if (!hasExtension(a.output, ".exr"))
-    throw Error("-o " + a.output + ": must end in .exr (the pass is written as OpenEXR)");
-  if (!a.preview.empty() && !hasExtension(a.preview, ".png"))
-    throw Error("--preview " + a.preview + ": must end in .png (the preview is written as PNG)");
-  // The film's planes, plus the preview's bytes; the EXR is written from the
-  // planes a band at a time, so it needs no second copy.
-  // A screen-space integrator also keeps whole-image state (a G-buffer
-  // layer, the pixel sums, the estimates: core/gbuffer.h).
-  // Each layer adds three planes.
-  // A --region film holds the region only.
-  const PixelRect win = renderWindow(s);
-  const uint64_t need = filmBytes(win.width(), win.height(), s.aovs) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
-                        (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
-                        (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
-                        cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
-                        // Adaptive sampling keeps every pixel's sums across rounds (core/render.cpp);
-                        // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and
-                        // working planes: core/denoise.cpp).
-                        (adaptiveSampling(s) ? uint64_t(win.size()) * (sizeof(PixelSums) + sizeof(HalfSums) +
-                                                                       uint64_t(layers) * sizeof(PassSums))
-                                             : 0) +
-                        (s.denoise ? uint64_t(win.size()) * 24 * sizeof(float) : 0);
-  const uint64_t avail = availableMemoryBytes();
-  if (avail > 0 && need > avail) {
-    char msg[160];
-    std::snprintf(msg, sizeof msg, "the film needs %.1f GiB, but only %.1f GiB of memory is available", double(need) / (1 << 30),
-                  double(avail) / (1 << 30));
-    throw Error("--res " + a.res + ": " + msg);
-  }
-}
-
-// One pass of a render as the command line set it up.
-struct PassSetup {
-  std::string layer;  // "" for a single pass given by -i/-p
-  const IntegratorDescriptor* desc;
-  ParamSet params;
-  std::unique_ptr<Integrator> integrator;
-  IntegratorNeeds needs;
-};
-
-// A layer name: a letter, then letters, digits or '_'; not a channel or
-// layer the film writes itself.
-void checkLayerName(const std::string& layer, const std::string& text) {
-  const bool ok = !layer.empty() && std::isalpha(static_cast<unsigned char>(layer[0])) &&
-                  layer.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") == std::string::npos;
-  if (!ok) throw Error("--pass '" + text + "': the layer name '" + layer + "' must be a letter followed by letters, digits or '_'");
-  for (const char* taken : {"R", "G", "B", "A", "Z", "N", "albedo", "shaded"})
-    if (layer == taken) throw Error("--pass '" + text + "': the layer name '" + layer + "' is taken by a channel Obscura writes");
-  if (layer.rfind("Crypto", 0) == 0) throw Error("--pass '" + text + "': layer names starting 'Crypto' are Cryptomatte's");
-}
-
-// The passes of a render, the primary first: --pass (with --primary), or
-// the single pass of -i/-p.
-std::vector<PassSetup> passSetups(const RenderArgs& a) {
-  std::vector<PassSetup> out;
-  const auto add = [&](std::string layer, const std::string& integrator, const std::vector<std::string>& assignments) {
-    const IntegratorDescriptor& desc = IntegratorRegistry::instance().find(integrator);
-    ParamSet params(desc.params, desc.name);
-    for (const auto& p : assignments) params.setAssignment(p);
-    auto integ = desc.create(params);
-    const IntegratorNeeds needs = desc.needs(params);
-    out.push_back({std::move(layer), &desc, std::move(params), std::move(integ), needs});
-  };
-  if (a.passes.empty()) {
-    if (!a.primary.empty()) throw Error("--primary: names a --pass layer, but no --pass was given");
-    add("", a.integrator, a.params);
-    return out;
-  }
-  if (a.integratorGiven) throw Error("--pass: replaces -i and -p (give each pass its integrator and parameters)");
-  for (const std::string& text : a.passes) {
-    const size_t eq = text.find('=');
-    if (eq == std::string::npos) throw Error("--pass '" + text + "': expected LAYER=integrator[:key=value,...]");
-    const std::string layer = text.substr(0, eq);
-    checkLayerName(layer, text);
-    for (const PassSetup& p : out)
-      if (p.layer == layer) throw Error("--pass '" + text + "': layer '" + layer + "' is already a pass");
-    const IntegratorSpec spec = parseIntegratorSpec("--pass", text.substr(eq + 1));
-    add(layer, spec.integrator, spec.assignments);
-  }
-  if (!a.primary.empty()) {
-    auto it = std::find_if(out.begin(), out.end(), [&](const PassSetup& p) { return p.layer == a.primary; });
-    if (it == out.end()) throw Error("--primary: no --pass has the layer '" + a.primary + "'");
-    std::rotate(out.begin(), it, it + 1);
-  }
-  return out;
 }
 
 // One image of a sequence: the frame (empty: none) and its outputs.
@@ -337,62 +105,25 @@ int runRender(const RenderArgs& args) {
   interrupt::setMessage("obscura: interrupted; " + args.output + " was not written");
   loadPlugins(args.plugins);
   std::vector<PassSetup> setups = passSetups(args);
-  const IntegratorDescriptor& desc = *setups.front().desc;
-  const ParamSet& params = setups.front().params;
-  RenderSettings s;
-  parseResolution(args.res, s.width, s.height);
-  if (args.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(args.spp));
-  if (args.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(args.threads));
-  if (args.tileSize < 1 || args.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(args.tileSize));
-  if (args.seed < 0 || args.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
-  if (args.filter == "box") s.filter = PixelFilter::Box;
-  else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
-  else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
-  s.spp = args.spp;
-  s.targetError = args.targetError;
-  s.minSpp = args.minSpp;
-  s.timeLimit = args.timeLimit;
-  s.denoise = args.denoise;
-  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
-  checkAdaptiveSettings(s);
-  s.seed = uint32_t(args.seed);
-  s.threads = args.threads;
-  s.tileSize = args.tileSize;
-  s.sky = parseSky(args.sky);
-  s.aovs = !args.noAovs;
-  s.progress = !args.quiet;
-  s.cryptomatte = parseCryptomatte(args.cryptomatte, args.cryptomatteRanks);
-  s.motionBlur = !args.shutter.empty();
-  if (!args.region.empty()) {
-    s.region = parseRegion(args.region);
-    checkRegion(s.region, s.width, s.height);
-  }
+  RenderSettings s = renderSettings(args);
   if (args.output.empty()) throw Error("-o: an output .exr path is required");
 
   std::optional<tbb::global_control> limit;
   if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(args.threads));
 
-  const bool anyScreenSpace = std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) {
-    return p.desc->kind == IntegratorKind::ScreenSpace;
-  });
+  const bool anyScreenSpace = obscura::anyScreenSpace(setups);
   checkRegionPasses(s, anyScreenSpace);  // before loading the scene
   // Every frame's outputs and scene options are checked before the file is read.
   const std::vector<FrameJob> jobs = frameJobs(args);
   for (const FrameJob& job : jobs) {
     RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
-    checkOutputs(fa, s, anyScreenSpace, args.passes.size());
+    checkOutputPaths(fa.output, fa.preview, fa.scene);
+    checkFilmMemory(fa, s, anyScreenSpace, args.passes.size());
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");
-  if (args.checkpointGiven) {
-    if (!(args.checkpoint >= 0) || !std::isfinite(args.checkpoint))
-      throw Error("--checkpoint: expected seconds >= 0 (0: after every tile), got " + formatFloat(args.checkpoint));
-    RenderSettings cs = s;
-    Checkpoint probe(jobs[0].output + ".checkpoint", args.checkpoint);
-    cs.checkpoint = &probe;
-    checkCheckpointPasses(cs, anyScreenSpace);
-  }
+  if (args.checkpointGiven) checkCheckpoint(args, s, anyScreenSpace, jobs[0].output + ".checkpoint");
 
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
@@ -423,15 +154,8 @@ int runRender(const RenderArgs& args) {
     Camera camera;
     std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, s.width, s.height, camera);
 
-    std::vector<LayerInfo> layers;
-    if (!a.passes.empty())
-      for (const PassSetup& p : setups) layers.push_back({p.layer, p.desc, &p.params});
     RenderStats stats;
-    const auto header = [&] {
-      return passHeader(PassInfo{.scenePath = a.scene, .camera = camera, .integrator = desc, .params = params,
-                                 .settings = fs, .stats = stats, .filterName = a.filter, .robust = a.robust, .sceneArgs = &a,
-                                 .scene = scene.get(), .bvhSeconds = scene->buildSeconds(), .layers = layers});
-    };
+    const auto header = [&] { return renderHeader(a, setups, camera, fs, stats, *scene); };
     if (checkpoint) {
       checkpoint->setFingerprint(renderFingerprint(a, fs, header()));
       if (checkpoint->loaded() && !a.quiet)
@@ -579,6 +303,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("obscura ") + OBSCURA_VERSION);
 
   RenderArgs r;
+  r.scene = OBSCURA_DEFAULT_SCENE;
   CLI::App* render = app.add_subcommand("render", "Render a glTF scene to a multi-channel EXR pass");
   render->option_defaults()->always_capture_default();
   render->add_option("scene", r.scene, "glTF 2.0 scene (.gltf or .glb); default: the bundled scene");

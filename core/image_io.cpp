@@ -317,4 +317,45 @@ std::string readExrAttribute(const std::string& path, const std::string& name) {
   }
 }
 
+ExrImage readExrImage(const std::string& path) {
+  if (!isExrFile(path)) throw Error(path + ": not an OpenEXR file");
+  ExrImage img;
+  try {
+    Imf::InputFile in(path.c_str());
+    const Imf::Header& h = in.header();
+    const Imath::Box2i data = h.dataWindow();
+    img.width = data.max.x - data.min.x + 1;
+    img.height = data.max.y - data.min.y + 1;
+    img.originX = data.min.x, img.originY = data.min.y;
+    const size_t pixels = size_t(img.width) * size_t(img.height);
+    Imf::FrameBuffer frame;
+    for (auto it = h.channels().begin(); it != h.channels().end(); ++it) img.names.push_back(it.name());
+    img.planes.resize(img.names.size());
+    for (size_t c = 0; c < img.names.size(); ++c) {
+      img.planes[c].resize(pixels);
+      frame.insert(img.names[c], Imf::Slice::Make(Imf::FLOAT, img.planes[c].data(), data, sizeof(float),
+                                                  size_t(img.width) * sizeof(float)));
+    }
+    in.setFrameBuffer(frame);
+    in.readPixels(data.min.y, data.max.y);
+    for (auto it = h.begin(); it != h.end(); ++it) {
+      const Imf::Attribute& a = it.attribute();
+      if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&a)) img.attributes.push_back({it.name(), s->value()});
+      else if (const auto* i = dynamic_cast<const Imf::IntAttribute*>(&a)) img.attributes.push_back({it.name(), i->value()});
+      else if (const auto* f = dynamic_cast<const Imf::FloatAttribute*>(&a)) img.attributes.push_back({it.name(), f->value()});
+      else if (const auto* m = dynamic_cast<const Imf::M44fAttribute*>(&a)) {
+        std::vector<float> v;
+        for (int r = 0; r < 4; ++r)
+          for (int k = 0; k < 4; ++k) v.push_back(m->value()[r][k]);
+        img.attributes.push_back({it.name(), v});
+      }
+    }
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(path + ": cannot read: " + e.what());
+  }
+  return img;
+}
+
 }  // namespace obscura

@@ -112,6 +112,19 @@ bool isExrFile(const std::string& path);
 // string); throws obscura::Error naming the path if the file cannot be
 // opened. EXR through OpenEXR, other formats through OpenImageIO's module.
 std::string readExrAttribute(const std::string& path, const std::string& name);
+// Every channel of an EXR, as 32-bit floats (half channels converted
+// exactly), over its data window, in the file's channel order (sorted by
+// name), with the header's string, int, float and 4x4 matrix attributes
+// (other types are skipped). For reading passes back (the Python module's
+// read_exr); throws obscura::Error naming the path.
+struct ExrImage {
+  int width = 0, height = 0;   // the data window
+  int originX = 0, originY = 0;  // its origin in the display window
+  std::vector<std::string> names;
+  std::vector<std::vector<float>> planes;  // row-major, one per name
+  std::vector<HeaderAttribute> attributes;
+};
+ExrImage readExrImage(const std::string& path);
 // sRGB preview of the pass (R,G,B over black); 8-bit PNG.
 void writePreviewPng(const std::string& path, const Film& film);
 // An 8-bit sRGB PNG from interleaved RGB bytes, row-major, top row first.

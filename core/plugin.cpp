@@ -157,9 +157,21 @@ std::set<std::string>& loadedPaths() {
   return s;
 }
 
+const void* gBuiltinAddress = nullptr;  // setBuiltinModule
+
 }  // namespace
 
+void setBuiltinModule(const void* addressInModule) { gBuiltinAddress = addressInModule; }
+
 void loadBuiltinPlugins(IntegratorRegistry& registry) {
+  if (gBuiltinAddress) {
+    // A library already loaded: RTLD_NOLOAD only returns its handle.
+    Dl_info info;
+    void* module = dladdr(gBuiltinAddress, &info) && info.dli_fname ? dlopen(info.dli_fname, RTLD_NOW | RTLD_NOLOAD) : nullptr;
+    if (!module) throw Error("the built-in integrators: cannot find the library that holds them");
+    registerModule(module, "built-in", registry, true);
+    return;
+  }
   // The program's own symbols: the built-in integrators (integrators/) are a
   // plugin linked into the executable, exporting the same entry point.
   void* self = dlopen(nullptr, RTLD_NOW);

@@ -58,6 +58,11 @@ void loadPluginsFromEnvironment();
 // Registers the integrators compiled into the running program (through the
 // same entry point as a plugin). Called once by IntegratorRegistry.
 void loadBuiltinPlugins(IntegratorRegistry& registry);
+// For a front end that is itself a shared library with the built-ins linked
+// in (the Python module, loaded RTLD_LOCAL into python3, whose program has
+// no entry point): the built-ins are taken from the library holding
+// `addressInModule` instead. Call before the registry's first use.
+void setBuiltinModule(const void* addressInModule);
 
 }  // namespace obscura
 

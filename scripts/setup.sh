@@ -23,32 +23,39 @@ jobs="${JOBS:-$(nproc)}"
 source scripts/install_missing.sh
 install_missing build-essential cmake ninja-build pkg-config libembree-dev libopenimageio-dev \
   openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev \
-  libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev
+  libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev pybind11-dev python3-dev python3-numpy \
+  python3-matplotlib python3-pytest
 
 # --- 2. Build ------------------------------------------------------------------
+# The Python module (README "Python") is built for Debian's interpreter,
+# whose NumPy, Matplotlib and pytest the packages above installed (a python3
+# earlier in PATH, such as pyenv's, would lack them).
+python=(-DOBSCURA_PYTHON=ON -DPython_EXECUTABLE=/usr/bin/python3)
 configure() {  # dir, extra cmake args...
   local dir="$1"; shift
   cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
 }
 
 if [[ "$mode" == demo ]]; then
-  configure "$build" -DOBSCURA_BUILD_TESTS=OFF -DOBSCURA_BUILD_BENCH=OFF
-  cmake --build "$build" -j "$jobs" --target obscura
+  configure "$build" -DOBSCURA_BUILD_TESTS=OFF -DOBSCURA_BUILD_BENCH=OFF "${python[@]}"
+  cmake --build "$build" -j "$jobs" --target obscura obscura_python
   mkdir -p out
   "$build/obscura" render scenes/default.gltf -o out/default_ao.exr --preview out/default_ao.png \
     --res 1280x720 --spp 64 -p distance=2
   echo "== wrote out/default_ao.exr and out/default_ao.png"
+  echo "== Python: PYTHONPATH=$build/python python3 -c 'import obscura' (or cmake --install $build)"
   exit 0
 fi
 
-configure "$build" -DOBSCURA_BUILD_TESTS=ON -DOBSCURA_BUILD_BENCH=ON
+configure "$build" -DOBSCURA_BUILD_TESTS=ON -DOBSCURA_BUILD_BENCH=ON "${python[@]}"
 cmake --build "$build" -j "$jobs"
 echo "== tests (Release)"
 ctest --test-dir "$build" --output-on-failure -j "$jobs"
 
 if [[ "${OBSCURA_SKIP_SANITIZE:-0}" != 1 ]]; then
   echo "== tests under AddressSanitizer + UndefinedBehaviorSanitizer"
-  configure "$build-asan" -DOBSCURA_SANITIZE=ON -DOBSCURA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
+  # Without the Python module: python3 is not ASan-instrumented (CMakeLists.txt).
+  configure "$build-asan" -DOBSCURA_SANITIZE=ON -DOBSCURA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBSCURA_PYTHON=OFF
   cmake --build "$build-asan" -j "$jobs"
   ASAN_OPTIONS=abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir "$build-asan" --output-on-failure -j "$jobs"

@@ -1,0 +1,97 @@
+// What a render is made of, from the options as typed: the settings, the
+// passes and the EXR header. The command line (app/main.cpp) and the Python
+// module (python/module.cpp) both build their renders here, so the same
+// options give the same settings, the same messages and the same file.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "app/cli_common.h"
+#include "core/checkpoint.h"
+#include "core/params.h"
+
+namespace obscura {
+
+struct RenderArgs : SceneArgs {
+  std::string scene;  // the CLI defaults it to the bundled scene
+  std::string output;
+  std::string integrator = "ao";
+  std::vector<std::string> params;
+  bool integratorGiven = false;      // -i or -p on the command line
+  std::vector<std::string> passes;   // --pass LAYER=integrator[:key=value,...]
+  std::string primary;               // --primary LAYER
+  int spp = 16;
+  float targetError = 0;  // --target-error; 0 = off
+  int minSpp = 0;         // --min-spp; 0 = min(16, spp)
+  double timeLimit = 0;   // --time-limit SECONDS; 0 = none
+  bool denoise = false;   // --denoise
+  std::string res = "960x540";
+  std::string camera;
+  int threads = 0;
+  long long seed = 0;
+  std::string sky = "1,1,1";
+  std::string preview;
+  std::string filter = "box";
+  int tileSize = 16;
+  bool half = false;
+  std::string compression = exrCompressionName(ExrOptions{}.compression);  // --compression
+  bool noAovs = false;
+  bool quiet = false;
+  std::vector<std::string> plugins;
+  std::string cryptomatte = "none";
+  int cryptomatteRanks = kDefaultCryptomatteRanks;
+  std::string region;  // --region X0,Y0,X1,Y1; empty = the whole frame
+  std::string frames;  // --frames A-B[:STEP]; empty = one image
+  double checkpoint = 0;  // --checkpoint SECONDS
+  bool checkpointGiven = false;
+};
+
+// One pass of a render as the command line set it up.
+struct PassSetup {
+  std::string layer;  // "" for a single pass given by -i/-p
+  const IntegratorDescriptor* desc;
+  ParamSet params;
+  std::unique_ptr<Integrator> integrator;
+  IntegratorNeeds needs;
+};
+
+// The passes of a render, the primary first: --pass (with --primary), or
+// the single pass of -i/-p. Throws obscura::Error naming the option.
+std::vector<PassSetup> passSetups(const RenderArgs& a);
+bool anyScreenSpace(const std::vector<PassSetup>& setups);
+
+// The render settings of `a` (every option checked, in the order the CLI
+// always checked them); throws obscura::Error naming the option.
+RenderSettings renderSettings(const RenderArgs& a);
+
+// True when `path` ends in `ext` (".exr"), ignoring case.
+bool hasExtension(const std::string& path, const std::string& ext);
+// Refuses, before any work, outputs that cannot be written, that overwrite
+// the scene or each other, or whose extension is not the format written (an
+// EXR under a .tif name: viewers and pipelines go by the name). `preview`
+// may be empty. Messages name -o and --preview.
+void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene);
+
+// Refuses a render whose film (and what the render keeps beside it: a
+// screen-space pass's G-buffer, Cryptomatte, adaptive sums, the denoiser's
+// planes, the preview's bytes) would need more memory than the system has
+// available. `layers`: the --pass layers. Names --res.
+void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSpace, size_t layers);
+
+// --checkpoint SECONDS (a.checkpoint) and the passes it allows, for the
+// checkpoint file `file`; throws naming --checkpoint.
+void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSpace, const std::string& file);
+// What a --checkpoint file must match to be resumed (README "Checkpoints"):
+// the header's record of the render but for what differs between runs
+// (threads, times, ray counts), the tile size and AOV switch, and the
+// files the render reads (the scene hashed; the files a .gltf names, the
+// height map and plugins by size and time).
+Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header);
+
+// The EXR header of a finished render (README "The EXR pass").
+ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,
+                        const RenderSettings& s, const RenderStats& stats, const Scene& scene);
+
+}  // namespace obscura
