@@ -46,6 +46,7 @@ struct ThreadScratch {
   std::vector<SurfaceHit> hits;
   uint32_t lanePixel[kChunk];   // pixel (within tile) of each lane
   int32_t laneHit[kChunk];      // index into hits, or -1
+  uint32_t hitLane[kChunk];     // the lane of hits[i]
   uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
   uint32_t laneSample[kChunk];  // sample index within the pixel
   // The pixel filter's draw of each lane (cameraRays): seeds, index, pixel.
@@ -285,15 +286,23 @@ class TileRenderer {
   // pass 0; README "Objects and roles").
   void surfaceHits(size_t n, ThreadScratch& ts) const {
     const IntersectBatch& cam = ts.camera;
-    ts.hits.clear();
+    // The lanes that hit first, then their SurfaceHits four at a time
+    // (computeSurfaceHits: SIMD across hits, bit for bit the scalar form).
+    uint32_t count = 0;
     for (size_t l = 0; l < n; ++l) {
       if (!cam.hit(l) || (mattes_ && scene_.isMatte(scene_.objectOf(cam.geomID(l), cam.instID(l))))) {
         ts.laneHit[l] = -1;
         continue;
       }
-      ts.laneHit[l] = int32_t(ts.hits.size());
-      SurfaceHit& h = ts.hits.emplace_back();
-      computeSurfaceHit(scene_, cam.data()[l], wantAlbedo_, h);
+      ts.laneHit[l] = int32_t(count);
+      ts.hitLane[count++] = uint32_t(l);
+    }
+    ts.hits.clear();
+    ts.hits.resize(count);  // fresh hits, as emplace_back gave (albedo 0 unless asked for)
+    computeSurfaceHits(scene_, cam.data(), ts.hitLane, count, wantAlbedo_, ts.hits.data());
+    for (uint32_t i = 0; i < count; ++i) {
+      SurfaceHit& h = ts.hits[i];
+      const uint32_t l = ts.hitLane[i];
       h.pixelKey = ts.laneKey[l];  // the sample's replicate
       h.sampleIndex = ts.laneSample[l] >> 1;
     }
