@@ -3,6 +3,7 @@
 #include "core/error.h"
 
 #include <emmintrin.h>
+#include <xmmintrin.h>
 
 #include <algorithm>
 #include <cmath>
@@ -270,26 +271,42 @@ inline __m128 usableLength(__m128 len) {
   return _mm_and_ps(_mm_cmpgt_ps(len, _mm_setzero_ps()), _mm_cmplt_ps(len, _mm_set1_ps(kInfinity)));
 }
 
-// Four hits' inputs as structure of arrays: component c of lane l at [c][l].
-struct HitLanes {
-  alignas(16) float v0[3][4], v1[3][4], v2[3][4];  // world-space vertices
-  alignas(16) float n0[3][4], n1[3][4], n2[3][4];  // vertex normals (0 without)
-  alignas(16) float dir[3][4];                     // the ray's direction as traced
-  alignas(16) float u[4], v[4];
-  alignas(16) float n[3][4];  // the interpolated normal, between the two SIMD steps
-  alignas(16) int32_t hasNormals[4];  // all ones / zero
+// Four hits' inputs, one row (x, y, z, -) per lane as gathered; transposed
+// into structure of arrays (V4) for the arithmetic. Rows are whole __m128
+// values: a lane's scalars stored one by one and read back as a vector
+// would stall on store forwarding (measured: the first such load took a
+// tenth of the stage).
+struct HitRows {
+  __m128 v0[4], v1[4], v2[4];  // world-space vertices
+  __m128 n0[4], n1[4], n2[4];  // vertex normals (0 without)
+  __m128 dir[4];               // (dir_x, dir_y, dir_z, time) of the ray as traced
+  __m128 hit[4];               // (Ng_z, u, v, primID) of RTCHit: u and v
+  int32_t hasNormals[4];       // all ones / zero
 };
+
+// (q[0], q[1], q[2], 0), reading nothing past q[2].
+inline __m128 loadXyz(const float* q) {
+  return _mm_movelh_ps(_mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<const __m64*>(q)), _mm_load_ss(q + 2));
+}
+inline __m128 rowOf(Vec3 a) { return _mm_setr_ps(a.x, a.y, a.z, 0.0f); }
+// Rows of four lanes -> their first three components as lanes.
+inline V4 lanesOf(const __m128 (&r)[4]) {
+  __m128 a = r[0], b = r[1], c = r[2], d = r[3];
+  _MM_TRANSPOSE4_PS(a, b, c, d);
+  return {a, b, c};
+}
 
 // Lanes [0, m) of `in` into out[0..m): p, dir, eps, ng, ns as
 // computeSurfaceHit (the rest of each SurfaceHit is the caller's).
 // toWorld[l]: lane l's instance transform (normals go through its
 // cofactor matrix, scalar, between the interpolation and the
 // normalization, as in the scalar form), or null.
-void triangleLanes(HitLanes& in, const Affine* const* toWorld, int m, SurfaceHit* const* out) {
-  const __m128 u = _mm_load_ps(in.u), v = _mm_load_ps(in.v);
+void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, SurfaceHit* const* out) {
+  const V4 uv = lanesOf(in.hit);
+  const __m128 u = uv.y, v = uv.z;
   const __m128 one = _mm_set1_ps(1.0f);
   const __m128 w = _mm_sub_ps(_mm_sub_ps(one, u), v);  // 1 - u - v
-  const V4 v0 = load3(in.v0), v1 = load3(in.v1), v2 = load3(in.v2), dir = load3(in.dir);
+  const V4 v0 = lanesOf(in.v0), v1 = lanesOf(in.v1), v2 = lanesOf(in.v2), dir = lanesOf(in.dir);
   // p = v0 w + v1 u + v2 v (barycentrics, not o + t d: docs/architecture.md).
   const V4 p = add(add(mul(v0, w), mul(v1, u)), mul(v2, v));
   const __m128 dirLen = _mm_sqrt_ps(dot(dir, dir));
@@ -305,27 +322,28 @@ void triangleLanes(HitLanes& in, const Affine* const* toWorld, int m, SurfaceHit
   ng = negateWhere(ng, _mm_cmpgt_ps(dot(ng, dir), _mm_setzero_ps()));
   // Shading normal: interpolated, through an instance's transform, unit,
   // on the ray's side of the surface (docs/math.md §1: AO is defined about it).
-  V4 n = add(add(mul(load3(in.n0), w), mul(load3(in.n1), u)), mul(load3(in.n2), v));
+  V4 n = add(add(mul(lanesOf(in.n0), w), mul(lanesOf(in.n1), u)), mul(lanesOf(in.n2), v));
   bool anyTransform = false;
   for (int l = 0; l < m; ++l) anyTransform |= toWorld[l] != nullptr;
   if (anyTransform) {
-    _mm_store_ps(in.n[0], n.x), _mm_store_ps(in.n[1], n.y), _mm_store_ps(in.n[2], n.z);
+    alignas(16) float t[3][4];
+    _mm_store_ps(t[0], n.x), _mm_store_ps(t[1], n.y), _mm_store_ps(t[2], n.z);
     for (int l = 0; l < m; ++l)
       if (toWorld[l]) {
-        const Vec3 t = toWorld[l]->normal(Vec3(in.n[0][l], in.n[1][l], in.n[2][l]));
-        in.n[0][l] = t.x, in.n[1][l] = t.y, in.n[2][l] = t.z;
+        const Vec3 x = toWorld[l]->normal(Vec3(t[0][l], t[1][l], t[2][l]));
+        t[0][l] = x.x, t[1][l] = x.y, t[2][l] = x.z;
       }
-    n = load3(in.n);
+    n = {_mm_load_ps(t[0]), _mm_load_ps(t[1]), _mm_load_ps(t[2])};
   }
   const __m128 nLen = _mm_sqrt_ps(dot(n, n));
   n = mul(n, _mm_div_ps(one, nLen));
   n = negateWhere(n, _mm_cmplt_ps(dot(n, ng), _mm_setzero_ps()));
-  const __m128 useN = _mm_and_ps(_mm_castsi128_ps(_mm_load_si128(reinterpret_cast<const __m128i*>(in.hasNormals))),
-                                 usableLength(nLen));
-  const V4 ns = select(useN, n, ng);
+  const __m128 hasNormals =
+      _mm_castsi128_ps(_mm_setr_epi32(in.hasNormals[0], in.hasNormals[1], in.hasNormals[2], in.hasNormals[3]));
+  const V4 ns = select(_mm_and_ps(hasNormals, usableLength(nLen)), n, ng);
 
-  alignas(16) float o[16][4];
-  const __m128 rows[16] = {p.x, p.y, p.z, unitDir.x, unitDir.y, unitDir.z, ng.x, ng.y, ng.z, ns.x, ns.y, ns.z, eps};
+  alignas(16) float o[13][4];
+  const __m128 rows[13] = {p.x, p.y, p.z, unitDir.x, unitDir.y, unitDir.z, ng.x, ng.y, ng.z, ns.x, ns.y, ns.z, eps};
   for (int r = 0; r < 13; ++r) _mm_store_ps(o[r], rows[r]);
   for (int l = 0; l < m; ++l) {
     SurfaceHit& h = *out[l];
@@ -341,7 +359,7 @@ void triangleLanes(HitLanes& in, const Affine* const* toWorld, int m, SurfaceHit
 
 void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_t* lanes, size_t count, bool albedo,
                         SurfaceHit* out) {
-  HitLanes in;
+  HitRows in;
   const Affine* toWorld[4];
   SurfaceHit* dst[4];
   Affine moved;  // a moving instance's transform (primitiveAt), only compared against
@@ -367,20 +385,17 @@ void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_
     h.hitU = u, h.hitV = v;
     h.time = rh.ray.time;
     if (albedo) h.albedo = primitiveAlbedo(scene, prim, tri, u, v);
-    // The lane's inputs.
+    // The lane's rows.
+    __m128* const vRows[3] = {in.v0, in.v1, in.v2};
+    __m128* const nRows[3] = {in.n0, in.n1, in.n2};
     for (int k = 0; k < 3; ++k) {
       const float* q = prim.positions + size_t(tri[k]) * 3;
-      Vec3 x(q[0], q[1], q[2]);
-      if (xf) x = xf->point(x);
-      float(*dstV)[4] = k == 0 ? in.v0 : k == 1 ? in.v1 : in.v2;
-      dstV[0][m] = x.x, dstV[1][m] = x.y, dstV[2][m] = x.z;
-      const Vec3 nk = prim.normals.empty() ? Vec3() : prim.normals[tri[k]];
-      float(*dstN)[4] = k == 0 ? in.n0 : k == 1 ? in.n1 : in.n2;
-      dstN[0][m] = nk.x, dstN[1][m] = nk.y, dstN[2][m] = nk.z;
+      vRows[k][m] = xf ? rowOf(xf->point(Vec3(q[0], q[1], q[2]))) : loadXyz(q);
+      nRows[k][m] = prim.normals.empty() ? _mm_setzero_ps() : loadXyz(&prim.normals[tri[k]].x);
     }
     in.hasNormals[m] = prim.normals.empty() ? 0 : -1;
-    in.dir[0][m] = rh.ray.dir_x, in.dir[1][m] = rh.ray.dir_y, in.dir[2][m] = rh.ray.dir_z;
-    in.u[m] = u, in.v[m] = v;
+    in.dir[m] = _mm_loadu_ps(&rh.ray.dir_x);
+    in.hit[m] = _mm_loadu_ps(&rh.hit.Ng_z);
     toWorld[m] = xf;
     dst[m] = &h;
     if (++m == 4) triangleLanes(in, toWorld, 4, dst), m = 0;
@@ -388,12 +403,9 @@ void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_
   if (m > 0) {
     // Unused lanes repeat lane 0 (finite inputs; their results are dropped).
     for (int l = m; l < 4; ++l) {
-      for (int c = 0; c < 3; ++c) {
-        in.v0[c][l] = in.v0[c][0], in.v1[c][l] = in.v1[c][0], in.v2[c][l] = in.v2[c][0];
-        in.n0[c][l] = in.n0[c][0], in.n1[c][l] = in.n1[c][0], in.n2[c][l] = in.n2[c][0];
-        in.dir[c][l] = in.dir[c][0];
-      }
-      in.u[l] = in.u[0], in.v[l] = in.v[0], in.hasNormals[l] = in.hasNormals[0];
+      in.v0[l] = in.v0[0], in.v1[l] = in.v1[0], in.v2[l] = in.v2[0];
+      in.n0[l] = in.n0[0], in.n1[l] = in.n1[0], in.n2[l] = in.n2[0];
+      in.dir[l] = in.dir[0], in.hit[l] = in.hit[0], in.hasNormals[l] = in.hasNormals[0];
     }
     triangleLanes(in, toWorld, m, dst);
   }
