@@ -297,8 +297,13 @@ class TileRenderer {
       ts.laneHit[l] = int32_t(count);
       ts.hitLane[count++] = uint32_t(l);
     }
-    ts.hits.clear();
-    ts.hits.resize(count);  // fresh hits, as emplace_back gave (albedo 0 unless asked for)
+    // No clear(): computeSurfaceHits writes every field but albedo when it
+    // is not asked for, and pixelKey/sampleIndex follow below; a render asks
+    // for albedo in every chunk or in none (wantAlbedo_, and the scratch
+    // lives for one render), so an unasked albedo stays the value-initialized
+    // 0 of the element's first use, as a fresh element would have it -
+    // without re-initializing every hit of every chunk.
+    ts.hits.resize(count);
     computeSurfaceHits(scene_, cam.data(), ts.hitLane, count, wantAlbedo_, ts.hits.data());
     for (uint32_t i = 0; i < count; ++i) {
       SurfaceHit& h = ts.hits[i];
