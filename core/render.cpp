@@ -47,6 +47,7 @@ struct ThreadScratch {
   std::vector<SurfaceHit> hits;
   uint32_t lanePixel[kChunk];   // pixel (within tile) of each lane
   int32_t laneHit[kChunk];      // index into hits, or -1
+  uint32_t hitLane[kChunk];     // the lane of hits[i]
   uint32_t laneKey[kChunk];     // Sampler key of the lane's pixel
   uint32_t laneSample[kChunk];  // sample index within the pixel
   // The pixel filter's draw of each lane (cameraRays): seeds, index, pixel.
@@ -292,15 +293,28 @@ class TileRenderer {
   // pass 0; README "Objects and roles").
   void surfaceHits(size_t n, ThreadScratch& ts) const {
     const IntersectBatch& cam = ts.camera;
-    ts.hits.clear();
+    // The lanes that hit first, then their SurfaceHits four at a time
+    // (computeSurfaceHits: SIMD across hits, bit for bit the scalar form).
+    uint32_t count = 0;
     for (size_t l = 0; l < n; ++l) {
       if (!cam.hit(l) || (mattes_ && scene_.isMatte(scene_.objectOf(cam.geomID(l), cam.instID(l))))) {
         ts.laneHit[l] = -1;
         continue;
       }
-      ts.laneHit[l] = int32_t(ts.hits.size());
-      SurfaceHit& h = ts.hits.emplace_back();
-      computeSurfaceHit(scene_, cam.data()[l], wantAlbedo_, h);
+      ts.laneHit[l] = int32_t(count);
+      ts.hitLane[count++] = uint32_t(l);
+    }
+    // No clear(): computeSurfaceHits writes every field but albedo when it
+    // is not asked for, and pixelKey/sampleIndex follow below; a render asks
+    // for albedo in every chunk or in none (wantAlbedo_, and the scratch
+    // lives for one render), so an unasked albedo stays the value-initialized
+    // 0 of the element's first use, as a fresh element would have it -
+    // without re-initializing every hit of every chunk.
+    ts.hits.resize(count);
+    computeSurfaceHits(scene_, cam.data(), ts.hitLane, count, wantAlbedo_, ts.hits.data());
+    for (uint32_t i = 0; i < count; ++i) {
+      SurfaceHit& h = ts.hits[i];
+      const uint32_t l = ts.hitLane[i];
       h.pixelKey = ts.laneKey[l];  // the sample's replicate
       h.sampleIndex = ts.laneSample[l] >> 1;
     }
@@ -326,33 +340,51 @@ class TileRenderer {
 
   // Each lane's estimate (and AOV values) into its pixel's sums, in lane
   // order, that is in sample order within a pixel.
+  //
+  // A pixel's samples are consecutive lanes (pixel-major), so its sums are
+  // copied into locals for the run of its lanes and stored once after it:
+  // the same additions in the same order (the same bits), but the compiler
+  // keeps the running sums in registers instead of a chain of stores and
+  // reloads through memory per lane (it cannot tell the sums from the
+  // arrays the lane values come from).
   void accumulate(size_t n, ThreadScratch& ts) const {
-    for (size_t l = 0; l < n; ++l) {
-      const int32_t hi = ts.laneHit[l];
-      if (hi < 0) continue;
-      const SurfaceHit& h = ts.hits[size_t(hi)];
-      PixelSums& p = ts.sumsAt[ts.lanePixel[l]];
-      p.num.add(ts.W[size_t(hi)].num);
-      p.den.add(ts.W[size_t(hi)].den);
-      if (p.hits == 0) p.object = h.object;
-      p.hits += 1;
-      // The even half for the error estimate (docs/math.md §13).
-      if ((ts.laneSample[l] & 1u) == 0) ts.evenAt[ts.lanePixel[l]].add(ts.W[size_t(hi)]);
-      for (size_t k = 1; k < passes_.size(); ++k) {
-        PassSums& q = ts.passAt[size_t(ts.lanePixel[l]) * (passes_.size() - 1) + k - 1];
-        const SampleEstimate& w = ts.W[k * kChunk + size_t(hi)];
-        q.num.add(w.num);
-        q.den.add(w.den);
-      }
-      if (wantAlbedo_) p.albedo.add(h.albedo);
-      if (s_.aovs) {
-        p.N.add(h.ns);
-        // Z is camera-plane depth: the hit's distance along the view axis,
-        // t times the cosine between the (unit) ray and that axis.
-        const RTCRay& ray = ts.camera.data()[l].ray;
-        const Vec3 forward = shutter_.moves() ? normalize(shutter_.at(ray.time).axis) : forward_;
-        p.Z += double(h.t) * double(dot(Vec3(ray.dir_x, ray.dir_y, ray.dir_z), forward));
-      }
+    for (size_t run = 0; run < n;) {
+      const uint32_t pix = ts.lanePixel[run];
+      size_t runEnd = run + 1;
+      while (runEnd < n && ts.lanePixel[runEnd] == pix) ++runEnd;
+      PixelSums p = ts.sumsAt[pix];
+      HalfSums even = ts.evenAt[pix];
+      for (size_t l = run; l < runEnd; ++l) accumulateLane(l, ts, p, even);
+      ts.sumsAt[pix] = p;
+      ts.evenAt[pix] = even;
+      run = runEnd;
+    }
+  }
+  // One lane into its pixel's running sums (accumulate).
+  void accumulateLane(size_t l, const ThreadScratch& ts, PixelSums& p, HalfSums& even) const {
+    const int32_t hi = ts.laneHit[l];
+    if (hi < 0) return;
+    const SurfaceHit& h = ts.hits[size_t(hi)];
+    p.num.add(ts.W[size_t(hi)].num);
+    p.den.add(ts.W[size_t(hi)].den);
+    if (p.hits == 0) p.object = h.object;
+    p.hits += 1;
+    // The even half for the error estimate (docs/math.md §13).
+    if ((ts.laneSample[l] & 1u) == 0) even.add(ts.W[size_t(hi)]);
+    for (size_t k = 1; k < passes_.size(); ++k) {
+      PassSums& q = ts.passAt[size_t(ts.lanePixel[l]) * (passes_.size() - 1) + k - 1];
+      const SampleEstimate& w = ts.W[k * kChunk + size_t(hi)];
+      q.num.add(w.num);
+      q.den.add(w.den);
+    }
+    if (wantAlbedo_) p.albedo.add(h.albedo);
+    if (s_.aovs) {
+      p.N.add(h.ns);
+      // Z is camera-plane depth: the hit's distance along the view axis,
+      // t times the cosine between the (unit) ray and that axis.
+      const RTCRay& ray = ts.camera.data()[l].ray;
+      const Vec3 forward = shutter_.moves() ? normalize(shutter_.at(ray.time).axis) : forward_;
+      p.Z += double(h.t) * double(dot(Vec3(ray.dir_x, ray.dir_y, ray.dir_z), forward));
     }
   }
 

@@ -2,6 +2,9 @@
 
 #include "core/error.h"
 
+#include <emmintrin.h>
+#include <xmmintrin.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -222,6 +225,190 @@ void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, Sur
   if (prim.subdivision) return subdivisionHit(scene, prim, rh, albedo, out);
   computeSurfaceHit(scene, rh.hit.geomID, rh.hit.primID, rh.hit.instID[0], rh.hit.u, rh.hit.v, rh.ray.tfar,
                     Vec3(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z), rh.ray.time, albedo, out);
+}
+
+namespace {
+
+// --- computeSurfaceHits: four triangle hits per SSE instruction ------------
+//
+// The scalar computeSurfaceHit above, with the same operations in the same
+// order on four hits at once, so every lane rounds exactly as the scalar
+// form does (IEEE add, mul, div and sqrt are correctly rounded in SSE as in
+// scalar code; the build targets baseline x86-64, so no FMA contracts
+// either form). Where the scalar code picks with a branch, the lanes
+// compute both sides and select with a mask. std::max(a, b) is
+// `a < b ? b : a`, which is _mm_max_ps(b, a) (it returns its second operand
+// when the comparison is false, NaN included). Tested against the scalar
+// form hit by hit (FastPaths.SurfaceHitLanesEqualTheScalarForm).
+
+struct V4 {
+  __m128 x, y, z;
+};
+inline V4 load3(const float (*a)[4]) { return {_mm_load_ps(a[0]), _mm_load_ps(a[1]), _mm_load_ps(a[2])}; }
+inline V4 add(V4 a, V4 b) { return {_mm_add_ps(a.x, b.x), _mm_add_ps(a.y, b.y), _mm_add_ps(a.z, b.z)}; }
+inline V4 sub(V4 a, V4 b) { return {_mm_sub_ps(a.x, b.x), _mm_sub_ps(a.y, b.y), _mm_sub_ps(a.z, b.z)}; }
+inline V4 mul(V4 a, __m128 s) { return {_mm_mul_ps(a.x, s), _mm_mul_ps(a.y, s), _mm_mul_ps(a.z, s)}; }
+// dot(a, b) = (ax bx + ay by) + az bz, as core/math.h adds.
+inline __m128 dot(V4 a, V4 b) {
+  return _mm_add_ps(_mm_add_ps(_mm_mul_ps(a.x, b.x), _mm_mul_ps(a.y, b.y)), _mm_mul_ps(a.z, b.z));
+}
+inline V4 cross(V4 a, V4 b) {
+  return {_mm_sub_ps(_mm_mul_ps(a.y, b.z), _mm_mul_ps(a.z, b.y)), _mm_sub_ps(_mm_mul_ps(a.z, b.x), _mm_mul_ps(a.x, b.z)),
+          _mm_sub_ps(_mm_mul_ps(a.x, b.y), _mm_mul_ps(a.y, b.x))};
+}
+// Flip the sign where mask is set (-a is exact, as is a sign flip).
+inline V4 negateWhere(V4 a, __m128 mask) {
+  const __m128 sign = _mm_and_ps(mask, _mm_set1_ps(-0.0f));
+  return {_mm_xor_ps(a.x, sign), _mm_xor_ps(a.y, sign), _mm_xor_ps(a.z, sign)};
+}
+inline __m128 select(__m128 mask, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b)); }
+inline V4 select(__m128 mask, V4 a, V4 b) { return {select(mask, a.x, b.x), select(mask, a.y, b.y), select(mask, a.z, b.z)}; }
+inline __m128 absv(__m128 a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
+// absMax(a) = max(|x|, max(|y|, |z|)) in std::max's operand order.
+inline __m128 absMax(V4 a) { return _mm_max_ps(_mm_max_ps(absv(a.z), absv(a.y)), absv(a.x)); }
+// Scalar length's test: len > 0 and finite (len = sqrt(...) is never -inf).
+inline __m128 usableLength(__m128 len) {
+  return _mm_and_ps(_mm_cmpgt_ps(len, _mm_setzero_ps()), _mm_cmplt_ps(len, _mm_set1_ps(kInfinity)));
+}
+
+// Four hits' inputs, one row (x, y, z, -) per lane as gathered; transposed
+// into structure of arrays (V4) for the arithmetic. Rows are whole __m128
+// values: a lane's scalars stored one by one and read back as a vector
+// would stall on store forwarding (measured: the first such load took a
+// tenth of the stage).
+struct HitRows {
+  __m128 v0[4], v1[4], v2[4];  // world-space vertices
+  __m128 n0[4], n1[4], n2[4];  // vertex normals (0 without)
+  __m128 dir[4];               // (dir_x, dir_y, dir_z, time) of the ray as traced
+  __m128 hit[4];               // (Ng_z, u, v, primID) of RTCHit: u and v
+  int32_t hasNormals[4];       // all ones / zero
+};
+
+// (q[0], q[1], q[2], 0), reading nothing past q[2].
+inline __m128 loadXyz(const float* q) {
+  return _mm_movelh_ps(_mm_loadl_pi(_mm_setzero_ps(), reinterpret_cast<const __m64*>(q)), _mm_load_ss(q + 2));
+}
+inline __m128 rowOf(Vec3 a) { return _mm_setr_ps(a.x, a.y, a.z, 0.0f); }
+// Rows of four lanes -> their first three components as lanes.
+inline V4 lanesOf(const __m128 (&r)[4]) {
+  __m128 a = r[0], b = r[1], c = r[2], d = r[3];
+  _MM_TRANSPOSE4_PS(a, b, c, d);
+  return {a, b, c};
+}
+
+// Lanes [0, m) of `in` into out[0..m): p, dir, eps, ng, ns as
+// computeSurfaceHit (the rest of each SurfaceHit is the caller's).
+// toWorld[l]: lane l's instance transform (normals go through its
+// cofactor matrix, scalar, between the interpolation and the
+// normalization, as in the scalar form), or null.
+void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, SurfaceHit* const* out) {
+  const V4 uv = lanesOf(in.hit);
+  const __m128 u = uv.y, v = uv.z;
+  const __m128 one = _mm_set1_ps(1.0f);
+  const __m128 w = _mm_sub_ps(_mm_sub_ps(one, u), v);  // 1 - u - v
+  const V4 v0 = lanesOf(in.v0), v1 = lanesOf(in.v1), v2 = lanesOf(in.v2), dir = lanesOf(in.dir);
+  // p = v0 w + v1 u + v2 v (barycentrics, not o + t d: docs/architecture.md).
+  const V4 p = add(add(mul(v0, w), mul(v1, u)), mul(v2, v));
+  const __m128 dirLen = _mm_sqrt_ps(dot(dir, dir));
+  const V4 unitDir = mul(dir, _mm_div_ps(one, dirLen));
+  // The offset scale (kRayOffsetRelative).
+  const __m128 mag = _mm_max_ps(_mm_max_ps(_mm_max_ps(absMax(v2), absMax(v1)), absMax(v0)), absMax(p));
+  const __m128 eps =
+      _mm_max_ps(_mm_set1_ps(std::numeric_limits<float>::min()), _mm_mul_ps(mag, _mm_set1_ps(kRayOffsetRelative)));
+  // Geometric normal facing the ray; degenerate: -unit dir (= normalize(-dir) bit for bit).
+  V4 ng = cross(sub(v1, v0), sub(v2, v0));
+  const __m128 ngLen = _mm_sqrt_ps(dot(ng, ng));
+  ng = select(usableLength(ngLen), mul(ng, _mm_div_ps(one, ngLen)), negateWhere(unitDir, _mm_castsi128_ps(_mm_set1_epi32(-1))));
+  ng = negateWhere(ng, _mm_cmpgt_ps(dot(ng, dir), _mm_setzero_ps()));
+  // Shading normal: interpolated, through an instance's transform, unit,
+  // on the ray's side of the surface (docs/math.md §1: AO is defined about it).
+  V4 n = add(add(mul(lanesOf(in.n0), w), mul(lanesOf(in.n1), u)), mul(lanesOf(in.n2), v));
+  bool anyTransform = false;
+  for (int l = 0; l < m; ++l) anyTransform |= toWorld[l] != nullptr;
+  if (anyTransform) {
+    alignas(16) float t[3][4];
+    _mm_store_ps(t[0], n.x), _mm_store_ps(t[1], n.y), _mm_store_ps(t[2], n.z);
+    for (int l = 0; l < m; ++l)
+      if (toWorld[l]) {
+        const Vec3 x = toWorld[l]->normal(Vec3(t[0][l], t[1][l], t[2][l]));
+        t[0][l] = x.x, t[1][l] = x.y, t[2][l] = x.z;
+      }
+    n = {_mm_load_ps(t[0]), _mm_load_ps(t[1]), _mm_load_ps(t[2])};
+  }
+  const __m128 nLen = _mm_sqrt_ps(dot(n, n));
+  n = mul(n, _mm_div_ps(one, nLen));
+  n = negateWhere(n, _mm_cmplt_ps(dot(n, ng), _mm_setzero_ps()));
+  const __m128 hasNormals =
+      _mm_castsi128_ps(_mm_setr_epi32(in.hasNormals[0], in.hasNormals[1], in.hasNormals[2], in.hasNormals[3]));
+  const V4 ns = select(_mm_and_ps(hasNormals, usableLength(nLen)), n, ng);
+
+  alignas(16) float o[13][4];
+  const __m128 rows[13] = {p.x, p.y, p.z, unitDir.x, unitDir.y, unitDir.z, ng.x, ng.y, ng.z, ns.x, ns.y, ns.z, eps};
+  for (int r = 0; r < 13; ++r) _mm_store_ps(o[r], rows[r]);
+  for (int l = 0; l < m; ++l) {
+    SurfaceHit& h = *out[l];
+    h.p = Vec3(o[0][l], o[1][l], o[2][l]);
+    h.dir = Vec3(o[3][l], o[4][l], o[5][l]);
+    h.ng = Vec3(o[6][l], o[7][l], o[8][l]);
+    h.ns = Vec3(o[9][l], o[10][l], o[11][l]);
+    h.eps = o[12][l];
+  }
+}
+
+}  // namespace
+
+void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_t* lanes, size_t count, bool albedo,
+                        SurfaceHit* out) {
+  HitRows in;
+  const Affine* toWorld[4];
+  SurfaceHit* dst[4];
+  Affine moved;  // a moving instance's transform (primitiveAt), only compared against
+  int m = 0;
+  for (size_t i = 0; i < count; ++i) {
+    const RTCRayHit& rh = rays[lanes[i]];
+    SurfaceHit& h = out[i];
+    const unsigned geomID = rh.hit.geomID, instID = rh.hit.instID[0];
+    const Affine* xf = nullptr;
+    const Primitive& prim = scene.primitiveAt(geomID, instID, rh.ray.time, moved, &xf);
+    // Subdivision surfaces and moving instances (a transform per ray time,
+    // which primitiveAt puts in `moved`): the scalar form.
+    if (prim.subdivision || xf == &moved) {
+      computeSurfaceHit(scene, rh, albedo, h);
+      continue;
+    }
+    // Everything but the SIMD fields, as computeSurfaceHit stores it.
+    const float u = rh.hit.u, v = rh.hit.v;
+    const uint32_t* tri = prim.indices + size_t(rh.hit.primID) * 3;
+    h.t = rh.ray.tfar;
+    h.geomID = geomID, h.primID = rh.hit.primID, h.instID = instID;
+    h.object = scene.objectOf(geomID, instID);
+    h.hitU = u, h.hitV = v;
+    h.time = rh.ray.time;
+    if (albedo) h.albedo = primitiveAlbedo(scene, prim, tri, u, v);
+    // The lane's rows.
+    __m128* const vRows[3] = {in.v0, in.v1, in.v2};
+    __m128* const nRows[3] = {in.n0, in.n1, in.n2};
+    for (int k = 0; k < 3; ++k) {
+      const float* q = prim.positions + size_t(tri[k]) * 3;
+      vRows[k][m] = xf ? rowOf(xf->point(Vec3(q[0], q[1], q[2]))) : loadXyz(q);
+      nRows[k][m] = prim.normals.empty() ? _mm_setzero_ps() : loadXyz(&prim.normals[tri[k]].x);
+    }
+    in.hasNormals[m] = prim.normals.empty() ? 0 : -1;
+    in.dir[m] = _mm_loadu_ps(&rh.ray.dir_x);
+    in.hit[m] = _mm_loadu_ps(&rh.hit.Ng_z);
+    toWorld[m] = xf;
+    dst[m] = &h;
+    if (++m == 4) triangleLanes(in, toWorld, 4, dst), m = 0;
+  }
+  if (m > 0) {
+    // Unused lanes repeat lane 0 (finite inputs; their results are dropped).
+    for (int l = m; l < 4; ++l) {
+      in.v0[l] = in.v0[0], in.v1[l] = in.v1[0], in.v2[l] = in.v2[0];
+      in.n0[l] = in.n0[0], in.n1[l] = in.n1[0], in.n2[l] = in.n2[0];
+      in.dir[l] = in.dir[0], in.hit[l] = in.hit[0], in.hasNormals[l] = in.hasNormals[0];
+    }
+    triangleLanes(in, toWorld, m, dst);
+  }
 }
 
 Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v) {

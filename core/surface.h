@@ -74,6 +74,14 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
 // lists and Embree subdivision surfaces, whose hit point is the ray's).
 void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, SurfaceHit& out);
 
+// computeSurfaceHit(scene, rays[lanes[i]], albedo, out[i]) for i < count,
+// bit for bit, four hits at a time (SSE, structure of arrays over the
+// lanes) where they are on still triangles: the camera stage of the render
+// loop. Other hits (subdivision surfaces, moving instances) take the scalar
+// form.
+void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_t* lanes, size_t count, bool albedo,
+                        SurfaceHit* out);
+
 // The material albedo at barycentrics (u, v) of a hit (decodes textures on
 // first use): what computeSurfaceHit(albedo = true) stores, alone.
 Vec3 surfaceAlbedo(const Scene& scene, unsigned geomID, unsigned primID, unsigned instID, float u, float v);

@@ -129,10 +129,32 @@ float Texture::sampleAlpha(float u, float v, WrapMode wrapS, WrapMode wrapT) con
   return a * (1 - ty) + b * ty;
 }
 
+namespace {
+// footprint() along one axis for repeat wrapping and a coordinate c in
+// [0, 1), the common lookup of the render loop's albedo AOV: x = c n - 0.5
+// lies in [-0.5, n - 0.5), so floor(x) is -1 or x's truncation, and
+// wrapPair's remainder is that, or n - 1 for -1. The same doubles and ints
+// as the general form, without its range cases.
+inline void repeatUnitAxis(float c, int n, int& i0, int& i1, float& t) {
+  const double x = double(c) * n - 0.5;
+  const int i = x < 0.0 ? -1 : int(x);
+  t = float(x - double(i));
+  i0 = i < 0 ? n - 1 : i;
+  i1 = i0 + 1 == n ? 0 : i0 + 1;
+}
+}  // namespace
+
 Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
   int x0, x1, y0, y1;
   float tx, ty;
-  if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) return Vec3(0, 0, 0);
+  if (wrapS == WrapMode::Repeat && wrapT == WrapMode::Repeat && u >= 0.0f && u < 1.0f && v >= 0.0f && v < 1.0f &&
+      width_ > 0) {
+    // Bit for bit footprint()'s result (FastPaths.TextureUnitSquareLookups).
+    repeatUnitAxis(u, width_, x0, x1, tx);
+    repeatUnitAxis(v, height_, y0, y1, ty);
+  } else if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) {
+    return Vec3(0, 0, 0);
+  }
   const Vec3 a = texel(x0, y0) * (1 - tx) + texel(x1, y0) * tx;
   const Vec3 b = texel(x0, y1) * (1 - tx) + texel(x1, y1) * tx;
   return a * (1 - ty) + b * ty;

@@ -6,11 +6,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <vector>
 
+#include "core/gltf_loader.h"
 #include "core/math.h"
 #include "core/sampler.h"
+#include "core/surface.h"
+#include "core/texture.h"
 #include "core/warp.h"
+#include "tests/gltf_builder.h"
+#include "tests/support.h"
 
 namespace obscura::test {
 namespace {
@@ -101,6 +107,166 @@ TEST(FastPaths, CosineConeLanesEqualTheScalarWarp) {
         ASSERT_EQ(z[l], w.z) << u[l] << " " << v[l];
       }
     }
+}
+
+
+// The lane form of the surface hits (SSE, four hits at a time) equals the
+// scalar computeSurfaceHit bit for bit, field by field: on hits traced into
+// a scene with vertex normals (one of them zero, so the fallback to Ng
+// runs), a mesh without normals, instances (one mirrored, whose cofactor
+// normal flips) and, when present, the textured viking room (albedo on);
+// then on the same hits with their barycentrics and directions replaced by
+// edge cases (u = v = 0, u + v = 1, a zero direction: NaN everywhere, and
+// directions of very different lengths), at counts that leave 1-3 lanes.
+uint32_t bitsOf(float x) {
+  uint32_t b;
+  std::memcpy(&b, &x, 4);
+  return b;
+}
+
+void expectSameHits(const Scene& scene, std::vector<RTCRayHit> rays, bool albedo) {
+  ASSERT_GE(rays.size(), 16u);
+  // Edge cases on copies of the first hits.
+  const size_t traced = rays.size();
+  const float uv[][2] = {{0, 0}, {1, 0}, {0, 1}, {0.5f, 0.5f}, {1.0f - 0x1p-24f, 0x1p-24f}};
+  const float scale[] = {0.0f, 1e-20f, 3.0f, 1e20f, -2.0f};
+  for (size_t i = 0; i < 5; ++i)
+    for (size_t j = 0; j < 5; ++j) {
+      RTCRayHit r = rays[(i * 5 + j) % traced];
+      r.hit.u = uv[i][0], r.hit.v = uv[i][1];
+      r.ray.dir_x *= scale[j], r.ray.dir_y *= scale[j], r.ray.dir_z *= scale[j];
+      rays.push_back(r);
+    }
+  std::vector<uint32_t> lanes(rays.size());
+  for (size_t i = 0; i < lanes.size(); ++i) lanes[i] = uint32_t(lanes.size() - 1 - i);  // any order
+  for (size_t count : {lanes.size(), size_t(1), size_t(2), size_t(3), size_t(6)}) {
+    std::vector<SurfaceHit> fast(count), slow(count);
+    computeSurfaceHits(scene, rays.data(), lanes.data(), count, albedo, fast.data());
+    for (size_t i = 0; i < count; ++i) {
+      computeSurfaceHit(scene, rays[lanes[i]], albedo, slow[i]);
+      const SurfaceHit &a = fast[i], &b = slow[i];
+      SCOPED_TRACE("hit " + std::to_string(i) + " of " + std::to_string(count));
+      const auto same3 = [](Vec3 x, Vec3 y) {
+        return bitsOf(x.x) == bitsOf(y.x) && bitsOf(x.y) == bitsOf(y.y) && bitsOf(x.z) == bitsOf(y.z);
+      };
+      ASSERT_TRUE(same3(a.p, b.p)) << "p";
+      ASSERT_TRUE(same3(a.ng, b.ng)) << "ng";
+      ASSERT_TRUE(same3(a.ns, b.ns)) << "ns";
+      ASSERT_TRUE(same3(a.dir, b.dir)) << "dir";
+      ASSERT_TRUE(same3(a.albedo, b.albedo)) << "albedo";
+      ASSERT_EQ(bitsOf(a.eps), bitsOf(b.eps));
+      ASSERT_EQ(bitsOf(a.t), bitsOf(b.t));
+      ASSERT_EQ(bitsOf(a.hitU), bitsOf(b.hitU));
+      ASSERT_EQ(bitsOf(a.hitV), bitsOf(b.hitV));
+      ASSERT_EQ(bitsOf(a.time), bitsOf(b.time));
+      ASSERT_EQ(a.geomID, b.geomID);
+      ASSERT_EQ(a.primID, b.primID);
+      ASSERT_EQ(a.instID, b.instID);
+      ASSERT_EQ(a.object, b.object);
+    }
+  }
+}
+
+// Closest hits of rays between points of the scene's bounds (enlarged),
+// from the sampler's points: a spread of primitives, instances and angles.
+std::vector<RTCRayHit> tracedHits(const Scene& scene, size_t want) {
+  const Bounds3& b = scene.bounds();
+  const Vec3 lo = b.lo - b.diagonal() * 0.25f, size = b.diagonal() * 1.5f;
+  const uint32_t key = Sampler(3).pixelKey(1, 2);
+  std::vector<RTCRayHit> hits;
+  for (uint32_t i = 0; hits.size() < want && i < 64 * want; ++i) {
+    const Sample2 a = Sampler::get2D(key, i, kFirstIntegratorDim), c = Sampler::get2D(key, i, kFirstIntegratorDim + 2);
+    const Sample2 d = Sampler::get2D(key, i, kFirstIntegratorDim + 4);
+    const Vec3 from = lo + size * Vec3(a.u, a.v, c.u);
+    const Vec3 to = b.lo + b.diagonal() * Vec3(c.v, d.u, d.v);
+    const RTCRayHit h = traceClosest(scene, from, (to - from) * (0.5f + 4.0f * d.u));
+    if (h.hit.geomID != RTC_INVALID_GEOMETRY_ID) hits.push_back(h);
+  }
+  return hits;
+}
+
+TEST(FastPaths, SurfaceHitLanesEqualTheScalarForm) {
+  const std::string dir = tempDir("fast_paths_surface_lanes");
+  GltfBuilder g;
+  // A bent quad with normals of different lengths, one of them zero.
+  const int bent = g.push(
+      "meshes",
+      {{"primitives",
+        json::array({{{"attributes",
+                       {{"POSITION", g.positions({{-1, -1, 0}, {1, -1, 0.3f}, {1, 1, 0}, {-1, 1, -0.4f}})},
+                        {"NORMAL", g.vec3({{0, 0, 1}, {0.3f, 0, 2}, {0, 0, 0}, {-0.2f, 0.1f, 0.5f}})}}},
+                      {"indices", g.indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3})}}})}});
+  const int plain = g.quadMesh(2.0f);  // no normals
+  g.node({{"mesh", bent}});
+  g.node({{"mesh", bent}, {"translation", {0, 0, 2}}, {"scale", {-1, 1.5, 1}}});  // mirrored instance
+  g.node({{"mesh", bent}, {"translation", {3, 0, 1}}, {"rotation", {0, 0.3826834, 0, 0.9238795}}});
+  g.node({{"mesh", plain}, {"translation", {0, 0, -3}}});
+  g.scene({0, 1, 2, 3});
+  auto scene = loadGltf(g.writeGltf(dir, "lanes"));
+  ASSERT_EQ(scene->instances().size(), 3u);
+  const std::vector<RTCRayHit> hits = tracedHits(*scene, 400);
+  for (bool albedo : {false, true}) expectSameHits(*scene, hits, albedo);
+
+  const std::string viking = sharedScene("viking_room/viking_room.glb");
+  OBSCURA_NEED_SHARED_SCENE(viking);
+  auto room = loadGltf(viking);
+  expectSameHits(*room, tracedHits(*room, 2000), true);
+}
+
+
+// Texture::sample's repeat lookup inside the unit square (the albedo AOV's
+// common case, which skips footprint()'s range cases) equals a bilinear
+// lookup written here from its definition: floor in double, the remainder
+// modulo the size, the texels from the file's 16-bit values, and the same
+// float expression. At the square's edges (u or v = 0, 2^-24, 1 - 2^-24), on
+// a grid through the texel centres and edges, and on sampler points, for a
+// power-of-two and an odd size.
+TEST(FastPaths, TextureUnitSquareLookups) {
+  const std::string dir = tempDir("fast_paths_texture");
+  for (auto [w, h] : {std::pair{8, 4}, std::pair{5, 3}}) {
+    const std::string path = writeRgbTexture(dir + "/t" + std::to_string(w) + ".png", w, h, [](double u, double v) {
+      return Vec3(float(u), float(v * v), float(0.3 + 0.5 * u * v));
+    });
+    const Texture tex(readBytes(path), path, false);
+    tex.decode();
+    ASSERT_EQ(tex.width(), w);
+    // The texels as decode() forms them from the 16-bit file's values
+    // (writeRgbTexture: row 0 at the top, v = 1 - (y + 0.5) / h).
+    std::vector<Vec3> T(size_t(w) * size_t(h));
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const double cu = (x + 0.5) / w, cv = 1.0 - (y + 0.5) / h;
+        const Vec3 c(float(cu), float(cv * cv), float(0.3 + 0.5 * cu * cv));
+        Vec3& t = T[size_t(y) * size_t(w) + size_t(x)];
+        for (int k = 0; k < 3; ++k) t[k] = float(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 65535)) / 65535.0f;
+      }
+    const auto reference = [&](float u, float v) {
+      const double x = double(u) * w - 0.5, y = double(v) * h - 0.5;
+      const double fx = std::floor(x), fy = std::floor(y);
+      const float tx = float(x - fx), ty = float(y - fy);
+      const int x0 = ((int(fx) % w) + w) % w, x1 = (x0 + 1) % w;
+      const int y0 = ((int(fy) % h) + h) % h, y1 = (y0 + 1) % h;
+      const auto at = [&](int i, int j) { return T[size_t(j) * size_t(w) + size_t(i)]; };
+      const Vec3 a = at(x0, y0) * (1 - tx) + at(x1, y0) * tx;
+      const Vec3 b = at(x0, y1) * (1 - tx) + at(x1, y1) * tx;
+      return a * (1 - ty) + b * ty;
+    };
+    std::vector<float> coords = {0.0f, 1.0f - 0x1p-24f, 0x1p-24f, 0.5f};
+    for (int i = 0; i <= 2 * std::max(w, h); ++i) coords.push_back(float(i) / float(2 * std::max(w, h)) * 0.999999f);
+    const auto check = [&](float u, float v) {
+      const Vec3 got = tex.sample(u, v, WrapMode::Repeat, WrapMode::Repeat), want = reference(u, v);
+      ASSERT_EQ(bitsOf(got.x), bitsOf(want.x)) << w << "x" << h << " at " << u << ", " << v;
+      ASSERT_EQ(bitsOf(got.y), bitsOf(want.y)) << w << "x" << h << " at " << u << ", " << v;
+      ASSERT_EQ(bitsOf(got.z), bitsOf(want.z)) << w << "x" << h << " at " << u << ", " << v;
+    };
+    for (float u : coords)
+      for (float v : coords) check(u, v);
+    const uint32_t key = Sampler(5).pixelKey(2, 2);
+    for (uint32_t i = 0; i < 4096; ++i) {
+      const Sample2 s = Sampler::get2D(key, i, kFirstIntegratorDim);
+      check(s.u, s.v);
+    }
+  }
 }
 
 }  // namespace
