@@ -44,6 +44,15 @@ float rand01(uint32_t object, uint32_t field) {
   return bitsToUnitFloat(hashCombine(mixBits32(object * 0x9e3779b1U + 0x1234567U), field));
 }
 
+// A material of albedo `c` (no texture), its index in scene.materials.
+int addMaterial(Scene& scene, const char* name, Vec3 c) {
+  Material m;
+  m.name = name;
+  m.baseColorFactor = c;
+  scene.materials.push_back(m);
+  return int(scene.materials.size()) - 1;
+}
+
 void addTerrain(Scene& scene) {
   const int n = kGrid + 1;
   std::vector<Vec3> pos, nrm;
@@ -67,7 +76,7 @@ void addTerrain(Scene& scene) {
       // Counter-clockwise seen from +y.
       idx.insert(idx.end(), {a, c, b, b, c, d});
     }
-  scene.addWorldPrimitive(pos, idx, std::move(nrm), {}, -1);
+  scene.addWorldPrimitive(pos, idx, std::move(nrm), {}, addMaterial(scene, "terrain", Vec3(0.5f, 0.45f, 0.35f)));
 }
 
 void addSpheres(Scene& scene) {
@@ -96,7 +105,7 @@ void addSpheres(Scene& scene) {
         if (ring != kSphereRings - 1) idx.insert(idx.end(), {b, d, cc});
       }
   }
-  scene.addWorldPrimitive(pos, idx, std::move(nrm), {}, -1);
+  scene.addWorldPrimitive(pos, idx, std::move(nrm), {}, addMaterial(scene, "spheres", Vec3(0.8f, 0.8f, 0.8f)));
 }
 
 void addBoxes(Scene& scene) {
@@ -122,7 +131,7 @@ void addBoxes(Scene& scene) {
       idx.insert(idx.end(), {base + uint32_t(f[0]), base + uint32_t(f[2]), base + uint32_t(f[3])});
     }
   }
-  scene.addWorldPrimitive(pos, idx, {}, {}, -1);  // no normals: shading uses Ng
+  scene.addWorldPrimitive(pos, idx, {}, {}, addMaterial(scene, "boxes", Vec3(0.3f, 0.4f, 0.6f)));  // no normals: shading uses Ng
 }
 
 }  // namespace
