@@ -26,7 +26,10 @@
 // --exe (default: the `obscura` next to this bench's directory) and a file
 // scene it also times the whole process `obscura render SCENE -q -i ao ...`
 // (wall clock and the child's user + system CPU seconds, EXR written to
-// /tmp) and prints its Mrays/s.
+// /tmp) and prints its Mrays/s, once with the default EXR compression (zip)
+// and once with --compression none, so the write's share shows. With
+// --before-exe OTHER, OTHER's process is timed the same way in the same
+// runs (e.g. a build of main: before/after in one run).
 //
 // --trade: the sampler's trade. The bare loop once more with its hash RNG
 // and once with Obscura's Owen-scrambled Sobol' sampler in its place (the
@@ -300,6 +303,7 @@ struct Options : CommonOptions {
     threads = 2;
   }
   std::string exe = defaultExe();
+  std::string beforeExe;
   bool noProcess = false;
   bool trade = false;
   std::string tradeRes = "256x256";
@@ -330,10 +334,26 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   withAovs.settings.aovs = true;  // as `obscura render` (default)
   noAovs.settings = benchRenderSettings(width, height, o.spp, threads);
   const bool process = !o.noProcess && !o.exe.empty() && which != "generated";
-  const std::string cmd = o.exe + " render '" + bs.source + "' -q -i ao --res " + std::to_string(width) + "x" +
-                          std::to_string(height) + " --spp " + std::to_string(o.spp) + " --threads " +
-                          std::to_string(threads) + " -o /tmp/obscura_bench_bare_" + std::to_string(getpid()) +
-                          ".exr";
+  // The processes timed each run: this build's `obscura` (and --before-exe's),
+  // each with the default compression (zip) and with none.
+  struct ProcessCase {
+    std::string label, cmd;
+    std::vector<double> wall, cpu;
+  };
+  std::vector<ProcessCase> cases;
+  if (process) {
+    const auto command = [&](const std::string& exe, const char* extra) {
+      return exe + " render '" + bs.source + "' -q -i ao --res " + std::to_string(width) + "x" +
+             std::to_string(height) + " --spp " + std::to_string(o.spp) + " --threads " + std::to_string(threads) +
+             extra + " -o /tmp/obscura_bench_bare_" + std::to_string(getpid()) + ".exr";
+    };
+    for (const std::string& exe : {o.exe, o.beforeExe}) {
+      if (exe.empty()) continue;
+      const std::string who = exe == o.exe ? "whole process" : "before: process";
+      cases.push_back({who + " (zip, default)", command(exe, ""), {}, {}});
+      cases.push_back({who + " (--compression none)", command(exe, " --compression none"), {}, {}});
+    }
+  }
 
   {  // warm-up: threads, buffers, first touches
     BareSettings w = bset;
@@ -350,7 +370,7 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   // Wall seconds and process CPU seconds of each run: on a shared machine
   // the CPU seconds (Mrays per CPU-second) are what other processes disturb
   // least.
-  std::vector<double> tb, ta, tn, tp, cb, ca, cn, cp;
+  std::vector<double> tb, ta, tn, cb, ca, cn;
   BareTally kb, ka, kn;
   const auto timed = [](std::vector<double>& cpu, auto&& f) {
     const double c0 = processCpuSeconds();
@@ -362,28 +382,31 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
     tb.push_back(timed(cb, [&] { return bare.run(kb); }));
     ta.push_back(timed(ca, [&] { return withAovs.run(bs, ka); }));
     tn.push_back(timed(cn, [&] { return noAovs.run(bs, kn); }));
-    if (process) {
+    for (ProcessCase& pc : cases) {
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = childCpuSeconds();
-      if (std::system(cmd.c_str()) != 0) throw Error("failed: " + cmd);
-      tp.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      cp.push_back(childCpuSeconds() - c0);
+      if (std::system(pc.cmd.c_str()) != 0) throw Error("failed: " + pc.cmd);
+      pc.wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      pc.cpu.push_back(childCpuSeconds() - c0);
     }
     std::printf("   run %d/%d: bare %.3f s, render %.3f s, render --no-aovs %.3f s", r + 1, o.runs, tb.back(),
                 ta.back(), tn.back());
-    if (process) std::printf(", process %.3f s", tp.back());
+    for (const ProcessCase& pc : cases) std::printf(", %s %.3f s", pc.label.c_str(), pc.wall.back());
     std::printf("\n");
     std::fflush(stdout);
   }
+  double load[3] = {0, 0, 0};
+  if (getloadavg(load, 3) < 0) load[0] = load[1] = load[2] = -1;
+  std::printf("   load average after the runs: %.2f %.2f %.2f (1, 5, 15 min)\n", load[0], load[1], load[2]);
   const double mb = mrays(kb, median(tb));
   std::printf("   rays: bare %llu camera + %llu AO; render %llu + %llu (AO rays differ by the hit set only)\n",
               (unsigned long long)kb.camera, (unsigned long long)kb.ao, (unsigned long long)ka.camera,
               (unsigned long long)ka.ao);
   const double cpuB = mrays(kb, median(cb));
-  std::printf("   %-34s %8s %8s %7s   %8s %8s %7s\n", "", "wall s", "Mrays/s", "/ bare", "CPU s", "Mr/CPUs", "/ bare");
-  const auto row = [&](const char* name, const BareTally& k, const std::vector<double>& w,
+  std::printf("   %-44s %8s %8s %7s   %8s %8s %7s\n", "", "wall s", "Mrays/s", "/ bare", "CPU s", "Mr/CPUs", "/ bare");
+  const auto row = [&](const std::string& name, const BareTally& k, const std::vector<double>& w,
                        const std::vector<double>& c) {
-    std::printf("   %-34s %8.3f %8.2f %6.1f%%", name, median(w), mrays(k, median(w)), 100.0 * mrays(k, median(w)) / mb);
+    std::printf("   %-44s %8.3f %8.2f %6.1f%%", name.c_str(), median(w), mrays(k, median(w)), 100.0 * mrays(k, median(w)) / mb);
     if (!c.empty())
       std::printf("   %8.3f %8.2f %6.1f%%", median(c), mrays(k, median(c)), 100.0 * mrays(k, median(c)) / cpuB);
     std::printf("\n");
@@ -391,11 +414,11 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   row("bare Embree loop", kb, tb, cb);
   row("render() loop, AOVs (CLI default)", ka, ta, ca);
   row("render() loop, --no-aovs", kn, tn, cn);
-  if (process) row("whole process (obscura render)", ka, tp, cp);
+  for (const ProcessCase& pc : cases) row(pc.label, ka, pc.wall, pc.cpu);
   std::printf("   (medians of %d runs, interleaved; Mr/CPUs = Mrays per CPU-second of this process (the loop's\n"
               "   threads; the whole process: the child's user + system seconds); goals: render() loop >= 90%%,\n"
               "   whole process >= 80%% of bare)\n", o.runs);
-  if (process) std::printf("   process: %s\n", cmd.c_str());
+  for (const ProcessCase& pc : cases) std::printf("   %s: %s\n", pc.label.c_str(), pc.cmd.c_str());
   std::fflush(stdout);
 
   if (!o.trade) return;
@@ -446,6 +469,8 @@ int main(int argc, char** argv) {
   Options o;
   addCommonOptions(app, o, "Smoke run: 256x256, 4 spp, 1 run unless given");
   app.add_option("--exe", o.exe, "The obscura CLI, to time the whole process (default: " + o.exe + ")");
+  app.add_option("--before-exe", o.beforeExe,
+                 "Another obscura CLI (e.g. a build of main) whose process is timed in the same runs");
   app.add_flag("--no-process", o.noProcess, "Do not time the whole process");
   app.add_flag("--trade", o.trade, "Also measure the sampler's trade: hash RNG vs Sobol' in the bare loop");
   app.add_option("--trade-res", o.tradeRes, "Resolution of the trade's images (default 256x256)");

@@ -4,6 +4,7 @@
 // map's octant sin/cos against the C library's std::sin/std::cos of the
 // same angle; the lane (SIMD) forms against the scalar ones.
 #include <gtest/gtest.h>
+#include <OpenImageIO/imageio.h>
 
 #include <cmath>
 #include <cstring>
@@ -267,6 +268,65 @@ TEST(FastPaths, TextureUnitSquareLookups) {
       check(s.u, s.v);
     }
   }
+}
+
+// The same for 8-bit images (the kind glTF scenes ship, the viking room's
+// among them), whose texels decode() keeps as bytes and reads through its
+// 256-entry transfer table: sRGB and linear, RGB and RGBA (alpha must not
+// leak into the colour), against the reference bilinear lookup over the
+// file's bytes through the transfer function.
+TEST(FastPaths, Texture8BitUnitSquareLookups) {
+  const std::string dir = tempDir("fast_paths_texture8");
+  for (auto [w, h] : {std::pair{8, 4}, std::pair{5, 3}, std::pair{64, 33}})
+    for (int channels : {3, 4})
+      for (bool srgb : {false, true}) {
+        // Bytes that hit every value of the table and differ per channel.
+        std::vector<uint8_t> px(size_t(w) * size_t(h) * size_t(channels));
+        for (size_t i = 0; i < px.size(); ++i) px[i] = uint8_t((i * 37 + i / 7) & 0xff);
+        const std::string path = dir + "/t" + std::to_string(w) + "_" + std::to_string(channels) + ".png";
+        {
+          auto out = OIIO::ImageOutput::create(path);
+          OIIO::ImageSpec spec(w, h, channels, OIIO::TypeDesc::UINT8);
+          spec.attribute("oiio:UnassociatedAlpha", 1);  // the bytes as given: no un-premultiplying
+          ASSERT_TRUE(out && out->open(path, spec)) << path;
+          ASSERT_TRUE(out->write_image(OIIO::TypeDesc::UINT8, px.data())) << path;
+          out->close();
+        }
+        const Texture tex(readBytes(path), path, srgb);
+        tex.decode();
+        ASSERT_EQ(tex.width(), w);
+        ASSERT_EQ(tex.height(), h);
+        const auto decoded = [&](uint8_t b) { return srgb ? srgbToLinear(float(b) / 255.0f) : float(b) / 255.0f; };
+        const auto at = [&](int x, int y) {
+          const uint8_t* p = &px[(size_t(y) * size_t(w) + size_t(x)) * size_t(channels)];
+          return Vec3(decoded(p[0]), decoded(p[1]), decoded(p[2]));
+        };
+        const auto reference = [&](float u, float v) {
+          const double x = double(u) * w - 0.5, y = double(v) * h - 0.5;
+          const double fx = std::floor(x), fy = std::floor(y);
+          const float tx = float(x - fx), ty = float(y - fy);
+          const int x0 = ((int(fx) % w) + w) % w, x1 = (x0 + 1) % w;
+          const int y0 = ((int(fy) % h) + h) % h, y1 = (y0 + 1) % h;
+          const Vec3 a = at(x0, y0) * (1 - tx) + at(x1, y0) * tx;
+          const Vec3 b = at(x0, y1) * (1 - tx) + at(x1, y1) * tx;
+          return a * (1 - ty) + b * ty;
+        };
+        const auto check = [&](float u, float v) {
+          const Vec3 got = tex.sample(u, v, WrapMode::Repeat, WrapMode::Repeat), want = reference(u, v);
+          for (int k = 0; k < 3; ++k)
+            ASSERT_EQ(bitsOf(got[k]), bitsOf(want[k])) << w << "x" << h << "x" << channels << (srgb ? " srgb" : "")
+                                                       << " channel " << k << " at " << u << ", " << v;
+        };
+        std::vector<float> coords = {0.0f, 1.0f - 0x1p-24f, 0x1p-24f, 0.5f};
+        for (int i = 0; i <= 2 * std::max(w, h); ++i) coords.push_back(float(i) / float(2 * std::max(w, h)) * 0.999999f);
+        for (float u : coords)
+          for (float v : coords) check(u, v);
+        const uint32_t key = Sampler(9).pixelKey(1, 3);
+        for (uint32_t i = 0; i < 4096; ++i) {
+          const Sample2 s = Sampler::get2D(key, i, kFirstIntegratorDim);
+          check(s.u, s.v);
+        }
+      }
 }
 
 }  // namespace

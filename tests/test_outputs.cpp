@@ -4,6 +4,7 @@
 // and the EXR is written in bands (large images round-trip).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -28,6 +29,33 @@ Film rampFilm(int w, int h, bool aovs) {
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) f.at(c, x, y) = float(c) * 0.01f + float(x) / float(w) + float(y) * 1e-4f;
   return f;
+}
+
+// A new film's planes are zero wherever its memory comes from: large planes
+// (2 MiB or more) are zeroed by handing their pages back to the kernel
+// (core/film.cpp zeroPlane), small ones by a fill. Films are built where
+// films just as large were filled with non-zero values and freed, so the
+// allocator hands back dirty memory; every pixel of every plane, the fixed
+// channels and added ones, must read 0.
+TEST(Outputs, NewFilmPlanesAreZeroOnReusedMemory) {
+  for (auto [w, h] : {std::pair{1024, 1024}, std::pair{1000, 701}, std::pair{100, 30}}) {
+    for (int round = 0; round < 3; ++round) {
+      {
+        Film dirty = rampFilm(w, h, true);
+        const int extra = dirty.addPlane("extra.R");
+        std::fill_n(dirty.plane(extra), size_t(w) * size_t(h), 7.0f);
+      }
+      Film f(w, h, true);
+      const int extra = f.addPlane("extra.R");
+      ASSERT_GE(extra, 0);
+      for (int c : f.channels()) {
+        const float* p = f.plane(c);
+        size_t nonzero = 0;
+        for (size_t i = 0; i < size_t(w) * size_t(h); ++i) nonzero += p[i] != 0.0f;
+        ASSERT_EQ(nonzero, 0u) << w << "x" << h << " plane " << f.name(c) << " round " << round;
+      }
+    }
+  }
 }
 
 // When the second of two staged files cannot be moved into place, the first
