@@ -1,6 +1,7 @@
 #include "core/texture.h"
 
 #include <emmintrin.h>
+#include <xmmintrin.h>
 #include <stb_image.h>
 
 #include <cmath>
@@ -138,12 +139,7 @@ namespace {
 // wrapPair's remainder is that, or n - 1 for -1. Both axes at once in two
 // double lanes: the same doubles (c n is exact in a double, and so is
 // - 0.5), the same ints and the same float weights as the general form.
-struct UnitFootprint {
-  int x0, x1, y0, y1;
-  float tx, ty;
-};
-
-inline UnitFootprint repeatUnitFootprint(float u, float v, int width, int height) {
+inline Texture::UnitFootprint repeatUnitFootprint(float u, float v, int width, int height) {
   const __m128d size = _mm_setr_pd(double(width), double(height));
   const __m128d x = _mm_sub_pd(_mm_mul_pd(_mm_cvtps_pd(_mm_setr_ps(u, v, 0.0f, 0.0f)), size), _mm_set1_pd(0.5));
   // floor(x): the truncation, minus 1 where x < 0 (x > -1 there). The
@@ -179,6 +175,48 @@ inline Vec3 blend(__m128 t00, __m128 t10, __m128 t01, __m128 t11, float tx, floa
 }
 }  // namespace
 
+void Texture::sampleBatch(const float* u, const float* v, size_t n, WrapMode wrapS, WrapMode wrapT,
+                          Vec3* out) const {
+  if (!(wrapS == WrapMode::Repeat && wrapT == WrapMode::Repeat && width_ > 0)) {
+    for (size_t i = 0; i < n; ++i) out[i] = sample(u[i], v[i], wrapS, wrapT);
+    return;
+  }
+  // The fast path's footprints (sample() below), row starts as texel
+  // indices; a lookup off the unit square is marked and takes sample().
+  UnitFootprint f[kBatch];
+  bool fast[kBatch];
+  const char* base = texels_.empty() ? reinterpret_cast<const char*>(bytes_.data())
+                                     : reinterpret_cast<const char*>(texels_.data());
+  const size_t stride = texels_.empty() ? sizeof(uint32_t) : sizeof(Vec3), w = size_t(width_);
+  for (size_t i = 0; i < n; ++i) {
+    fast[i] = u[i] >= 0.0f && u[i] < 1.0f && v[i] >= 0.0f && v[i] < 1.0f;
+    if (!fast[i]) continue;
+    f[i] = repeatUnitFootprint(u[i], v[i], width_, height_);
+    _mm_prefetch(base + (size_t(f[i].y0) * w + size_t(f[i].x0)) * stride, _MM_HINT_T0);
+    _mm_prefetch(base + (size_t(f[i].y1) * w + size_t(f[i].x0)) * stride, _MM_HINT_T0);
+  }
+  for (size_t i = 0; i < n; ++i) out[i] = fast[i] ? blendFootprint(f[i]) : sample(u[i], v[i], wrapS, wrapT);
+}
+
+Vec3 Texture::blendFootprint(const UnitFootprint& f) const {
+  const size_t w = size_t(width_), r0 = size_t(f.y0) * w, r1 = size_t(f.y1) * w;
+  if (texels_.empty()) {
+    // 8-bit texels through the transfer table, channel by channel.
+    const auto at = [&](size_t i) {
+      const uint32_t c = bytes_[i];
+      return _mm_setr_ps(lut_[c & 0xff], lut_[(c >> 8) & 0xff], lut_[(c >> 16) & 0xff], 0.0f);
+    };
+    return blend(at(r0 + size_t(f.x0)), at(r0 + size_t(f.x1)), at(r1 + size_t(f.x0)), at(r1 + size_t(f.x1)), f.tx,
+                 f.ty);
+  }
+  const auto at = [&](size_t i) {
+    const Vec3& c = texels_[i];
+    return _mm_setr_ps(c.x, c.y, c.z, 0.0f);
+  };
+  return blend(at(r0 + size_t(f.x0)), at(r0 + size_t(f.x1)), at(r1 + size_t(f.x0)), at(r1 + size_t(f.x1)), f.tx,
+               f.ty);
+}
+
 Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
   int x0, x1, y0, y1;
   float tx, ty;
@@ -186,23 +224,7 @@ Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
       width_ > 0) {
     // Bit for bit footprint()'s result and the blend below
     // (FastPaths.TextureUnitSquareLookups, FastPaths.Texture8BitUnitSquareLookups).
-    const UnitFootprint f = repeatUnitFootprint(u, v, width_, height_);
-    const size_t w = size_t(width_), r0 = size_t(f.y0) * w, r1 = size_t(f.y1) * w;
-    if (texels_.empty()) {
-      // 8-bit texels through the transfer table, channel by channel.
-      const auto at = [&](size_t i) {
-        const uint32_t c = bytes_[i];
-        return _mm_setr_ps(lut_[c & 0xff], lut_[(c >> 8) & 0xff], lut_[(c >> 16) & 0xff], 0.0f);
-      };
-      return blend(at(r0 + size_t(f.x0)), at(r0 + size_t(f.x1)), at(r1 + size_t(f.x0)), at(r1 + size_t(f.x1)), f.tx,
-                   f.ty);
-    }
-    const auto at = [&](size_t i) {
-      const Vec3& c = texels_[i];
-      return _mm_setr_ps(c.x, c.y, c.z, 0.0f);
-    };
-    return blend(at(r0 + size_t(f.x0)), at(r0 + size_t(f.x1)), at(r1 + size_t(f.x0)), at(r1 + size_t(f.x1)), f.tx,
-                 f.ty);
+    return blendFootprint(repeatUnitFootprint(u, v, width_, height_));
   }
   if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) return Vec3(0, 0, 0);
   const Vec3 a = texel(x0, y0) * (1 - tx) + texel(x1, y0) * tx;

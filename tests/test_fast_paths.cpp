@@ -115,7 +115,9 @@ TEST(FastPaths, CosineConeLanesEqualTheScalarWarp) {
 // scalar computeSurfaceHit bit for bit, field by field: on hits traced into
 // a scene with vertex normals (one of them zero, so the fallback to Ng
 // runs), a mesh without normals, instances (one mirrored, whose cofactor
-// normal flips) and, when present, the textured viking room (albedo on);
+// normal flips) and, when present, the textured viking room (albedo on:
+// its 2025 hits' texture lookups go through Texture::sampleBatch in runs of
+// up to 32, the last one partial);
 // then on the same hits with their barycentrics and directions replaced by
 // edge cases (u = v = 0, u + v = 1, a zero direction: NaN everywhere, and
 // directions of very different lengths), at counts that leave 1-3 lanes.
