@@ -357,58 +357,8 @@ void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, Surfa
 
 }  // namespace
 
-namespace {
-// The albedo AOV's texture lookups of computeSurfaceHits, batched: each
-// textured hit's uv is computed as the hit is gathered, and runs of up to
-// Texture::kBatch lookups on one texture (and wrap) go to
-// Texture::sampleBatch together, which overlaps their texels' cache misses
-// (one lookup at a time, each waited on its own: most of Texture::sample's
-// time, perf). The same uv, lookup and factor product as primitiveAlbedo:
-// the same bits (FastPaths.SurfaceHitLanesEqualTheScalarForm).
-class BatchedAlbedo {
- public:
-  explicit BatchedAlbedo(const Scene& scene) : scene_(scene) {}
-  // h.albedo = primitiveAlbedo(scene, prim, tri, u, v), now or at the
-  // latest by flush().
-  void add(const Primitive& prim, const uint32_t* tri, float u, float v, SurfaceHit& h) {
-    const Material* m = scene_.materialOf(prim);
-    if (!m || m->texture < 0 || prim.uvs.empty()) {
-      h.albedo = primitiveAlbedo(scene_, prim, tri, u, v);
-      return;
-    }
-    if (n_ > 0 && (m->texture != texture_ || m->wrapS != wrapS_ || m->wrapT != wrapT_)) flush();
-    texture_ = m->texture, wrapS_ = m->wrapS, wrapT_ = m->wrapT;
-    const float w = 1.0f - u - v;
-    const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
-    const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
-    const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
-    tu_[n_] = t0[0] * w + t1[0] * u + t2[0] * v;
-    tv_[n_] = t0[1] * w + t1[1] * u + t2[1] * v;
-    material_[n_] = m, hit_[n_] = &h;
-    if (++n_ == Texture::kBatch) flush();
-  }
-  void flush() {
-    if (n_ == 0) return;
-    Vec3 c[Texture::kBatch];
-    scene_.textures[size_t(texture_)]->sampleBatch(tu_, tv_, n_, wrapS_, wrapT_, c);
-    for (size_t i = 0; i < n_; ++i) hit_[i]->albedo = material_[i]->baseColorFactor * c[i];
-    n_ = 0;
-  }
-
- private:
-  const Scene& scene_;
-  int texture_ = -1;
-  WrapMode wrapS_ = WrapMode::Repeat, wrapT_ = WrapMode::Repeat;
-  size_t n_ = 0;
-  float tu_[Texture::kBatch], tv_[Texture::kBatch];
-  const Material* material_[Texture::kBatch];
-  SurfaceHit* hit_[Texture::kBatch];
-};
-}  // namespace
-
 void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_t* lanes, size_t count, bool albedo,
                         SurfaceHit* out) {
-  BatchedAlbedo albedos(scene);
   HitRows in;
   const Affine* toWorld[4];
   SurfaceHit* dst[4];
@@ -434,7 +384,7 @@ void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_
     h.object = scene.objectOf(geomID, instID);
     h.hitU = u, h.hitV = v;
     h.time = rh.ray.time;
-    if (albedo) albedos.add(prim, tri, u, v, h);
+    if (albedo) h.albedo = primitiveAlbedo(scene, prim, tri, u, v);
     // The lane's rows.
     __m128* const vRows[3] = {in.v0, in.v1, in.v2};
     __m128* const nRows[3] = {in.n0, in.n1, in.n2};
@@ -459,7 +409,6 @@ void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_
     }
     triangleLanes(in, toWorld, m, dst);
   }
-  albedos.flush();
 }
 
 Vec3 surfaceAlbedoAtUv(const Scene& scene, const SurfaceHit& h, float u, float v) {

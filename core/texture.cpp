@@ -1,7 +1,5 @@
 #include "core/texture.h"
 
-#include <emmintrin.h>
-#include <xmmintrin.h>
 #include <stb_image.h>
 
 #include <cmath>
@@ -132,101 +130,31 @@ float Texture::sampleAlpha(float u, float v, WrapMode wrapS, WrapMode wrapT) con
 }
 
 namespace {
-// The fast path of Texture::sample: repeat wrapping on both axes and (u, v)
-// in the unit square, the albedo AOV's common lookup (a textured primitive's
-// uvs inside [0, 1)), in SSE. Along each axis x = c n - 0.5 lies in
-// [-0.5, n - 0.5), so footprint()'s floor is -1 or x's truncation, and
-// wrapPair's remainder is that, or n - 1 for -1. Both axes at once in two
-// double lanes: the same doubles (c n is exact in a double, and so is
-// - 0.5), the same ints and the same float weights as the general form.
-inline Texture::UnitFootprint repeatUnitFootprint(float u, float v, int width, int height) {
-  const __m128d size = _mm_setr_pd(double(width), double(height));
-  const __m128d x = _mm_sub_pd(_mm_mul_pd(_mm_cvtps_pd(_mm_setr_ps(u, v, 0.0f, 0.0f)), size), _mm_set1_pd(0.5));
-  // floor(x): the truncation, minus 1 where x < 0 (x > -1 there). The
-  // comparison's 64-bit masks, packed into the low two 32-bit lanes.
-  const __m128i negative = _mm_shuffle_epi32(_mm_castpd_si128(_mm_cmplt_pd(x, _mm_setzero_pd())), _MM_SHUFFLE(3, 3, 2, 0));
-  const __m128i i = _mm_add_epi32(_mm_cvttpd_epi32(x), negative);
-  const __m128 t = _mm_cvtpd_ps(_mm_sub_pd(x, _mm_cvtepi32_pd(i)));
-  // i0 = i < 0 ? n - 1 : i; i1 = i0 + 1, or 0 where that is n.
-  const __m128i n = _mm_setr_epi32(width, height, 0, 0);
-  const __m128i i0 = _mm_add_epi32(i, _mm_and_si128(negative, n));
-  const __m128i next = _mm_add_epi32(i0, _mm_set1_epi32(1));
-  const __m128i i1 = _mm_andnot_si128(_mm_cmpeq_epi32(next, n), next);
-  alignas(16) int a0[4], a1[4];
-  alignas(16) float w[4];
-  _mm_store_si128(reinterpret_cast<__m128i*>(a0), i0);
-  _mm_store_si128(reinterpret_cast<__m128i*>(a1), i1);
-  _mm_store_ps(w, t);
-  return {a0[0], a1[0], a0[1], a1[1], w[0], w[1]};
-}
-
-// A bilinear blend of four texels held as (r, g, b, 0) in SSE registers:
-// per channel a = t00 (1 - tx) + t10 tx, b = t01 (1 - tx) + t11 tx,
-// a (1 - ty) + b ty, the Vec3 expression of Texture::sample channel by
-// channel (no fused multiply-add in either: the same roundings).
-inline Vec3 blend(__m128 t00, __m128 t10, __m128 t01, __m128 t11, float tx, float ty) {
-  const __m128 sx = _mm_set1_ps(1 - tx), wx = _mm_set1_ps(tx);
-  const __m128 a = _mm_add_ps(_mm_mul_ps(t00, sx), _mm_mul_ps(t10, wx));
-  const __m128 b = _mm_add_ps(_mm_mul_ps(t01, sx), _mm_mul_ps(t11, wx));
-  const __m128 r = _mm_add_ps(_mm_mul_ps(a, _mm_set1_ps(1 - ty)), _mm_mul_ps(b, _mm_set1_ps(ty)));
-  alignas(16) float out[4];
-  _mm_store_ps(out, r);
-  return Vec3(out[0], out[1], out[2]);
+// footprint() along one axis for repeat wrapping and a coordinate c in
+// [0, 1), the common lookup of the render loop's albedo AOV: x = c n - 0.5
+// lies in [-0.5, n - 0.5), so floor(x) is -1 or x's truncation, and
+// wrapPair's remainder is that, or n - 1 for -1. The same doubles and ints
+// as the general form, without its range cases.
+inline void repeatUnitAxis(float c, int n, int& i0, int& i1, float& t) {
+  const double x = double(c) * n - 0.5;
+  const int i = x < 0.0 ? -1 : int(x);
+  t = float(x - double(i));
+  i0 = i < 0 ? n - 1 : i;
+  i1 = i0 + 1 == n ? 0 : i0 + 1;
 }
 }  // namespace
-
-void Texture::sampleBatch(const float* u, const float* v, size_t n, WrapMode wrapS, WrapMode wrapT,
-                          Vec3* out) const {
-  if (!(wrapS == WrapMode::Repeat && wrapT == WrapMode::Repeat && width_ > 0)) {
-    for (size_t i = 0; i < n; ++i) out[i] = sample(u[i], v[i], wrapS, wrapT);
-    return;
-  }
-  // The fast path's footprints (sample() below), row starts as texel
-  // indices; a lookup off the unit square is marked and takes sample().
-  UnitFootprint f[kBatch];
-  bool fast[kBatch];
-  const char* base = texels_.empty() ? reinterpret_cast<const char*>(bytes_.data())
-                                     : reinterpret_cast<const char*>(texels_.data());
-  const size_t stride = texels_.empty() ? sizeof(uint32_t) : sizeof(Vec3), w = size_t(width_);
-  for (size_t i = 0; i < n; ++i) {
-    fast[i] = u[i] >= 0.0f && u[i] < 1.0f && v[i] >= 0.0f && v[i] < 1.0f;
-    if (!fast[i]) continue;
-    f[i] = repeatUnitFootprint(u[i], v[i], width_, height_);
-    _mm_prefetch(base + (size_t(f[i].y0) * w + size_t(f[i].x0)) * stride, _MM_HINT_T0);
-    _mm_prefetch(base + (size_t(f[i].y1) * w + size_t(f[i].x0)) * stride, _MM_HINT_T0);
-  }
-  for (size_t i = 0; i < n; ++i) out[i] = fast[i] ? blendFootprint(f[i]) : sample(u[i], v[i], wrapS, wrapT);
-}
-
-Vec3 Texture::blendFootprint(const UnitFootprint& f) const {
-  const size_t w = size_t(width_), r0 = size_t(f.y0) * w, r1 = size_t(f.y1) * w;
-  if (texels_.empty()) {
-    // 8-bit texels through the transfer table, channel by channel.
-    const auto at = [&](size_t i) {
-      const uint32_t c = bytes_[i];
-      return _mm_setr_ps(lut_[c & 0xff], lut_[(c >> 8) & 0xff], lut_[(c >> 16) & 0xff], 0.0f);
-    };
-    return blend(at(r0 + size_t(f.x0)), at(r0 + size_t(f.x1)), at(r1 + size_t(f.x0)), at(r1 + size_t(f.x1)), f.tx,
-                 f.ty);
-  }
-  const auto at = [&](size_t i) {
-    const Vec3& c = texels_[i];
-    return _mm_setr_ps(c.x, c.y, c.z, 0.0f);
-  };
-  return blend(at(r0 + size_t(f.x0)), at(r0 + size_t(f.x1)), at(r1 + size_t(f.x0)), at(r1 + size_t(f.x1)), f.tx,
-               f.ty);
-}
 
 Vec3 Texture::sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const {
   int x0, x1, y0, y1;
   float tx, ty;
   if (wrapS == WrapMode::Repeat && wrapT == WrapMode::Repeat && u >= 0.0f && u < 1.0f && v >= 0.0f && v < 1.0f &&
       width_ > 0) {
-    // Bit for bit footprint()'s result and the blend below
-    // (FastPaths.TextureUnitSquareLookups, FastPaths.Texture8BitUnitSquareLookups).
-    return blendFootprint(repeatUnitFootprint(u, v, width_, height_));
+    // Bit for bit footprint()'s result (FastPaths.TextureUnitSquareLookups).
+    repeatUnitAxis(u, width_, x0, x1, tx);
+    repeatUnitAxis(v, height_, y0, y1, ty);
+  } else if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) {
+    return Vec3(0, 0, 0);
   }
-  if (!footprint(u, v, wrapS, wrapT, x0, x1, y0, y1, tx, ty)) return Vec3(0, 0, 0);
   const Vec3 a = texel(x0, y0) * (1 - tx) + texel(x1, y0) * tx;
   const Vec3 b = texel(x0, y1) * (1 - tx) + texel(x1, y1) * tx;
   return a * (1 - ty) + b * ty;

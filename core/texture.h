@@ -25,20 +25,6 @@ class Texture {
   void decode() const;
   // Bilinear lookup at (u,v) in linear RGB. decode() must have succeeded.
   Vec3 sample(float u, float v, WrapMode wrapS, WrapMode wrapT) const;
-  // sample()'s fast path (repeat wrapping, inside the unit square): the
-  // texels x0|x1, y0|y1 and the weights of its bilinear lookup.
-  struct UnitFootprint {
-    int x0, x1, y0, y1;
-    float tx, ty;
-  };
-  // out[i] = sample(u[i], v[i], wrapS, wrapT) for i < n, bit for bit, as a
-  // batch: the footprints of all n lookups first (a tight loop whose
-  // iterations overlap), their texels' cache lines prefetched, then the
-  // blends, so the lookups' cache misses overlap instead of each waiting on
-  // its own (the albedo AOV of computeSurfaceHits). decode() must have
-  // succeeded; n <= kBatch.
-  static constexpr size_t kBatch = 32;
-  void sampleBatch(const float* u, const float* v, size_t n, WrapMode wrapS, WrapMode wrapT, Vec3* out) const;
   // The alpha channel (linear, as glTF defines it), bilinear at (u, v); 1
   // for an image without one. decode() must have succeeded.
   float sampleAlpha(float u, float v, WrapMode wrapS, WrapMode wrapT) const;
@@ -70,8 +56,6 @@ class Texture {
     if (texels_.empty()) return float(bytes_[i] >> 24) * (1.0f / 255.0f);
     return alphas_[i];
   }
-  // The blend of a fast-path footprint's texels.
-  Vec3 blendFootprint(const UnitFootprint& f) const;
   // The texels (x0|x1, y0|y1) and weights (tx, ty) of a bilinear lookup.
   bool footprint(float u, float v, WrapMode wrapS, WrapMode wrapT, int& x0, int& x1, int& y0, int& y1, float& tx,
                  float& ty) const;

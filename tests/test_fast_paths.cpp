@@ -115,9 +115,7 @@ TEST(FastPaths, CosineConeLanesEqualTheScalarWarp) {
 // scalar computeSurfaceHit bit for bit, field by field: on hits traced into
 // a scene with vertex normals (one of them zero, so the fallback to Ng
 // runs), a mesh without normals, instances (one mirrored, whose cofactor
-// normal flips) and, when present, the textured viking room (albedo on:
-// its 2025 hits' texture lookups go through Texture::sampleBatch in runs of
-// up to 32, the last one partial);
+// normal flips) and, when present, the textured viking room (albedo on);
 // then on the same hits with their barycentrics and directions replaced by
 // edge cases (u = v = 0, u + v = 1, a zero direction: NaN everywhere, and
 // directions of very different lengths), at counts that leave 1-3 lanes.
@@ -274,7 +272,7 @@ TEST(FastPaths, TextureUnitSquareLookups) {
 
 // The same for 8-bit images (the kind glTF scenes ship, the viking room's
 // among them), whose texels decode() keeps as bytes and reads through its
-// 256-entry transfer table: sRGB and linear, RGB and RGBA (alpha must not
+// 256-entry transfer table (the test above covers 16-bit files only): sRGB and linear, RGB and RGBA (alpha must not
 // leak into the colour), against the reference bilinear lookup over the
 // file's bytes through the transfer function.
 TEST(FastPaths, Texture8BitUnitSquareLookups) {

@@ -31,12 +31,12 @@ Film rampFilm(int w, int h, bool aovs) {
   return f;
 }
 
-// A new film's planes are zero wherever its memory comes from: large planes
-// (2 MiB or more) are zeroed by handing their pages back to the kernel
-// (core/film.cpp zeroPlane), small ones by a fill. Films are built where
-// films just as large were filled with non-zero values and freed, so the
-// allocator hands back dirty memory; every pixel of every plane, the fixed
-// channels and added ones, must read 0.
+// A new film's planes are zero wherever its memory comes from (a guard for
+// any cheaper zeroing of the film's huge-page planes, README "Speed"). Films
+// are built where films just as large were filled with non-zero values and
+// freed, so the allocator hands back dirty memory; every pixel of every
+// plane, the fixed channels and added ones, must read 0, at sizes above and
+// below the 2 MiB of a huge page.
 TEST(Outputs, NewFilmPlanesAreZeroOnReusedMemory) {
   for (auto [w, h] : {std::pair{1024, 1024}, std::pair{1000, 701}, std::pair{100, 30}}) {
     for (int round = 0; round < 3; ++round) {
