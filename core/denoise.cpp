@@ -452,7 +452,9 @@ void checkDenoise(const DenoiseInput& in, const DenoiseSettings& s) {
   if (s.threads < 0) throw Error("denoise: threads: must be >= 0, got " + std::to_string(s.threads));
 }
 
-void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) { denoise(in, s, out, nullptr); }
+
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain) {
   checkDenoise(in, s);
   const int w = in.width, h = in.height;
   const size_t n = size_t(w) * size_t(h);
@@ -539,6 +541,9 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
   // luminance term reads it (docs/denoise.md "Variance").
   const bool luminance = s.sigmaLuminance > 0.0f;
   if (s.iterations > 0 && luminance) pass(TapPass{kBinomial3, 1, 1, false, true});
+  // The variance the iterations start from, for the gain.
+  LargeVector<float> start;
+  if (gain) start = src->var;
   for (int it = 0; it < s.iterations; ++it)
     pass(s.kernel == 3 ? TapPass{kBinomial3, 1, 1 << it, luminance, false} : TapPass{kB3, 2, 1 << it, luminance, false});
 
@@ -546,6 +551,11 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
     for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
       for (int c = 0; c < 3; ++c) out[c][p] = g.d[p] > 0.0f ? src->w[c][p] * in.alpha[p] : in.color[c][p];
   });
+  if (gain)
+    rows([&](int y0, int y1) {
+      for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
+        gain[p] = g.d[p] > 0.0f && start[p] > 0.0f ? std::min(1.0f, src->var[p] / start[p]) : 1.0f;
+    });
 }
 
 }  // namespace obscura
