@@ -509,12 +509,13 @@ TEST(Adaptive, DenoisedRoundsAreDeterministicAndTheFixedRendersSamples) {
       for (int x = 0; x < kW; ++x) {
         if (a.at(sppPlane, x, y) != count) continue;
         for (int c : f.channels()) {
-          if (c == kR || c == kG || c == kB || c == sppPlane || f.name(c).rfind("shaded.", 0) == 0) continue;
+          const std::string& name = f.name(c);
+          if (name == "R" || name == "G" || name == "B" || name == "spp" || name.rfind("shaded.", 0) == 0) continue;
           const float u = a.at(a.find(f.name(c)), x, y), v = f.at(c, x, y);
           ASSERT_EQ(std::memcmp(&u, &v, sizeof u), 0) << f.name(c) << " at " << x << "," << y << ", " << count << " spp";
         }
         for (int c = 0; c < 3; ++c) {
-          const float u = a.at(noisy + c, x, y), v = f.at(kR + c, x, y);
+          const float u = a.at(noisy + c, x, y), v = f.at(Channel::kR + c, x, y);  // (kR here is the ao radius)
           ASSERT_EQ(std::memcmp(&u, &v, sizeof u), 0) << "noisy." << c << " at " << x << "," << y;
         }
       }

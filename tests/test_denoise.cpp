@@ -298,6 +298,42 @@ TEST(Denoise, RampUpToAnEdgeKeepsItsValue) {
 }
 
 // The result does not depend on the thread count.
+// The gain (adaptive sampling's measure of where the filter helps): with the
+// luminance term off and one flat plane, every weight is the kernel's, so
+// each iteration multiplies an interior pixel's uniform variance by
+// (sum k^2)^2 = (3/8)^2 and the gain is (3/8)^10 after 5 iterations; a pixel
+// with variance 0 or without W has gain 1; the denoised pass is the one
+// denoise() without the gain writes.
+TEST(Denoise, GainIsTheVarianceTheIterationsCarry) {
+  Synth f(128, 128);
+  for (int y = 0; y < f.h; ++y)
+    for (int x = 0; x < f.w; ++x) {
+      f.setW(f.at(x, y), 0.5f + 0.001f * float((x * 7 + y * 3) % 11));
+      f.var[f.at(x, y)] = 0.01f;
+    }
+  // Both more than the footprint's reach (31 pixels) from the interior checked below.
+  f.var[f.at(3, 3)] = 0.0f;
+  f.alpha[f.at(124, 124)] = 0.0f;
+  DenoiseSettings s;
+  s.sigmaLuminance = 0.0f;
+  std::vector<float> gain(size_t(f.w) * size_t(f.h), -1.0f);
+  Output o;
+  for (auto& p : o.c) p.assign(gain.size(), -1.0f);
+  float* out[3] = {o.c[0].data(), o.c[1].data(), o.c[2].data()};
+  denoise(f.input(), s, out, gain.data());
+  const Output plain = run(f.input(), s);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(o.c[c], plain.c[c]) << c;
+  const double expected = std::pow(3.0 / 8.0, 10);
+  // Float sums of 9 taps over 5 iterations: a few 1e-6 relative.
+  for (int y = 40; y < f.h - 40; ++y)
+    for (int x = 40; x < f.w - 40; ++x) ASSERT_NEAR(gain[f.at(x, y)], expected, 1e-4 * expected) << x << "," << y;
+  EXPECT_EQ(gain[f.at(3, 3)], 1.0f);
+  EXPECT_EQ(gain[f.at(124, 124)], 1.0f);
+  for (float g : gain) ASSERT_TRUE(g > 0.0f && g <= 1.0f) << g;
+  // Near the border fewer taps average: less reduction than inside.
+  EXPECT_GT(gain[f.at(0, 64)], 10.0 * expected);
+}
+
 TEST(Denoise, IndependentOfThreads) {
   Synth s(64, 48);
   std::mt19937_64 rng(3);
