@@ -418,6 +418,24 @@ void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const S
   }
 }
 
+// The variance factor of the linear a-trous filter (every weight the
+// kernel's): the taps at steps 1, 2, 4, ... convolved into one kernel, the
+// sum of its squares in 2D (separable: the square of the 1D sum).
+double linearVarianceFactor(int iterations, int taps) {
+  std::vector<double> k{1.0};
+  for (int i = 0; i < iterations; ++i) {
+    const int step = 1 << i, r = taps / 2;
+    std::vector<double> next(k.size() + size_t(2 * r * step), 0.0);
+    for (size_t j = 0; j < k.size(); ++j)
+      for (int t = -r; t <= r; ++t)
+        next[j + size_t((t + r) * step)] += k[j] * double(taps == 5 ? kB3[t + r] : kBinomial3[t + r]);
+    k = std::move(next);
+  }
+  double sq = 0;
+  for (double v : k) sq += v * v;
+  return sq * sq;
+}
+
 void checkPlane(const void* p, const char* field) {
   if (!p) throw Error(std::string("denoise: ") + field + ": plane missing");
 }
@@ -551,11 +569,19 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], fl
     for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
       for (int c = 0; c < 3; ++c) out[c][p] = g.d[p] > 0.0f ? src->w[c][p] * in.alpha[p] : in.color[c][p];
   });
-  if (gain)
+  if (gain) {
+    // The propagated variance takes the pixels as independent, which they
+    // are not after the first iteration: in a flat region it falls as the
+    // product of the iterations' factors, far below what the filter
+    // achieves. No weights average more than the plain kernel over the
+    // whole footprint, whose variance factor (the sum of squares of its
+    // equivalent kernel, correlations included) is the floor.
+    const float floor = float(linearVarianceFactor(s.iterations, s.kernel));
     rows([&](int y0, int y1) {
       for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
-        gain[p] = g.d[p] > 0.0f && start[p] > 0.0f ? std::min(1.0f, src->var[p] / start[p]) : 1.0f;
+        gain[p] = g.d[p] > 0.0f && start[p] > 0.0f ? std::clamp(src->var[p] / start[p], floor, 1.0f) : 1.0f;
     });
+  }
 }
 
 }  // namespace obscura
