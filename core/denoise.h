@@ -87,9 +87,10 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]);
 // As above, and writes to gain (width x height, or nullptr: not asked) each
 // pixel's variance reduction: the variance the iterations carry to the
 // output over the prefiltered input variance (sum w^2 V / (sum w)^2 per
-// iteration, pixels taken as independent, so it errs low in flat regions
-// where the iterations reuse the same pixels); 1 where the pixel holds no W
-// or its variance is 0. Adaptive sampling for a denoised pass reads it
+// iteration, pixels taken as independent), at most 1 and at least the
+// linear filter's own factor (in a flat region the iterations reuse the same
+// pixels, and the product of their factors falls below what any weights
+// achieve); 1 where the pixel holds no W or its variance is 0. Adaptive sampling for a denoised pass reads it
 // (README "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
 // filter").
 void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain);
