@@ -34,6 +34,13 @@ struct DenoiseInput {
   // The object of each pixel's first hit (~0u where nothing was hit), or
   // nullptr: then object boundaries are found by normal and depth alone.
   const uint32_t* object = nullptr;
+  // Samples per pixel (the film's spp plane), or nullptr (all equal). The
+  // filter's taps are weighted by their pixel's count over the largest: for
+  // a per-sample variance shared by the neighbours that is inverse-variance
+  // weighting, so a pixel that took more samples (adaptive sampling) is not
+  // averaged down to its noisier neighbours. Equal counts weigh 1 exactly:
+  // a fixed-spp pass is filtered as without them.
+  const float* samples = nullptr;
 };
 
 // Every weight is exp(-E) with E a sum of the terms below (docs/denoise.md

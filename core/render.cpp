@@ -638,6 +638,9 @@ DenoiseInput denoiseInput(const Film& film, int color, const IntegratorNeeds& ne
   in.variance = variance.data();
   in.depth = film.plane(kZ);
   in.object = objects;
+  // The taps weigh their pixel's samples (adaptive rounds take uneven counts).
+  const int spp = film.find(kSppPlane);
+  in.samples = spp >= 0 ? film.plane(spp) : nullptr;
   return in;
 }
 

@@ -347,6 +347,37 @@ TEST(Denoise, GainIsTheVarianceTheIterationsCarry) {
   EXPECT_GT(one[f.at(0, 64)], 1.5 * propagated1);
 }
 
+// Sample counts weigh the taps (inverse variance for a shared per-sample
+// variance). Equal counts change nothing, bit for bit; with the luminance
+// term off and one iteration, a pixel with W = 1 and 4 samples among
+// neighbours with W = 0 and 1 sample is the count-weighted mean of its 3 x 3
+// binomial taps: 4 (1/4) / (4 (1/4) + 1 (3/4)) = 4/7 (1/4 without counts).
+TEST(Denoise, SampleCountsWeighTheTaps) {
+  Synth f(32, 32);
+  std::mt19937_64 rng(7);
+  for (int y = 0; y < f.h; ++y)
+    for (int x = 0; x < f.w; ++x) f.setNoisy(f.at(x, y), 0.5f, 0.1f, rng);
+  std::vector<float> equal(size_t(f.w) * size_t(f.h), 8.0f);
+  DenoiseInput counted = f.input();
+  counted.samples = equal.data();
+  const Output a = run(f.input()), b = run(counted);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(a.c[c], b.c[c]) << c;
+
+  Synth g(16, 16);
+  for (int y = 0; y < g.h; ++y)
+    for (int x = 0; x < g.w; ++x) g.setW(g.at(x, y), 0.0f);
+  g.setW(g.at(8, 8), 1.0f);
+  std::vector<float> counts(size_t(g.w) * size_t(g.h), 1.0f);
+  counts[g.at(8, 8)] = 4.0f;
+  DenoiseSettings s;
+  s.sigmaLuminance = 0.0f;
+  s.iterations = 1;
+  DenoiseInput in = g.input();
+  EXPECT_NEAR(run(in, s).c[0][g.at(8, 8)], 0.25f, 1e-6f);
+  in.samples = counts.data();
+  EXPECT_NEAR(run(in, s).c[0][g.at(8, 8)], 4.0f / 7.0f, 1e-6f);
+}
+
 TEST(Denoise, IndependentOfThreads) {
   Synth s(64, 48);
   std::mt19937_64 rng(3);
