@@ -223,6 +223,7 @@ struct Options {
   double target = 0.01, tolerance = 0.03;
   int threads = 0, runs = 1;
   int referenceSpp = 1024, maxSpp = 2048, minSpp = 0, startSpp = 16, maxRenders = 8;
+  double startError = 0;  // adaptive modes' first E; 0: the RMSE target
   std::string reference, saveReference, csv;
   bool checkNoise = false;
 };
@@ -270,7 +271,7 @@ ModeResult searchMode(const Mode& m, const Options& o, const BenchIntegrator& in
   std::vector<Trial> trials;
   std::optional<size_t> pass, fail;  // the best passing (cheapest) and failing (closest) trials
   const auto cheaper = [&](double a, double b) { return m.adaptive ? a > b : a < b; };
-  double p = m.adaptive ? T : double(std::min(o.startSpp, o.maxSpp));
+  double p = m.adaptive ? (o.startError > 0 ? o.startError : T) : double(std::min(o.startSpp, o.maxSpp));
   std::printf("  %s:\n", m.name.c_str());
   for (int k = 0; k < o.maxRenders; ++k) {
     Trial tr;
@@ -403,6 +404,9 @@ int main(int argc, char** argv) {
   app.add_option("--max-spp", o.maxSpp, "Adaptive modes: the most samples a pixel takes (--spp); fixed: the search's cap (default 2048)");
   app.add_option("--min-spp", o.minSpp, "Adaptive modes: --min-spp (default 0: the renderer's, min(16, spp))");
   app.add_option("--start-spp", o.startSpp, "Fixed modes: the search's first spp (default 16)");
+  app.add_option("--start-error", o.startError,
+                 "Adaptive modes: the search's first --target-error (default the RMSE target; with --denoise "
+                 "E is the filtered error at --min-spp, often well below it)");
   app.add_option("--max-renders", o.maxRenders, "Renders per mode's search at most (default 8)");
   app.add_option("--csv", o.csv, "Also write the table as CSV to this file");
   app.add_flag("--check-noise", o.checkNoise,
@@ -419,6 +423,7 @@ int main(int argc, char** argv) {
     if (o.runs < 1) throw Error("--runs must be at least 1");
     if (o.threads < 0) throw Error("--threads must be >= 0");
     if (o.referenceSpp < 2) throw Error("--reference-spp must be at least 2 (its W.error needs two halves)");
+    if (!(o.startError >= 0)) throw Error("--start-error must be >= 0");
     if (o.maxSpp < 1 || o.startSpp < 1 || o.minSpp < 0 || o.maxRenders < 1)
       throw Error("--max-spp, --start-spp, --max-renders must be at least 1, --min-spp at least 0");
     if (!o.reference.empty() && (!o.saveReference.empty() || o.checkNoise))

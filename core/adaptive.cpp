@@ -45,7 +45,8 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 }
 
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
-    : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds) {
+    : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds),
+      firstSpp_(uint32_t(firstRoundSpp(s))) {
   parallelFill(taken_, window.size(), 0U);
   parallelFill(target_, window.size(), uint32_t(firstRoundSpp(s)));
   parallelFill(active_, window.size(), uint8_t(1));
@@ -108,15 +109,25 @@ uint64_t SampleSchedule::next(const float* error) {
     if (!active_[i]) continue;  // stopped pixels stay stopped
     const uint32_t n = taken_[i];
     const float d = pooled_[i];
-    if (n >= spp_ || (targetError_ > 0.0f && d <= targetError_)) {
+    // The marginal rule's threshold grows with the samples taken: the
+    // error a sample more removes, d^2 / n, is what every pixel is stopped at.
+    const double threshold =
+        marginal_ ? double(targetError_) * std::sqrt(double(n) / double(firstSpp_)) : double(targetError_);
+    if (n >= spp_ || (targetError_ > 0.0f && double(d) <= threshold)) {
       active_[i] = 0;
       continue;
     }
     const double grow = std::max(1.0, std::floor(double(n) * 0.5));
     double want = double(n) + grow;
     if (targetError_ > 0.0f && std::isfinite(d)) {
-      const double ratio = double(d) / double(targetError_) * kAim;
-      want = std::min(want, std::ceil(double(n) * ratio * ratio));
+      if (marginal_) {
+        // n' = d sqrt(n) sqrt(n0) / E: the deviation over the threshold's
+        // scale, aimed kAim beyond it.
+        want = std::min(want, std::ceil(double(d) * std::sqrt(double(n) * double(firstSpp_)) / double(targetError_) * kAim));
+      } else {
+        const double ratio = double(d) / double(targetError_) * kAim;
+        want = std::min(want, std::ceil(double(n) * ratio * ratio));
+      }
     }
     want = std::max(want, double(n) + 1.0);
     target_[i] = uint32_t(std::min(double(spp_), want));

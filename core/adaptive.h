@@ -58,6 +58,13 @@ class SampleSchedule {
   // without a surface; +inf where unknown), plans the next round and
   // returns its samples (0: finished).
   uint64_t next(const float* error);
+  // The marginal rule (a denoised pass; README "Adaptive sampling"): a
+  // pixel stops when error <= E sqrt(n / n0), n its samples, n0 the first
+  // round's, and plans n proportional to its per-sample deviation
+  // error sqrt(n): the allocation that minimizes the image's mean squared
+  // error for the samples spent (docs/math.md §13), where the default rule
+  // (every pixel to E) spends as a fixed-spp render would.
+  void setMarginal(bool on) { marginal_ = on; }
   // Drops the round just planned (the time limit): the render ends with
   // the samples taken.
   void dropPlan();
@@ -71,6 +78,8 @@ class SampleSchedule {
   uint32_t spp_;
   float targetError_;
   bool uniform_;
+  bool marginal_ = false;
+  uint32_t firstSpp_;
   // Whole-window arrays on huge pages (core/large_vector.h).
   LargeVector<uint32_t> taken_, target_;
   LargeVector<uint8_t> active_;  // 0 once the pixel has stopped

@@ -47,6 +47,7 @@ struct Guides {
   LargeVector<float> gx, gy;   // gradient of d in pixels
   LargeVector<uint32_t> object;
   LargeVector<float> live;      // 1 where the pixel holds W, else 0
+  LargeVector<float> count;     // its samples over the largest count (1 without counts), 0 without W
   LargeVector<float> albedo[3];  // un-premultiplied; empty without albedo
 };
 
@@ -308,8 +309,9 @@ void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings&
     VI4 sq, sm;
     const V4 e = vmax(exponent4(x, off, 1.0f, sq), exponent4(x, -off, -1.0f, sm));
     const V4 wk = o.k * expNeg4(vmin(e, V4{} + kMaxExponent));
-    const V4 wt = (sq & sm) != 0 ? wk : V4{};
     const ptrdiff_t q = x + off, m = x - off;
+    // Both taps weigh the smaller count of the two: still a symmetric pair.
+    const V4 wt = (sq & sm) != 0 ? wk * vmin(load4(live + q), load4(live + m)) : V4{};
     store4(sw + x, load4(sw + x) + (wt + wt));
     store4(sc0 + x, load4(sc0 + x) + wt * (load4(w0 + q) + load4(w0 + m)));
     store4(sc1 + x, load4(sc1 + x) + wt * (load4(w1 + q) + load4(w1 + m)));
@@ -319,8 +321,8 @@ void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings&
   for (; x < x1; ++x) {
     bool sq, sm;
     const float e = std::max(exponent1(x, off, 1.0f, sq), exponent1(x, -off, -1.0f, sm));
-    const float wt = sq && sm ? o.k * expNeg(std::min(e, kMaxExponent)) : 0.0f;
     const ptrdiff_t q = x + off, m = x - off;
+    const float wt = sq && sm ? o.k * expNeg(std::min(e, kMaxExponent)) * std::min(live[q], live[m]) : 0.0f;
     sw[x] += wt + wt;
     sc0[x] += wt * (w0[q] + w0[m]);
     sc1[x] += wt * (w1[q] + w1[m]);
@@ -355,7 +357,9 @@ void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const S
   const float* gxp = g.gx.data() + row;
   const float* gyp = g.gy.data() + row;
   const uint32_t* op = g.object.data() + row;
-  const float* livep = g.live.data() + row;
+  // The filter's passes weigh each tap by its count (1 without counts);
+  // the variance prefilter by presence only (it averages V itself).
+  const float* livep = (t.varOnly ? g.live.data() : g.count.data()) + row;
   const float* w0 = src.w[0].data() + row;
   const float* w1 = src.w[1].data() + row;
   const float* w2 = src.w[2].data() + row;
@@ -418,6 +422,24 @@ void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const S
   }
 }
 
+// The variance factor of the linear a-trous filter (every weight the
+// kernel's): the taps at steps 1, 2, 4, ... convolved into one kernel, the
+// sum of its squares in 2D (separable: the square of the 1D sum).
+double linearVarianceFactor(int iterations, int taps) {
+  std::vector<double> k{1.0};
+  for (int i = 0; i < iterations; ++i) {
+    const int step = 1 << i, r = taps / 2;
+    std::vector<double> next(k.size() + size_t(2 * r * step), 0.0);
+    for (size_t j = 0; j < k.size(); ++j)
+      for (int t = -r; t <= r; ++t)
+        next[j + size_t((t + r) * step)] += k[j] * double(taps == 5 ? kB3[t + r] : kBinomial3[t + r]);
+    k = std::move(next);
+  }
+  double sq = 0;
+  for (double v : k) sq += v * v;
+  return sq * sq;
+}
+
 void checkPlane(const void* p, const char* field) {
   if (!p) throw Error(std::string("denoise: ") + field + ": plane missing");
 }
@@ -452,7 +474,9 @@ void checkDenoise(const DenoiseInput& in, const DenoiseSettings& s) {
   if (s.threads < 0) throw Error("denoise: threads: must be >= 0, got " + std::to_string(s.threads));
 }
 
-void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) { denoise(in, s, out, nullptr); }
+
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain) {
   checkDenoise(in, s);
   const int w = in.width, h = in.height;
   const size_t n = size_t(w) * size_t(h);
@@ -462,7 +486,10 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
   Guides g;
   g.width = w, g.height = h;
   for (auto& c : g.n) c.resize(n);
-  g.d.resize(n), g.gx.resize(n), g.gy.resize(n), g.object.resize(n), g.live.resize(n);
+  g.d.resize(n), g.gx.resize(n), g.gy.resize(n), g.object.resize(n), g.live.resize(n), g.count.resize(n);
+  float maxCount = 0.0f;
+  if (in.samples)
+    for (size_t p = 0; p < n; ++p) maxCount = std::max(maxCount, in.samples[p]);
   const bool hasAlbedo = in.albedo[0] != nullptr;
   if (hasAlbedo)
     for (auto& c : g.albedo) c.resize(n);
@@ -491,6 +518,8 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
       }
       g.d[p] = ok ? 1.0f / z : -1.0f;
       g.live[p] = ok ? 1.0f : 0.0f;
+      // n / max: equal counts give exactly 1.
+      g.count[p] = !ok ? 0.0f : maxCount > 0.0f ? std::max(in.samples[p], 1.0f) / maxCount : 1.0f;
       g.gx[p] = g.gy[p] = 0.0f;
       g.object[p] = in.object ? in.object[p] : 0u;
       a.var[p] = ok ? std::max(0.0f, in.variance[p]) : 0.0f;
@@ -539,6 +568,9 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
   // luminance term reads it (docs/denoise.md "Variance").
   const bool luminance = s.sigmaLuminance > 0.0f;
   if (s.iterations > 0 && luminance) pass(TapPass{kBinomial3, 1, 1, false, true});
+  // The variance the iterations start from, for the gain.
+  LargeVector<float> start;
+  if (gain) start = src->var;
   for (int it = 0; it < s.iterations; ++it)
     pass(s.kernel == 3 ? TapPass{kBinomial3, 1, 1 << it, luminance, false} : TapPass{kB3, 2, 1 << it, luminance, false});
 
@@ -546,6 +578,19 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) {
     for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
       for (int c = 0; c < 3; ++c) out[c][p] = g.d[p] > 0.0f ? src->w[c][p] * in.alpha[p] : in.color[c][p];
   });
+  if (gain) {
+    // The propagated variance takes the pixels as independent, which they
+    // are not after the first iteration: in a flat region it falls as the
+    // product of the iterations' factors, far below what the filter
+    // achieves. No weights average more than the plain kernel over the
+    // whole footprint, whose variance factor (the sum of squares of its
+    // equivalent kernel, correlations included) is the floor.
+    const float floor = float(linearVarianceFactor(s.iterations, s.kernel));
+    rows([&](int y0, int y1) {
+      for (size_t p = size_t(y0) * size_t(w); p < size_t(y1) * size_t(w); ++p)
+        gain[p] = g.d[p] > 0.0f && start[p] > 0.0f ? std::clamp(src->var[p] / start[p], floor, 1.0f) : 1.0f;
+    });
+  }
 }
 
 }  // namespace obscura

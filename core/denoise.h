@@ -34,6 +34,13 @@ struct DenoiseInput {
   // The object of each pixel's first hit (~0u where nothing was hit), or
   // nullptr: then object boundaries are found by normal and depth alone.
   const uint32_t* object = nullptr;
+  // Samples per pixel (the film's spp plane), or nullptr (all equal). The
+  // filter's taps are weighted by their pixel's count over the largest: for
+  // a per-sample variance shared by the neighbours that is inverse-variance
+  // weighting, so a pixel that took more samples (adaptive sampling) is not
+  // averaged down to its noisier neighbours. Equal counts weigh 1 exactly:
+  // a fixed-spp pass is filtered as without them.
+  const float* samples = nullptr;
 };
 
 // Every weight is exp(-E) with E a sum of the terms below (docs/denoise.md
@@ -83,5 +90,16 @@ void checkDenoise(const DenoiseInput& in, const DenoiseSettings& s);
 // height floats each; may not alias the input). Pixels with alpha <= 0 are
 // copied from in.color. Allocates its working planes once per call.
 void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]);
+
+// As above, and writes to gain (width x height, or nullptr: not asked) each
+// pixel's variance reduction: the variance the iterations carry to the
+// output over the prefiltered input variance (sum w^2 V / (sum w)^2 per
+// iteration, pixels taken as independent), at most 1 and at least the
+// linear filter's own factor (in a flat region the iterations reuse the same
+// pixels, and the product of their factors falls below what any weights
+// achieve); 1 where the pixel holds no W or its variance is 0. Adaptive sampling for a denoised pass reads it
+// (README "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
+// filter").
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain);
 
 }  // namespace obscura

@@ -172,8 +172,12 @@ class TileRenderer {
   }
 
   // An adaptive render's tile into the film, once its rounds are done.
-  void resolveTile(int tile) const {
-    resolve(tileRect(tile), window_sums_->sums.data(), window_sums_->passSums.data(), window_sums_->even.data());
+  // With `roundDone` between a round and SampleSchedule::next (which
+  // moves each pixel's count on to its target): the film of the samples
+  // taken so far, for the denoiser's gain.
+  void resolveTile(int tile, bool roundDone = false) const {
+    resolve(tileRect(tile), window_sums_->sums.data(), window_sums_->passSums.data(), window_sums_->even.data(),
+            roundDone);
   }
 
   // The primary pass's composited standard error (compositedError) of
@@ -390,12 +394,14 @@ class TileRenderer {
 
   // The tile's sums (slots as slotOf) into the film, each pixel over the
   // samples it took. Each pixel belongs to exactly one tile, so no locking.
-  void resolve(const PixelRect& r, const PixelSums* sums, const PassSums* passSums, const HalfSums* even) const {
+  void resolve(const PixelRect& r, const PixelSums* sums, const PassSums* passSums, const HalfSums* even,
+               bool roundDone = false) const {
     const PassSlot& primary = passes_[0];
     for (int fy = r.y0; fy < r.y1; ++fy)
       for (int fx = r.x0; fx < r.x1; ++fx) {
         const size_t j = slotOf(r, fx, fy);
-        const int n = schedule_ ? int(schedule_->taken(window_.offset(fx, fy))) : s_.spp;
+        const size_t i = window_.offset(fx, fy);
+        const int n = schedule_ ? int(roundDone ? schedule_->target(i) : schedule_->taken(i)) : s_.spp;
         const PixelSums& p = sums[j];
         resolvePixelSums(p, n, *primary.integrator, primary.albedo, s_.sky, film_, fx, fy);
         if (errorPlane_ >= 0) film_.at(errorPlane_, fx, fy) = writtenError(pixelError(p, even[j]), film_, fx, fy);
@@ -604,11 +610,45 @@ void checkSettings(const RenderSettings& s) {
                 "render without --checkpoint to denoise");
 }
 
+// The denoiser's settings for the primary pass (the filter's defaults:
+// docs/denoise.md measures them per integrator).
+DenoiseSettings denoiseSettings(const RenderSettings& s) {
+  DenoiseSettings ds;
+  ds.threads = s.threads;
+  return ds;
+}
+
+// The denoiser's input from the film: the pass in the planes from `color`
+// on (R,G,B or noisy.*), its variance W.error^2 (into `variance`), the
+// guides, the albedo planes only for a pass whose W follows the pixel's albedo.
+DenoiseInput denoiseInput(const Film& film, int color, const IntegratorNeeds& needs, const uint32_t* objects,
+                          std::vector<float>& variance) {
+  const size_t n = size_t(film.width()) * size_t(film.height());
+  variance.resize(n);
+  const float* error = film.plane(film.find(kErrorPlane));
+  for (size_t i = 0; i < n; ++i) variance[i] = error[i] * error[i];
+  DenoiseInput in;
+  in.width = film.width(), in.height = film.height();
+  for (int c = 0; c < 3; ++c) {
+    in.color[c] = film.plane(color + c);
+    in.normal[c] = film.plane(kNX + c);
+    in.albedo[c] = needs.pixelAlbedo ? film.plane(kAlbedoR + c) : nullptr;
+  }
+  in.alpha = film.plane(kA);
+  in.variance = variance.data();
+  in.depth = film.plane(kZ);
+  in.object = objects;
+  // The taps weigh their pixel's samples (adaptive rounds take uneven counts).
+  const int spp = film.find(kSppPlane);
+  in.samples = spp >= 0 ? film.plane(spp) : nullptr;
+  return in;
+}
+
 // The ray-traced passes `slots` (slots[0] into R,G,B) in one walk over the
 // camera samples, into `film` (with its Cryptomatte layers if s asks).
 void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const PassSlot> slots, bool wantAlbedo,
                      const RenderSettings& s, Film& film, RenderStats& stats, const std::atomic<bool>* cancel,
-                     uint32_t* objects) {
+                     uint32_t* objects, const IntegratorNeeds* denoised = nullptr) {
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();
 
@@ -670,6 +710,13 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     SampleSchedule schedule(renderWindow(s), s);
     TileRenderer::WindowSums sums;
     LargeVector<float> error(window);  // every pixel takes samples in the first round: all written
+    // --denoise with a target (README "Adaptive sampling"): the marginal
+    // rule on each pixel's error times the square root of the filter's
+    // variance reduction there (docs/math.md §13), the gain measured once,
+    // on the first round's film.
+    const bool forFilter = denoised && s.targetError > 0.0f;
+    if (forFilter) schedule.setMarginal(true);
+    LargeVector<float> rootGain, decide;
     arena.execute([&] {
       parallelFill(sums.sums, window, PixelSums{});
       parallelFill(sums.passSums, window * (slots.size() - 1), PassSums{});
@@ -679,7 +726,28 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
         eachTile(renderTile);
         if (cancel && cancel->load()) return;
         tiles.windowErrors(error.data());
-        const uint64_t planned = schedule.next(error.data());
+        const float* decision = error.data();
+        if (forFilter) {
+          if (rootGain.empty()) {
+            // The film of the first round (resolved again at the end), through
+            // the filter the render ends with; only its gain is kept.
+            eachTile([&](int t) { tiles.resolveTile(t, true); });
+            std::vector<float> variance;
+            const DenoiseInput in = denoiseInput(film, kR, *denoised, objects, variance);
+            std::vector<float> filtered(3 * window);
+            float* out[3] = {filtered.data(), filtered.data() + window, filtered.data() + 2 * window};
+            rootGain.resize(window);
+            denoise(in, denoiseSettings(s), out, rootGain.data());
+            for (float& g : rootGain) g = std::sqrt(g);
+            decide.resize(window);
+          }
+          // The error the filtered pixel keeps; kNoSurface and 0 as they are.
+          tbb::parallel_for(size_t(0), size_t(window), [&](size_t i) {
+            decide[i] = error[i] > 0.0f ? error[i] * rootGain[i] : error[i];
+          });
+          decision = decide.data();
+        }
+        const uint64_t planned = schedule.next(decision);
         if (planned == 0) break;
         // --time-limit: no round starts that would end past it, at the rate
         // the rounds so far ran (samples per second).
@@ -735,29 +803,16 @@ void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int 
 // the raw pass kept as noisy.R/G/B; the primary's layer copy and shaded.*
 // (albedo x W x sky, premultiplied: albedo_pm W_pm sky / A) follow the
 // denoised W, so the film stays one consistent pass.
-void denoisePrimary(Film& film, bool albedoGuide, const uint32_t* objects, const RenderSettings& s, int layer) {
+void denoisePrimary(Film& film, const IntegratorNeeds& needs, const uint32_t* objects, const RenderSettings& s,
+                    int layer) {
   const size_t n = size_t(film.width()) * size_t(film.height());
   const int noisy = film.addPlane("noisy.R");
   film.addPlane("noisy.G"), film.addPlane("noisy.B");
   copyPlanes(film, kR, film, noisy, 3);
-  std::vector<float> variance(n);
-  const float* error = film.plane(film.find(kErrorPlane));
-  for (size_t i = 0; i < n; ++i) variance[i] = error[i] * error[i];
-  DenoiseInput in;
-  in.width = film.width(), in.height = film.height();
-  for (int c = 0; c < 3; ++c) {
-    in.color[c] = film.plane(noisy + c);
-    in.normal[c] = film.plane(kNX + c);
-    in.albedo[c] = albedoGuide ? film.plane(kAlbedoR + c) : nullptr;
-  }
-  in.alpha = film.plane(kA);
-  in.variance = variance.data();
-  in.depth = film.plane(kZ);
-  in.object = objects;
-  DenoiseSettings ds;
-  ds.threads = s.threads;
+  std::vector<float> variance;
+  const DenoiseInput in = denoiseInput(film, noisy, needs, objects, variance);
   float* out[3] = {film.plane(kR), film.plane(kG), film.plane(kB)};
-  denoise(in, ds, out);
+  denoise(in, denoiseSettings(s), out);
   if (layer >= 0) copyPlanes(film, kR, film, layer, 3);
   const double sky[3] = {s.sky.x, s.sky.y, s.sky.z};
   for (size_t i = 0; i < n; ++i) {
@@ -838,7 +893,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     part = {};
     if (!screenSpace(0)) {
       renderRayTraced(scene, camera, slotsFor(layer), wantAlbedo, s, film, part, cancel,
-                      objects.empty() ? nullptr : objects.data());
+                      objects.empty() ? nullptr : objects.data(), s.denoise ? &passes[0].needs : nullptr);
     } else {
       // The first ray-traced pass lands in R,G,B of a film of its own; every
       // ray-traced pass's layer is copied over.
@@ -865,7 +920,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   }
   if (s.denoise) {
     const auto t0 = std::chrono::steady_clock::now();
-    denoisePrimary(film, passes[0].needs.pixelAlbedo, objects.empty() ? nullptr : objects.data(), s, layer[0]);
+    denoisePrimary(film, passes[0].needs, objects.empty() ? nullptr : objects.data(), s, layer[0]);
     stats.denoiseSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   return film;

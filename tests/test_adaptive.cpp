@@ -394,6 +394,43 @@ TEST(Adaptive, EveryIntegratorAdaptsAndDenoisesDeterministically) {
   }
 }
 
+// The marginal rule (a denoised pass): a pixel stops when its error is at
+// most E sqrt(n / n0) and plans n' = ceil(d sqrt(n n0) / E * 1.1) samples
+// (at most 1.5 n). Uniform errors, so the 3 x 3 pooling gives each pixel
+// its own value: checked against those closed forms round by round.
+TEST(Adaptive, TheMarginalRuleStopsWhereASampleRemovesLittle) {
+  RenderSettings s;
+  s.width = 8, s.height = 8;
+  s.spp = 1000, s.minSpp = 16, s.targetError = 0.1f;
+  const PixelRect window{0, 0, 8, 8};
+  const auto uniform = [&](float d) { return std::vector<float>(window.size(), d); };
+  // Round 1 (16 samples): the threshold is E itself.
+  {
+    SampleSchedule a(window, s), b(window, s);
+    a.setMarginal(true);
+    EXPECT_EQ(a.next(uniform(0.099f).data()), 0u);  // below E: stops
+    // d = 0.12: n' = ceil(0.12 * 16 / 0.1 * 1.1) = ceil(21.12) = 22; the
+    // default rule asks ceil(16 (0.12 / 0.1 * 1.1)^2) = ceil(27.9) capped at 24.
+    EXPECT_EQ(b.next(uniform(0.12f).data()), window.size() * 8);
+    SampleSchedule c(window, s);
+    c.setMarginal(true);
+    EXPECT_EQ(c.next(uniform(0.12f).data()), window.size() * 6);
+    EXPECT_EQ(c.target(0), 22u);
+    // Round 2 (22 samples): the threshold is 0.1 sqrt(22 / 16) = 0.1173, so
+    // an error of 0.115 stops (the default rule would go on: 0.115 > E) ...
+    EXPECT_EQ(c.next(uniform(0.115f).data()), 0u);
+    EXPECT_EQ(c.total(), window.size() * 22);
+  }
+  {
+    SampleSchedule c(window, s);
+    c.setMarginal(true);
+    c.next(uniform(0.12f).data());
+    // ... and 0.12 goes on, to ceil(0.12 sqrt(22 * 16) / 0.1 * 1.1) = 25.
+    EXPECT_EQ(c.next(uniform(0.12f).data()), window.size() * 3);
+    EXPECT_EQ(c.target(0), 25u);
+  }
+}
+
 TEST(Adaptive, SettingsOutOfRangeAreRefused) {
   const auto scene = wallScene();
   const auto refused = [&](RenderSettings s, const char* needle) {
@@ -443,6 +480,45 @@ TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
     EXPECT_EQ(bad.exitCode, 1) << needle;
     EXPECT_NE(bad.stderrText.find(needle), std::string::npos) << bad.stderrText;
     EXPECT_EQ(std::count(bad.stderrText.begin(), bad.stderrText.end(), '\n'), 1) << bad.stderrText;
+  }
+}
+
+// Adaptive + denoise (the marginal rule on the error scaled by the filter's
+// gain, README "Adaptive sampling"): the image does not depend on threads or
+// tile size, and every pixel's raw pass and AOVs (all but the denoised
+// R,G,B and what follows them) equal the fixed render's at the count it took.
+TEST(Adaptive, DenoisedRoundsAreDeterministicAndTheFixedRendersSamples) {
+  const auto scene = wallScene();
+  RenderSettings s = adaptiveSettings(0.01f, 48, 12);
+  s.denoise = true;
+  s.threads = 1, s.tileSize = 8;
+  const Film a = renderAo(*scene, s);
+  s.threads = 2, s.tileSize = 64;
+  expectSameFilm(a, renderAo(*scene, s), "denoised: threads 1 tile 8 vs threads 2 tile 64");
+  const int sppPlane = a.find(kSppPlane), noisy = a.find("noisy.R");
+  ASSERT_GE(noisy, 0);
+  std::map<float, int> counts;
+  for (int y = 0; y < kH; ++y)
+    for (int x = 0; x < kW; ++x) ++counts[a.at(sppPlane, x, y)];
+  EXPECT_GE(counts.size(), 3u);  // it adapted
+  for (const auto& [count, pixels] : counts) {
+    RenderSettings fixed = passSettings(kW, kH, int(count));
+    fixed.aovs = true;
+    const Film f = renderAo(*scene, fixed);
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x) {
+        if (a.at(sppPlane, x, y) != count) continue;
+        for (int c : f.channels()) {
+          const std::string& name = f.name(c);
+          if (name == "R" || name == "G" || name == "B" || name == "spp" || name.rfind("shaded.", 0) == 0) continue;
+          const float u = a.at(a.find(f.name(c)), x, y), v = f.at(c, x, y);
+          ASSERT_EQ(std::memcmp(&u, &v, sizeof u), 0) << f.name(c) << " at " << x << "," << y << ", " << count << " spp";
+        }
+        for (int c = 0; c < 3; ++c) {
+          const float u = a.at(noisy + c, x, y), v = f.at(Channel::kR + c, x, y);  // (kR here is the ao radius)
+          ASSERT_EQ(std::memcmp(&u, &v, sizeof u), 0) << "noisy." << c << " at " << x << "," << y;
+        }
+      }
   }
 }
 

@@ -298,6 +298,86 @@ TEST(Denoise, RampUpToAnEdgeKeepsItsValue) {
 }
 
 // The result does not depend on the thread count.
+// The gain (adaptive sampling's measure of where the filter helps): with the
+// luminance term off and one flat plane, every weight is the kernel's. One
+// iteration multiplies an interior pixel's uniform variance by
+// (sum k^2)^2 = (3/8)^2 exactly; over 5 the propagated product (3/8)^10
+// ignores that the iterations reuse pixels and falls below the linear
+// filter's true factor (linearVarianceFactor, computed here independently),
+// which is the floor. A pixel with variance 0 or without W has gain 1; the
+// denoised pass is the one denoise() without the gain writes.
+TEST(Denoise, GainIsTheVarianceTheIterationsCarry) {
+  Synth f(128, 128);
+  for (int y = 0; y < f.h; ++y)
+    for (int x = 0; x < f.w; ++x) {
+      f.setW(f.at(x, y), 0.5f + 0.001f * float((x * 7 + y * 3) % 11));
+      f.var[f.at(x, y)] = 0.01f;
+    }
+  // Both more than the footprint's reach (31 pixels) from the interior checked below.
+  f.var[f.at(3, 3)] = 0.0f;
+  f.alpha[f.at(124, 124)] = 0.0f;
+  const auto gainOf = [&](int iterations, Output& o) {
+    DenoiseSettings s;
+    s.sigmaLuminance = 0.0f;
+    s.iterations = iterations;
+    std::vector<float> gain(size_t(f.w) * size_t(f.h), -1.0f);
+    for (auto& p : o.c) p.assign(gain.size(), -1.0f);
+    float* out[3] = {o.c[0].data(), o.c[1].data(), o.c[2].data()};
+    denoise(f.input(), s, out, gain.data());
+    const Output plain = run(f.input(), s);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(o.c[c], plain.c[c]) << c;
+    return gain;
+  };
+  Output o;
+  const std::vector<float> one = gainOf(1, o), five = gainOf(5, o);
+  const double propagated1 = std::pow(3.0 / 8.0, 2), floor5 = linearVarianceFactor(5, 3);
+  ASSERT_LT(std::pow(3.0 / 8.0, 10), floor5);  // the product falls below the floor
+  // Float sums of 9 taps per iteration: a few 1e-6 relative.
+  for (int y = 40; y < f.h - 40; ++y)
+    for (int x = 40; x < f.w - 40; ++x) {
+      ASSERT_NEAR(one[f.at(x, y)], propagated1, 1e-5 * propagated1) << x << "," << y;
+      ASSERT_NEAR(five[f.at(x, y)], floor5, 1e-5 * floor5) << x << "," << y;
+    }
+  for (const auto* g : {&one, &five}) {
+    EXPECT_EQ((*g)[f.at(3, 3)], 1.0f);
+    EXPECT_EQ((*g)[f.at(124, 124)], 1.0f);
+    for (float v : *g) ASSERT_TRUE(v > 0.0f && v <= 1.0f) << v;
+  }
+  // At the border a single iteration averages fewer taps: less reduction.
+  EXPECT_GT(one[f.at(0, 64)], 1.5 * propagated1);
+}
+
+// Sample counts weigh the taps (inverse variance for a shared per-sample
+// variance). Equal counts change nothing, bit for bit; with the luminance
+// term off and one iteration, a pixel with W = 1 and 4 samples among
+// neighbours with W = 0 and 1 sample is the count-weighted mean of its 3 x 3
+// binomial taps: 4 (1/4) / (4 (1/4) + 1 (3/4)) = 4/7 (1/4 without counts).
+TEST(Denoise, SampleCountsWeighTheTaps) {
+  Synth f(32, 32);
+  std::mt19937_64 rng(7);
+  for (int y = 0; y < f.h; ++y)
+    for (int x = 0; x < f.w; ++x) f.setNoisy(f.at(x, y), 0.5f, 0.1f, rng);
+  std::vector<float> equal(size_t(f.w) * size_t(f.h), 8.0f);
+  DenoiseInput counted = f.input();
+  counted.samples = equal.data();
+  const Output a = run(f.input()), b = run(counted);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(a.c[c], b.c[c]) << c;
+
+  Synth g(16, 16);
+  for (int y = 0; y < g.h; ++y)
+    for (int x = 0; x < g.w; ++x) g.setW(g.at(x, y), 0.0f);
+  g.setW(g.at(8, 8), 1.0f);
+  std::vector<float> counts(size_t(g.w) * size_t(g.h), 1.0f);
+  counts[g.at(8, 8)] = 4.0f;
+  DenoiseSettings s;
+  s.sigmaLuminance = 0.0f;
+  s.iterations = 1;
+  DenoiseInput in = g.input();
+  EXPECT_NEAR(run(in, s).c[0][g.at(8, 8)], 0.25f, 1e-6f);
+  in.samples = counts.data();
+  EXPECT_NEAR(run(in, s).c[0][g.at(8, 8)], 4.0f / 7.0f, 1e-6f);
+}
+
 TEST(Denoise, IndependentOfThreads) {
   Synth s(64, 48);
   std::mt19937_64 rng(3);
