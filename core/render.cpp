@@ -713,8 +713,10 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     // --denoise with a target (README "Adaptive sampling"): the marginal
     // rule on each pixel's error times the square root of the filter's
     // variance reduction there (docs/math.md §13), the gain measured once,
-    // on the first round's film.
-    const bool forFilter = denoised && s.targetError > 0.0f;
+    // on the first round's film. Not when the first round already takes
+    // every sample a pixel may (--spp at most the first round's): no round
+    // follows, and the gain would cost a filter pass for nothing.
+    const bool forFilter = denoised && s.targetError > 0.0f && s.spp > firstRoundSpp(s);
     if (forFilter) schedule.setMarginal(true);
     LargeVector<float> rootGain, decide;
     arena.execute([&] {
