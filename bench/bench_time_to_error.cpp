@@ -173,6 +173,10 @@ struct Rmse {
   double corrected = 0;  // sqrt(max(0, mean e^2 - mean Var(r)))
   double raw = 0;        // sqrt(mean e^2)
   double refNoise = 0;   // sqrt(mean Var(r)) over the same values
+  // mean e: a systematic shift of the whole pass (e.g. the stopping rule's
+  // or the filter's), which more samples of the same settings never remove
+  // and the reference's noise hardly moves (its mean over 10^6 values).
+  double meanError = 0;
   size_t values = 0;
 };
 
@@ -182,13 +186,14 @@ Rmse measure(const Film& test, const Reference& ref) {
   if (test.width() != ref.width || test.height() != ref.height) throw Error("test and reference sizes differ");
   const float* a = test.plane(kA);
   const float* rgb[3] = {test.plane(kR), test.plane(kG), test.plane(kB)};
-  double se = 0, sv = 0;
+  double se = 0, sv = 0, sum = 0;
   size_t n = 0;
   for (size_t i = 0; i < ref.a.size(); ++i) {
     if (ref.a[i] != 1.0f || !(a[i] > 0.0f)) continue;
     for (int c = 0; c < 3; ++c) {
       const double e = double(rgb[c][i] / a[i]) - double(ref.w[c][i]);
       se += e * e;
+      sum += e;
     }
     sv += 3.0 * double(ref.var[i]);
     n += 3;
@@ -197,6 +202,7 @@ Rmse measure(const Film& test, const Reference& ref) {
   Rmse m;
   m.values = n;
   m.raw = std::sqrt(se / double(n));
+  m.meanError = sum / double(n);
   m.refNoise = std::sqrt(sv / double(n));
   m.corrected = std::sqrt(std::max(0.0, (se - sv) / double(n)));
   return m;
@@ -285,10 +291,10 @@ ModeResult searchMode(const Mode& m, const Options& o, const BenchIntegrator& in
     // (camera rays / pixels is the mean spp, counted independently).
     const RayCounters& rc = tr.t.stats.rays;
     const double rays = double(rc.camera + rc.occlusion + rc.closest);
-    std::printf("    %-12s mean spp %8.2f (camera rays/px %8.2f)  RMSE %.5f (raw %.5f)  wall %8.2f s  cpu %8.2f s  "
-                "%6.2f Mrays/s%s\n",
+    std::printf("    %-12s mean spp %8.2f (camera rays/px %8.2f)  RMSE %.5f (raw %.5f, mean e %+.5f)  wall %8.2f s  "
+                "cpu %8.2f s  %6.2f Mrays/s%s\n",
                 paramText(m, p).c_str(), tr.t.stats.meanSpp, double(rc.camera) / (double(width) * double(height)),
-                tr.e.corrected, tr.e.raw, tr.t.wall, tr.t.cpu, rays * 1e-6 / tr.t.stats.seconds, dn);
+                tr.e.corrected, tr.e.raw, tr.e.meanError, tr.t.wall, tr.t.cpu, rays * 1e-6 / tr.t.stats.seconds, dn);
     std::fflush(stdout);
     trials.push_back(std::move(tr));
     const size_t i = trials.size() - 1;

@@ -5,6 +5,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -487,9 +488,6 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], fl
   g.width = w, g.height = h;
   for (auto& c : g.n) c.resize(n);
   g.d.resize(n), g.gx.resize(n), g.gy.resize(n), g.object.resize(n), g.live.resize(n), g.count.resize(n);
-  float maxCount = 0.0f;
-  if (in.samples)
-    for (size_t p = 0; p < n; ++p) maxCount = std::max(maxCount, in.samples[p]);
   const bool hasAlbedo = in.albedo[0] != nullptr;
   if (hasAlbedo)
     for (auto& c : g.albedo) c.resize(n);
@@ -503,6 +501,18 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], fl
       tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& r) { body(r.begin(), r.end()); });
     });
   };
+  // The largest sample count (a maximum: the same whatever the split).
+  float maxCount = 0.0f;
+  if (in.samples)
+    arena.execute([&] {
+      maxCount = tbb::parallel_reduce(
+          tbb::blocked_range<size_t>(0, n, size_t(1) << 16), 0.0f,
+          [&](const tbb::blocked_range<size_t>& r, float m) {
+            for (size_t p = r.begin(); p != r.end(); ++p) m = std::max(m, in.samples[p]);
+            return m;
+          },
+          [](float a, float b) { return std::max(a, b); });
+    });
 
   // Un-premultiply W and albedo; invalid pixels (no coverage, background
   // depth, non-finite data) keep their colour and are never read.

@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -732,7 +733,11 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
         if (forFilter) {
           if (rootGain.empty()) {
             // The film of the first round (resolved again at the end), through
-            // the filter the render ends with; only its gain is kept.
+            // the filter the render ends with; only its gain is kept. The
+            // filter reads the whole film and the gain is indexed like the
+            // window's errors: the same pixels, as --denoise refuses --region
+            // (checkSettings), so the window is the frame.
+            assert(window == uint64_t(film.width()) * uint64_t(film.height()));
             eachTile([&](int t) { tiles.resolveTile(t, true); });
             std::vector<float> variance;
             const DenoiseInput in = denoiseInput(film, kR, *denoised, objects, variance);

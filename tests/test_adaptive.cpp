@@ -431,6 +431,42 @@ TEST(Adaptive, TheMarginalRuleStopsWhereASampleRemovesLittle) {
   }
 }
 
+// The decision errors the two rules pool (docs/math.md §13): one pixel of
+// a 9 x 9 window at 0.5 among pixels at 0.099, E = 0.1. The per-pixel rule
+// (the larger of the own estimate and the 3 x 3 RMS): the pixel and its 8
+// neighbours go on, at RMS sqrt((8 0.099^2 + 0.5^2) / 9) = 0.191. The
+// marginal rule (the 5 x 5 RMS, no own term): the 25 pixels within 2 of it
+// go on, at sqrt((24 0.099^2 + 0.5^2) / 25) = 0.139 > E, and every pixel
+// further out stops, its neighbourhood all 0.099. Each asks the cap, 1.5 x
+// 16 = 24 samples: ceil(0.139 x 16 / 0.1 x 1.1) = 25 and
+// ceil(16 (0.191 / 0.1 x 1.1)^2) = 71. And a pixel whose own estimate is 0
+// among neighbours at 0.2 goes on under both.
+TEST(Adaptive, TheMarginalRulePoolsFiveByFiveWithoutTheOwnTerm) {
+  RenderSettings s;
+  s.width = 9, s.height = 9;
+  s.spp = 1000, s.minSpp = 16, s.targetError = 0.1f;
+  const PixelRect window{0, 0, 9, 9};
+  std::vector<float> spike(window.size(), 0.099f);
+  spike[4 * 9 + 4] = 0.5f;
+  for (bool marginal : {false, true}) {
+    SampleSchedule a(window, s);
+    a.setMarginal(marginal);
+    const int reach = marginal ? 2 : 1, side = 2 * reach + 1;
+    EXPECT_EQ(a.next(spike.data()), uint64_t(side * side) * 8u) << (marginal ? "marginal" : "per-pixel");
+    for (int y = 0; y < 9; ++y)
+      for (int x = 0; x < 9; ++x) {
+        const bool near = std::abs(x - 4) <= reach && std::abs(y - 4) <= reach;
+        EXPECT_EQ(a.target(size_t(y) * 9 + size_t(x)), near ? 24u : 16u) << x << "," << y << " marginal " << marginal;
+      }
+    std::vector<float> hole(window.size(), 0.2f);
+    hole[4 * 9 + 4] = 0.0f;
+    SampleSchedule b(window, s);
+    b.setMarginal(marginal);
+    b.next(hole.data());
+    EXPECT_EQ(b.target(4 * 9 + 4), 24u) << "marginal " << marginal;
+  }
+}
+
 TEST(Adaptive, SettingsOutOfRangeAreRefused) {
   const auto scene = wallScene();
   const auto refused = [&](RenderSettings s, const char* needle) {

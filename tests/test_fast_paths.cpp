@@ -215,6 +215,41 @@ TEST(FastPaths, SurfaceHitLanesEqualTheScalarForm) {
 }
 
 
+// The bilinear repeat lookup at (u, v) written from its definition (floor in
+// double, the remainder modulo the size, the same float expression as
+// Texture::sample), over texels at(x, y) of a w x h image.
+template <class At>
+Vec3 referenceBilinear(float u, float v, int w, int h, const At& at) {
+  const double x = double(u) * w - 0.5, y = double(v) * h - 0.5;
+  const double fx = std::floor(x), fy = std::floor(y);
+  const float tx = float(x - fx), ty = float(y - fy);
+  const int x0 = ((int(fx) % w) + w) % w, x1 = (x0 + 1) % w;
+  const int y0 = ((int(fy) % h) + h) % h, y1 = (y0 + 1) % h;
+  const Vec3 a = at(x0, y0) * (1 - tx) + at(x1, y0) * tx;
+  const Vec3 b = at(x0, y1) * (1 - tx) + at(x1, y1) * tx;
+  return a * (1 - ty) + b * ty;
+}
+
+// Checks tex.sample against referenceBilinear, bit for bit, at the unit
+// square's edges (u or v = 0, 2^-24, 1 - 2^-24), on a grid through the
+// texel centres and edges, and on 4096 sampler points of pixel `key`.
+template <class At>
+void expectLookupsMatch(const Texture& tex, int w, int h, const At& at, uint32_t key, const std::string& what) {
+  const auto check = [&](float u, float v) {
+    const Vec3 got = tex.sample(u, v, WrapMode::Repeat, WrapMode::Repeat), want = referenceBilinear(u, v, w, h, at);
+    for (int k = 0; k < 3; ++k)
+      ASSERT_EQ(bitsOf(got[k]), bitsOf(want[k])) << what << " channel " << k << " at " << u << ", " << v;
+  };
+  std::vector<float> coords = {0.0f, 1.0f - 0x1p-24f, 0x1p-24f, 0.5f};
+  for (int i = 0; i <= 2 * std::max(w, h); ++i) coords.push_back(float(i) / float(2 * std::max(w, h)) * 0.999999f);
+  for (float u : coords)
+    for (float v : coords) check(u, v);
+  for (uint32_t i = 0; i < 4096; ++i) {
+    const Sample2 s = Sampler::get2D(key, i, kFirstIntegratorDim);
+    check(s.u, s.v);
+  }
+}
+
 // Texture::sample's repeat lookup inside the unit square (the albedo AOV's
 // common case, which skips footprint()'s range cases) equals a bilinear
 // lookup written here from its definition: floor in double, the remainder
@@ -241,32 +276,8 @@ TEST(FastPaths, TextureUnitSquareLookups) {
         Vec3& t = T[size_t(y) * size_t(w) + size_t(x)];
         for (int k = 0; k < 3; ++k) t[k] = float(std::lround(std::clamp(c[k], 0.0f, 1.0f) * 65535)) / 65535.0f;
       }
-    const auto reference = [&](float u, float v) {
-      const double x = double(u) * w - 0.5, y = double(v) * h - 0.5;
-      const double fx = std::floor(x), fy = std::floor(y);
-      const float tx = float(x - fx), ty = float(y - fy);
-      const int x0 = ((int(fx) % w) + w) % w, x1 = (x0 + 1) % w;
-      const int y0 = ((int(fy) % h) + h) % h, y1 = (y0 + 1) % h;
-      const auto at = [&](int i, int j) { return T[size_t(j) * size_t(w) + size_t(i)]; };
-      const Vec3 a = at(x0, y0) * (1 - tx) + at(x1, y0) * tx;
-      const Vec3 b = at(x0, y1) * (1 - tx) + at(x1, y1) * tx;
-      return a * (1 - ty) + b * ty;
-    };
-    std::vector<float> coords = {0.0f, 1.0f - 0x1p-24f, 0x1p-24f, 0.5f};
-    for (int i = 0; i <= 2 * std::max(w, h); ++i) coords.push_back(float(i) / float(2 * std::max(w, h)) * 0.999999f);
-    const auto check = [&](float u, float v) {
-      const Vec3 got = tex.sample(u, v, WrapMode::Repeat, WrapMode::Repeat), want = reference(u, v);
-      ASSERT_EQ(bitsOf(got.x), bitsOf(want.x)) << w << "x" << h << " at " << u << ", " << v;
-      ASSERT_EQ(bitsOf(got.y), bitsOf(want.y)) << w << "x" << h << " at " << u << ", " << v;
-      ASSERT_EQ(bitsOf(got.z), bitsOf(want.z)) << w << "x" << h << " at " << u << ", " << v;
-    };
-    for (float u : coords)
-      for (float v : coords) check(u, v);
-    const uint32_t key = Sampler(5).pixelKey(2, 2);
-    for (uint32_t i = 0; i < 4096; ++i) {
-      const Sample2 s = Sampler::get2D(key, i, kFirstIntegratorDim);
-      check(s.u, s.v);
-    }
+    const auto at = [&](int i, int j) { return T[size_t(j) * size_t(w) + size_t(i)]; };
+    expectLookupsMatch(tex, w, h, at, Sampler(5).pixelKey(2, 2), std::to_string(w) + "x" + std::to_string(h));
   }
 }
 
@@ -301,31 +312,9 @@ TEST(FastPaths, Texture8BitUnitSquareLookups) {
           const uint8_t* p = &px[(size_t(y) * size_t(w) + size_t(x)) * size_t(channels)];
           return Vec3(decoded(p[0]), decoded(p[1]), decoded(p[2]));
         };
-        const auto reference = [&](float u, float v) {
-          const double x = double(u) * w - 0.5, y = double(v) * h - 0.5;
-          const double fx = std::floor(x), fy = std::floor(y);
-          const float tx = float(x - fx), ty = float(y - fy);
-          const int x0 = ((int(fx) % w) + w) % w, x1 = (x0 + 1) % w;
-          const int y0 = ((int(fy) % h) + h) % h, y1 = (y0 + 1) % h;
-          const Vec3 a = at(x0, y0) * (1 - tx) + at(x1, y0) * tx;
-          const Vec3 b = at(x0, y1) * (1 - tx) + at(x1, y1) * tx;
-          return a * (1 - ty) + b * ty;
-        };
-        const auto check = [&](float u, float v) {
-          const Vec3 got = tex.sample(u, v, WrapMode::Repeat, WrapMode::Repeat), want = reference(u, v);
-          for (int k = 0; k < 3; ++k)
-            ASSERT_EQ(bitsOf(got[k]), bitsOf(want[k])) << w << "x" << h << "x" << channels << (srgb ? " srgb" : "")
-                                                       << " channel " << k << " at " << u << ", " << v;
-        };
-        std::vector<float> coords = {0.0f, 1.0f - 0x1p-24f, 0x1p-24f, 0.5f};
-        for (int i = 0; i <= 2 * std::max(w, h); ++i) coords.push_back(float(i) / float(2 * std::max(w, h)) * 0.999999f);
-        for (float u : coords)
-          for (float v : coords) check(u, v);
-        const uint32_t key = Sampler(9).pixelKey(1, 3);
-        for (uint32_t i = 0; i < 4096; ++i) {
-          const Sample2 s = Sampler::get2D(key, i, kFirstIntegratorDim);
-          check(s.u, s.v);
-        }
+        expectLookupsMatch(tex, w, h, at, Sampler(9).pixelKey(1, 3),
+                           std::to_string(w) + "x" + std::to_string(h) + "x" + std::to_string(channels) +
+                               (srgb ? " srgb" : ""));
       }
 }
 
