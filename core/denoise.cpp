@@ -76,7 +76,7 @@ struct TapPass {
 // polynomial of 2^f on [-0.5, 0.5] (Taylor of e^(f ln 2)). The weights are
 // ratios of sums of these, so the error is far below the noise; unlike
 // std::exp it vectorizes, and it gives the same bits on every machine.
-inline float expNeg(float x) {
+[[gnu::always_inline]] inline float expNeg(float x) {
   const float t = -x * 1.44269504f;
   // Round to nearest by adding and subtracting 1.5 * 2^23 (|t| < 44).
   const float k = (t + 12582912.0f) - 12582912.0f;
@@ -88,27 +88,33 @@ inline float expNeg(float x) {
   return p * scale;
 }
 
-// 4-wide float and int vectors (GCC/Clang vector extensions; SSE2 on
-// x86-64, the baseline the project builds for).
-using V4 = float __attribute__((vector_size(16)));
-using VI4 = int32_t __attribute__((vector_size(16)));
-inline V4 load4(const float* p) {
-  V4 v;
+// 8-wide float and int vectors (GCC/Clang vector extensions): one AVX
+// register in tapRow's AVX2 clone, two SSE2 registers in its baseline
+// x86-64 clone. Every operation is per lane, so the width changes no bit.
+constexpr int kLanes = 8;
+// The baseline clone passes no VF across a call (everything below is
+// inlined into tapRow), so GCC's note that such a call's ABI would differ
+// from AVX code's does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+using VF = float __attribute__((vector_size(4 * kLanes)));
+using VI = int32_t __attribute__((vector_size(4 * kLanes)));
+[[gnu::always_inline]] inline VF loadV(const float* p) {
+  VF v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
-inline void store4(float* p, V4 v) { std::memcpy(p, &v, sizeof v); }
-inline V4 vabs(V4 a) { return a < 0.0f ? -a : a; }
-inline V4 vmax(V4 a, V4 b) { return a > b ? a : b; }
-inline V4 vmin(V4 a, V4 b) { return a < b ? a : b; }
-// expNeg of 4 values, operation for operation.
-inline V4 expNeg4(V4 x) {
-  const V4 t = -x * 1.44269504f;
-  const V4 k = (t + 12582912.0f) - 12582912.0f;
-  const V4 f = (t - k) * 0.69314718f;
-  const V4 p = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6 + f * (1.0f / 24 + f * (1.0f / 120)))));
-  const VI4 bits = (__builtin_convertvector(k, VI4) + 127) << 23;
-  V4 scale;
+[[gnu::always_inline]] inline void storeV(float* p, VF v) { std::memcpy(p, &v, sizeof v); }
+[[gnu::always_inline]] inline VF vabs(VF a) { return a < 0.0f ? -a : a; }
+[[gnu::always_inline]] inline VF vmax(VF a, VF b) { return a > b ? a : b; }
+[[gnu::always_inline]] inline VF vmin(VF a, VF b) { return a < b ? a : b; }
+// expNeg of kLanes values, operation for operation.
+[[gnu::always_inline]] inline VF expNegV(VF x) {
+  const VF t = -x * 1.44269504f;
+  const VF k = (t + 12582912.0f) - 12582912.0f;
+  const VF f = (t - k) * 0.69314718f;
+  const VF p = 1.0f + f * (1.0f + f * (0.5f + f * (1.0f / 6 + f * (1.0f / 24 + f * (1.0f / 120)))));
+  const VI bits = (__builtin_convertvector(k, VI) + 127) << 23;
+  VF scale;
   std::memcpy(&scale, &bits, sizeof scale);
   return p * scale;
 }
@@ -142,7 +148,7 @@ struct TapOffset {
 // (the options are template parameters; a tap outside the pixel's object or
 // on a pixel without W gets weight 0 by a select), so it vectorizes.
 template <bool Albedo, bool Luminance, bool VarOnly>
-void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
+[[gnu::always_inline]] inline void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
   const float* __restrict n0 = r.n0;
   const float* __restrict n1 = r.n1;
   const float* __restrict n2 = r.n2;
@@ -163,40 +169,40 @@ void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, 
   const ptrdiff_t off = o.off;
   const float sn = s.sigmaNormal, sz = s.sigmaDepth, ez = s.depthTolerance;
   const float sl2 = s.sigmaLuminance * s.sigmaLuminance, el2 = s.luminanceTolerance * s.luminanceTolerance;
-  // 4 pixels at a time with GCC's vector extensions (the same operations in
+  // kLanes pixels at a time with GCC's vector extensions (the same operations in
   // the same order as the scalar loop below, which finishes the row: the
   // bits do not depend on where a row is split). GCC 12 does not
   // vectorize the scalar loop by itself ("control flow in loop").
   int x = x0;
-  for (; x + 4 <= x1; x += 4) {
+  for (; x + kLanes <= x1; x += kLanes) {
     const ptrdiff_t q = x + off;
-    const V4 dot = load4(n0 + x) * load4(n0 + q) + load4(n1 + x) * load4(n1 + q) + load4(n2 + x) * load4(n2 + q);
-    V4 e = sn * vmax(V4{} , 1.0f - dot);
-    const V4 dx4 = load4(d + x), gx4 = load4(gx + x), gy4 = load4(gy + x), dq4 = load4(d + q);
-    const V4 miss = dq4 - (dx4 + gx4 * o.dx + gy4 * o.dy);
-    const V4 tol = sz * (vabs(gx4) * o.adx + vabs(gy4) * o.ady) + ez * dx4;
+    const VF dot = loadV(n0 + x) * loadV(n0 + q) + loadV(n1 + x) * loadV(n1 + q) + loadV(n2 + x) * loadV(n2 + q);
+    VF e = sn * vmax(VF{} , 1.0f - dot);
+    const VF dx4 = loadV(d + x), gx4 = loadV(gx + x), gy4 = loadV(gy + x), dq4 = loadV(d + q);
+    const VF miss = dq4 - (dx4 + gx4 * o.dx + gy4 * o.dy);
+    const VF tol = sz * (vabs(gx4) * o.adx + vabs(gy4) * o.ady) + ez * dx4;
     e += miss * miss / (tol * tol);
     if constexpr (Albedo) {
-      const V4 da = vmax(vabs(load4(r.a0 + x) - load4(r.a0 + q)),
-                         vmax(vabs(load4(r.a1 + x) - load4(r.a1 + q)), vabs(load4(r.a2 + x) - load4(r.a2 + q))));
+      const VF da = vmax(vabs(loadV(r.a0 + x) - loadV(r.a0 + q)),
+                         vmax(vabs(loadV(r.a1 + x) - loadV(r.a1 + q)), vabs(loadV(r.a2 + x) - loadV(r.a2 + q))));
       e += da * invAlbedo;
     }
-    const V4 wq0 = load4(w0 + q), wq1 = load4(w1 + q), wq2 = load4(w2 + q), vq = load4(var + q);
+    const VF wq0 = loadV(w0 + q), wq1 = loadV(w1 + q), wq2 = loadV(w2 + q), vq = loadV(var + q);
     if constexpr (Luminance) {
-      const V4 dl = vmax(vabs(wq0 - load4(w0 + x)), vmax(vabs(wq1 - load4(w1 + x)), vabs(wq2 - load4(w2 + x))));
-      e += dl * dl / (sl2 * (load4(var + x) + vq) + el2);
+      const VF dl = vmax(vabs(wq0 - loadV(w0 + x)), vmax(vabs(wq1 - loadV(w1 + x)), vabs(wq2 - loadV(w2 + x))));
+      e += dl * dl / (sl2 * (loadV(var + x) + vq) + el2);
     }
-    const V4 wk = o.k * expNeg4(vmin(e, V4{} + kMaxExponent));
-    const V4 lw = wk * load4(live + q);
-    VI4 oq, ox;
+    const VF wk = o.k * expNegV(vmin(e, VF{} + kMaxExponent));
+    const VF lw = wk * loadV(live + q);
+    VI oq, ox;
     std::memcpy(&oq, obj + q, sizeof oq);
     std::memcpy(&ox, obj + x, sizeof ox);
-    const V4 wt = oq == ox ? lw : V4{};
-    store4(sw + x, load4(sw + x) + wt);
-    store4(sc0 + x, load4(sc0 + x) + wt * wq0);
-    store4(sc1 + x, load4(sc1 + x) + wt * wq1);
-    store4(sc2 + x, load4(sc2 + x) + wt * wq2);
-    store4(sv + x, load4(sv + x) + (VarOnly ? wt : wt * wt) * vq);
+    const VF wt = oq == ox ? lw : VF{};
+    storeV(sw + x, loadV(sw + x) + wt);
+    storeV(sc0 + x, loadV(sc0 + x) + wt * wq0);
+    storeV(sc1 + x, loadV(sc1 + x) + wt * wq1);
+    storeV(sc2 + x, loadV(sc2 + x) + wt * wq2);
+    storeV(sv + x, loadV(sv + x) + (VarOnly ? wt : wt * wt) * vq);
   }
   for (; x < x1; ++x) {
     const ptrdiff_t q = x + off;
@@ -239,7 +245,7 @@ void tapSpan(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, 
 // the edge, and a gradient there biases it to first order. Same operations
 // per tap as tapSpan, so the same vectorization.
 template <bool Albedo, bool Luminance>
-void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
+[[gnu::always_inline]] inline void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings& s, float invAlbedo, int x0, int x1) {
   const float* __restrict n0 = r.n0;
   const float* __restrict n1 = r.n1;
   const float* __restrict n2 = r.n2;
@@ -262,32 +268,32 @@ void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings&
   const float sl2 = s.sigmaLuminance * s.sigmaLuminance, el2 = s.luminanceTolerance * s.luminanceTolerance;
   // The exponent of the tap at q = x + qo predicted along +/- the offset
   // (sign): the terms of tapSpan.
-  auto exponent4 = [&](int x, ptrdiff_t qo, float sign, VI4& same) {
+  auto exponentV = [&](int x, ptrdiff_t qo, float sign, VI& same) __attribute__((always_inline)) {
     const ptrdiff_t q = x + qo;
-    const V4 dot = load4(n0 + x) * load4(n0 + q) + load4(n1 + x) * load4(n1 + q) + load4(n2 + x) * load4(n2 + q);
-    V4 e = sn * vmax(V4{}, 1.0f - dot);
-    const V4 dx4 = load4(d + x), gx4 = load4(gx + x), gy4 = load4(gy + x), dq4 = load4(d + q);
-    const V4 miss = dq4 - (dx4 + sign * (gx4 * o.dx + gy4 * o.dy));
-    const V4 tol = sz * (vabs(gx4) * o.adx + vabs(gy4) * o.ady) + ez * dx4;
+    const VF dot = loadV(n0 + x) * loadV(n0 + q) + loadV(n1 + x) * loadV(n1 + q) + loadV(n2 + x) * loadV(n2 + q);
+    VF e = sn * vmax(VF{}, 1.0f - dot);
+    const VF dx4 = loadV(d + x), gx4 = loadV(gx + x), gy4 = loadV(gy + x), dq4 = loadV(d + q);
+    const VF miss = dq4 - (dx4 + sign * (gx4 * o.dx + gy4 * o.dy));
+    const VF tol = sz * (vabs(gx4) * o.adx + vabs(gy4) * o.ady) + ez * dx4;
     e += miss * miss / (tol * tol);
     if constexpr (Albedo) {
-      const V4 da = vmax(vabs(load4(r.a0 + x) - load4(r.a0 + q)),
-                         vmax(vabs(load4(r.a1 + x) - load4(r.a1 + q)), vabs(load4(r.a2 + x) - load4(r.a2 + q))));
+      const VF da = vmax(vabs(loadV(r.a0 + x) - loadV(r.a0 + q)),
+                         vmax(vabs(loadV(r.a1 + x) - loadV(r.a1 + q)), vabs(loadV(r.a2 + x) - loadV(r.a2 + q))));
       e += da * invAlbedo;
     }
     if constexpr (Luminance) {
-      const V4 dl = vmax(vabs(load4(w0 + q) - load4(w0 + x)),
-                         vmax(vabs(load4(w1 + q) - load4(w1 + x)), vabs(load4(w2 + q) - load4(w2 + x))));
-      e += dl * dl / (sl2 * (load4(var + x) + load4(var + q)) + el2);
+      const VF dl = vmax(vabs(loadV(w0 + q) - loadV(w0 + x)),
+                         vmax(vabs(loadV(w1 + q) - loadV(w1 + x)), vabs(loadV(w2 + q) - loadV(w2 + x))));
+      e += dl * dl / (sl2 * (loadV(var + x) + loadV(var + q)) + el2);
     }
-    VI4 oq, ox;
+    VI oq, ox;
     std::memcpy(&oq, obj + q, sizeof oq);
     std::memcpy(&ox, obj + x, sizeof ox);
     // Another object or no W: weight exactly 0 (a select, see below).
-    same = (oq == ox) & (load4(live + q) > 0.0f);
+    same = (oq == ox) & (loadV(live + q) > 0.0f);
     return e;
   };
-  auto exponent1 = [&](int x, ptrdiff_t qo, float sign, bool& same) {
+  auto exponent1 = [&](int x, ptrdiff_t qo, float sign, bool& same) __attribute__((always_inline)) {
     const ptrdiff_t q = x + qo;
     const float dot = n0[x] * n0[q] + n1[x] * n1[q] + n2[x] * n2[q];
     float e = sn * std::max(0.0f, 1.0f - dot);
@@ -306,18 +312,18 @@ void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings&
     return e;
   };
   int x = x0;
-  for (; x + 4 <= x1; x += 4) {
-    VI4 sq, sm;
-    const V4 e = vmax(exponent4(x, off, 1.0f, sq), exponent4(x, -off, -1.0f, sm));
-    const V4 wk = o.k * expNeg4(vmin(e, V4{} + kMaxExponent));
+  for (; x + kLanes <= x1; x += kLanes) {
+    VI sq, sm;
+    const VF e = vmax(exponentV(x, off, 1.0f, sq), exponentV(x, -off, -1.0f, sm));
+    const VF wk = o.k * expNegV(vmin(e, VF{} + kMaxExponent));
     const ptrdiff_t q = x + off, m = x - off;
     // Both taps weigh the smaller count of the two: still a symmetric pair.
-    const V4 wt = (sq & sm) != 0 ? wk * vmin(load4(live + q), load4(live + m)) : V4{};
-    store4(sw + x, load4(sw + x) + (wt + wt));
-    store4(sc0 + x, load4(sc0 + x) + wt * (load4(w0 + q) + load4(w0 + m)));
-    store4(sc1 + x, load4(sc1 + x) + wt * (load4(w1 + q) + load4(w1 + m)));
-    store4(sc2 + x, load4(sc2 + x) + wt * (load4(w2 + q) + load4(w2 + m)));
-    store4(sv + x, load4(sv + x) + wt * wt * (load4(var + q) + load4(var + m)));
+    const VF wt = (sq & sm) != 0 ? wk * vmin(loadV(live + q), loadV(live + m)) : VF{};
+    storeV(sw + x, loadV(sw + x) + (wt + wt));
+    storeV(sc0 + x, loadV(sc0 + x) + wt * (loadV(w0 + q) + loadV(w0 + m)));
+    storeV(sc1 + x, loadV(sc1 + x) + wt * (loadV(w1 + q) + loadV(w1 + m)));
+    storeV(sc2 + x, loadV(sc2 + x) + wt * (loadV(w2 + q) + loadV(w2 + m)));
+    storeV(sv + x, loadV(sv + x) + wt * wt * (loadV(var + q) + loadV(var + m)));
   }
   for (; x < x1; ++x) {
     bool sq, sm;
@@ -339,6 +345,12 @@ void tapSpanPair(const TapRowArgs& r, const TapOffset& o, const DenoiseSettings&
 // Hot: no allocation (the row sums are the thread's, sized once), no
 // branch in the inner loop over x (a tap outside the pixel's object or on
 // a pixel without W gets weight 0 by a select).
+// Cloned for AVX2 (picked at load time on CPUs that have it; no FMA, so
+// no contraction changes a bit): tapSpan and tapSpanPair are inlined into
+// each clone, and there a VF is one register instead of two.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target_clones("avx2", "default")))
+#endif
 void tapRow(const Guides& g, const DenoiseSettings& s, const TapPass& t, const State& src, State& dst, int y,
             RowSums& sums) {
   const int w = g.width, h = g.height;
