@@ -55,11 +55,25 @@ struct Guides {
 // W (un-premultiplied) and its variance: what an iteration reads and writes.
 struct State {
   LargeVector<float> w[3], var;
-  explicit State(size_t n) {
+  void resize(size_t n) {
     for (auto& c : w) c.resize(n);
     var.resize(n);
   }
 };
+
+}  // namespace
+
+// Every plane a call writes before it reads (uninitialized on first use, a
+// previous call's values after): reuse keeps the pages, nothing else.
+struct DenoiseWorkspace::Planes {
+  Guides g;
+  State a, b;
+  LargeVector<float> start;
+};
+DenoiseWorkspace::DenoiseWorkspace() = default;
+DenoiseWorkspace::~DenoiseWorkspace() = default;
+
+namespace {
 
 // Parameters of one pass of taps (an a-trous iteration, or the variance
 // prefilter: 3 taps at step 1, no luminance term).
@@ -489,21 +503,29 @@ void checkDenoise(const DenoiseInput& in, const DenoiseSettings& s) {
 
 void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]) { denoise(in, s, out, nullptr); }
 
-void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain) {
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain,
+             DenoiseWorkspace* workspace) {
   checkDenoise(in, s);
   const int w = in.width, h = in.height;
   const size_t n = size_t(w) * size_t(h);
 
   // Uninitialized, on huge pages (core/large_vector.h): every element is
   // written by the passes below before it is read, from all threads.
-  Guides g;
+  DenoiseWorkspace own;
+  if (!workspace) workspace = &own;
+  if (!workspace->planes) workspace->planes = std::make_unique<DenoiseWorkspace::Planes>();
+  Guides& g = workspace->planes->g;
   g.width = w, g.height = h;
   for (auto& c : g.n) c.resize(n);
   g.d.resize(n), g.gx.resize(n), g.gy.resize(n), g.object.resize(n), g.live.resize(n), g.count.resize(n);
   const bool hasAlbedo = in.albedo[0] != nullptr;
   if (hasAlbedo)
     for (auto& c : g.albedo) c.resize(n);
-  State a(n), b(n);
+  else
+    for (auto& c : g.albedo) c.clear();  // empty: the taps read no albedo (a reused workspace may hold some)
+  State& a = workspace->planes->a;
+  State& b = workspace->planes->b;
+  a.resize(n), b.resize(n);
 
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
@@ -591,7 +613,7 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], fl
   const bool luminance = s.sigmaLuminance > 0.0f;
   if (s.iterations > 0 && luminance) pass(TapPass{kBinomial3, 1, 1, false, true});
   // The variance the iterations start from, for the gain.
-  LargeVector<float> start;
+  LargeVector<float>& start = workspace->planes->start;
   if (gain) start = src->var;
   for (int it = 0; it < s.iterations; ++it)
     pass(s.kernel == 3 ? TapPass{kBinomial3, 1, 1 << it, luminance, false} : TapPass{kB3, 2, 1 << it, luminance, false});

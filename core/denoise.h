@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 
 namespace obscura {
 
@@ -100,6 +101,21 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]);
 // achieve); 1 where the pixel holds no W or its variance is 0. Adaptive sampling for a denoised pass reads it
 // (README "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
 // filter").
-void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain);
+// The working planes (guides, two iterations' states: ~40 floats a pixel)
+// of a caller that filters more than once - adaptive rounds filter the first
+// round's film for the gain, then the final one: the second call reuses the
+// first's pages instead of faulting in new ones, which the kernel clears
+// first (a fifth of an adaptive + denoise render's CPU time on the
+// development machine's VM, perf: clear_page).
+class DenoiseWorkspace {
+ public:
+  DenoiseWorkspace();
+  ~DenoiseWorkspace();
+  struct Planes;
+  std::unique_ptr<Planes> planes;  // made by the first call
+};
+
+void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], float* gain,
+             DenoiseWorkspace* workspace = nullptr);
 
 }  // namespace obscura

@@ -623,11 +623,13 @@ DenoiseSettings denoiseSettings(const RenderSettings& s) {
 // on (R,G,B or noisy.*), its variance W.error^2 (into `variance`), the
 // guides, the albedo planes only for a pass whose W follows the pixel's albedo.
 DenoiseInput denoiseInput(const Film& film, int color, const IntegratorNeeds& needs, const uint32_t* objects,
-                          std::vector<float>& variance) {
+                          LargeVector<float>& variance) {
   const size_t n = size_t(film.width()) * size_t(film.height());
   variance.resize(n);
   const float* error = film.plane(film.find(kErrorPlane));
-  for (size_t i = 0; i < n; ++i) variance[i] = error[i] * error[i];
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, n, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) variance[i] = error[i] * error[i];
+  });
   DenoiseInput in;
   in.width = film.width(), in.height = film.height();
   for (int c = 0; c < 3; ++c) {
@@ -649,7 +651,8 @@ DenoiseInput denoiseInput(const Film& film, int color, const IntegratorNeeds& ne
 // camera samples, into `film` (with its Cryptomatte layers if s asks).
 void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const PassSlot> slots, bool wantAlbedo,
                      const RenderSettings& s, Film& film, RenderStats& stats, const std::atomic<bool>* cancel,
-                     uint32_t* objects, const IntegratorNeeds* denoised = nullptr) {
+                     uint32_t* objects, const IntegratorNeeds* denoised = nullptr,
+                     DenoiseWorkspace* denoiseWorkspace = nullptr) {
   if (wantAlbedo)  // decode once, up front: the hot loop never throws or blocks
     for (const auto& t : scene.textures) t->decode();
 
@@ -739,12 +742,12 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
             // (checkSettings), so the window is the frame.
             assert(window == uint64_t(film.width()) * uint64_t(film.height()));
             eachTile([&](int t) { tiles.resolveTile(t, true); });
-            std::vector<float> variance;
+            LargeVector<float> variance;
             const DenoiseInput in = denoiseInput(film, kR, *denoised, objects, variance);
-            std::vector<float> filtered(3 * window);
+            LargeVector<float> filtered(3 * window);  // written whole by the filter
             float* out[3] = {filtered.data(), filtered.data() + window, filtered.data() + 2 * window};
             rootGain.resize(window);
-            denoise(in, denoiseSettings(s), out, rootGain.data());
+            denoise(in, denoiseSettings(s), out, rootGain.data(), denoiseWorkspace);
             for (float& g : rootGain) g = std::sqrt(g);
             decide.resize(window);
           }
@@ -811,23 +814,29 @@ void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int 
 // (albedo x W x sky, premultiplied: albedo_pm W_pm sky / A) follow the
 // denoised W, so the film stays one consistent pass.
 void denoisePrimary(Film& film, const IntegratorNeeds& needs, const uint32_t* objects, const RenderSettings& s,
-                    int layer) {
+                    int layer, DenoiseWorkspace& workspace) {
   const size_t n = size_t(film.width()) * size_t(film.height());
   const int noisy = film.addPlane("noisy.R");
   film.addPlane("noisy.G"), film.addPlane("noisy.B");
-  copyPlanes(film, kR, film, noisy, 3);
-  std::vector<float> variance;
-  const DenoiseInput in = denoiseInput(film, noisy, needs, objects, variance);
-  float* out[3] = {film.plane(kR), film.plane(kG), film.plane(kB)};
-  denoise(in, denoiseSettings(s), out);
-  if (layer >= 0) copyPlanes(film, kR, film, layer, 3);
-  const double sky[3] = {s.sky.x, s.sky.y, s.sky.z};
-  for (size_t i = 0; i < n; ++i) {
-    const float a = film.plane(kA)[i];
-    for (int c = 0; c < 3; ++c)
-      film.plane(kShadedR + c)[i] =
-          a > 0.0f ? float(double(film.plane(kAlbedoR + c)[i]) * film.plane(kR + c)[i] * sky[c] / a) : 0.0f;
-  }
+  // On the render's threads (--threads), like the filter itself.
+  tbb::task_arena arena(s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency());
+  arena.execute([&] {
+    copyPlanes(film, kR, film, noisy, 3);
+    LargeVector<float> variance;
+    const DenoiseInput in = denoiseInput(film, noisy, needs, objects, variance);
+    float* out[3] = {film.plane(kR), film.plane(kG), film.plane(kB)};
+    denoise(in, denoiseSettings(s), out, nullptr, &workspace);
+    if (layer >= 0) copyPlanes(film, kR, film, layer, 3);
+    const double sky[3] = {s.sky.x, s.sky.y, s.sky.z};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        const float a = film.plane(kA)[i];
+        for (int c = 0; c < 3; ++c)
+          film.plane(kShadedR + c)[i] =
+              a > 0.0f ? float(double(film.plane(kAlbedoR + c)[i]) * film.plane(kR + c)[i] * sky[c] / a) : 0.0f;
+      }
+    });
+  });
 }
 
 }  // namespace
@@ -896,11 +905,15 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   // The denoiser's object guide: each pixel's first object, from the
   // ray-traced primary's walk (a screen-space primary: normal and depth only).
   std::vector<uint32_t> objects(s.denoise && !screenSpace(0) ? renderWindow(s).size() : 0, ~0U);
+  // The filter's planes, shared by the adaptive rounds' gain pass and the
+  // final filter (core/denoise.h).
+  DenoiseWorkspace denoiseWorkspace;
   if (!rayTraced.empty()) {
     part = {};
     if (!screenSpace(0)) {
       renderRayTraced(scene, camera, slotsFor(layer), wantAlbedo, s, film, part, cancel,
-                      objects.empty() ? nullptr : objects.data(), s.denoise ? &passes[0].needs : nullptr);
+                      objects.empty() ? nullptr : objects.data(), s.denoise ? &passes[0].needs : nullptr,
+                      &denoiseWorkspace);
     } else {
       // The first ray-traced pass lands in R,G,B of a film of its own; every
       // ray-traced pass's layer is copied over.
@@ -927,7 +940,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   }
   if (s.denoise) {
     const auto t0 = std::chrono::steady_clock::now();
-    denoisePrimary(film, passes[0].needs, objects.empty() ? nullptr : objects.data(), s, layer[0]);
+    denoisePrimary(film, passes[0].needs, objects.empty() ? nullptr : objects.data(), s, layer[0], denoiseWorkspace);
     stats.denoiseSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   return film;

@@ -428,6 +428,43 @@ TEST(Denoise, RowSplitChangesNoBit) {
   }
 }
 
+// A workspace reused across calls (the adaptive rounds' gain pass, then the
+// final filter) gives what a fresh call gives, whatever the call before it
+// held: another size, albedo planes or none, a gain or none.
+TEST(Denoise, AReusedWorkspaceChangesNothing) {
+  const auto synth = [](int w, int h, uint64_t seed) {
+    Synth g(w, h);
+    std::mt19937_64 rng(seed);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t p = g.at(x, y);
+        g.z[p] = x < w / 2 ? 4.0f : 5.0f;
+        for (int c = 0; c < 3; ++c) g.albedo[c][p] = y % 5 < 2 ? 0.2f : 0.7f;
+        g.setNoisy(p, 0.5f + 0.01f * float(y), 0.1f, rng);
+      }
+    return g;
+  };
+  const Synth big = synth(40, 30, 1), small = synth(23, 17, 2);
+  struct Call {
+    const Synth* g;
+    bool albedo, gain;
+  };
+  const Call calls[] = {{&big, true, true}, {&small, false, false}, {&big, false, true}, {&big, true, false}};
+  DenoiseWorkspace reused;
+  for (const Call& c : calls) {
+    const DenoiseInput in = c.g->input(true, c.albedo);
+    const size_t n = size_t(in.width) * size_t(in.height);
+    std::vector<float> fresh[4], again[4];
+    for (auto* v : {fresh, again})
+      for (int k = 0; k < 4; ++k) v[k].assign(n, -1.0f);
+    float* outF[3] = {fresh[0].data(), fresh[1].data(), fresh[2].data()};
+    float* outR[3] = {again[0].data(), again[1].data(), again[2].data()};
+    denoise(in, {}, outF, c.gain ? fresh[3].data() : nullptr);
+    denoise(in, {}, outR, c.gain ? again[3].data() : nullptr, &reused);
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(fresh[k], again[k]) << in.width << "x" << in.height << " plane " << k;
+  }
+}
+
 // Missing planes and bad settings are one clear error naming the field.
 TEST(Denoise, BadInputIsAnError) {
   Synth s(8, 8);

@@ -240,7 +240,9 @@ TEST(DenoiseRendered, DepthStepDoesNotLeak) {
         ASSERT_EQ(f.at(kA, x, y), 1.0f);
         if (floorX(float(x + 1)) > 0.0) {
           // The slab top (or the column on the edge, whose footprint is partly top).
-          if (floorX(float(x)) > 1e-3) ASSERT_EQ(f.at(kR, x, y), 1.0f) << "top pixel " << x << "," << y;
+          if (floorX(float(x)) > 1e-3) {
+            ASSERT_EQ(f.at(kR, x, y), 1.0f) << "top pixel " << x << "," << y;
+          }
           continue;
         }
         sumN[size_t(x)] += f.at(noisy, x, y), sqN[size_t(x)] += double(f.at(noisy, x, y)) * f.at(noisy, x, y);
