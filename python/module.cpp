@@ -207,6 +207,37 @@ void runInterruptible(const std::function<void(const std::atomic<bool>&)>& work)
   if (failure) std::rethrow_exception(failure);
 }
 
+// --- warnings: obscura's warning lines as Python warnings -----------------------
+// Log::warn's sink (core/error.h) collects them from any thread - loads and
+// renders run with the GIL released, the renders on TBB's threads - and each
+// call of the module hands them to Python's `warnings` (category
+// obscura.Warning, a UserWarning) before it returns or raises, so filters,
+// `-W error` and pytest.warns work as for any Python warning.
+std::mutex gWarningsMutex;
+std::vector<std::string> gWarnings;
+PyObject* gWarningType = nullptr;
+
+void collectWarning(const std::string& message) {
+  std::lock_guard<std::mutex> lock(gWarningsMutex);
+  gWarnings.push_back(message);
+}
+
+// With the GIL held. Throws error_already_set when a filter turns a warning
+// into an error (the rest stay pending for the next call).
+void deliverWarnings() {
+  std::vector<std::string> pending;
+  {
+    std::lock_guard<std::mutex> lock(gWarningsMutex);
+    pending.swap(gWarnings);
+  }
+  for (size_t i = 0; i < pending.size(); ++i)
+    if (PyErr_WarnEx(gWarningType, pending[i].c_str(), 1) != 0) {
+      std::lock_guard<std::mutex> lock(gWarningsMutex);
+      gWarnings.insert(gWarnings.begin(), pending.begin() + std::ptrdiff_t(i) + 1, pending.end());
+      throw py::error_already_set();
+    }
+}
+
 // --- Scene ----------------------------------------------------------------------
 struct PyScene {
   std::string path;
@@ -244,6 +275,7 @@ std::shared_ptr<PyScene> buildScene(const std::string& path, std::shared_ptr<con
     s->scene = loadSceneAndCamera(s->args, *s->source, s->camera, s->width, s->height, s->loadCamera);
     s->loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
+  deliverWarnings();
   return s;
 }
 
@@ -288,7 +320,7 @@ py::array channelView(const std::shared_ptr<PyImage>& self, int i) {
                        {py::ssize_t(self->width) * py::ssize_t(sizeof(float)), py::ssize_t(sizeof(float))},
                        self->planes[size_t(i)], owner);
   py::detail::array_proxy(a.ptr())->flags &= ~py::detail::npy_api::NPY_ARRAY_WRITEABLE_;
-  return std::move(a);
+  return a;  // moved (C++20: implicit move to the base py::array)
 }
 
 py::dict channels(const std::shared_ptr<PyImage>& self) {
@@ -310,7 +342,7 @@ py::array layer(const std::shared_ptr<PyImage>& self, const std::string& name) {
     const size_t n = size_t(self->width) * size_t(self->height);
     for (size_t p = 0; p < n; ++p)
       for (int k = 0; k < 3; ++k) o[3 * p + size_t(k)] = self->planes[size_t(idx[k])][p];
-    return std::move(out);
+    return out;
   }
   throw Error("layer '" + name + "': no channels " + prefix + "R/G/B or " + prefix + "X/Y/Z (channels: " + channelList(*self) + ")");
 }
@@ -458,6 +490,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   result->width = f.width(), result->height = f.height();
   for (int c : f.channels()) result->names.push_back(f.name(c)), result->planes.push_back(f.plane(c));
   result->attributes = result->header.attributes;
+  deliverWarnings();
   return result;
 }
 
@@ -467,12 +500,15 @@ void writeResult(const PyResult& r, const std::string& path, bool half, const st
   ExrOptions exr = r.header;
   exr.half = half;
   exr.compression = exrCompressionFromName(compression, "--compression");
-  py::gil_scoped_release release;
-  // The pass and its preview land together or not at all (as the CLI writes them).
-  OutputSet out;
-  out.addExr(path, r.film, exr);
-  if (preview) out.addPreviewPng(*preview, r.film);
-  out.commit();
+  {
+    py::gil_scoped_release release;
+    // The pass and its preview land together or not at all (as the CLI writes them).
+    OutputSet out;
+    out.addExr(path, r.film, exr);
+    if (preview) out.addPreviewPng(*preview, r.film);
+    out.commit();
+  }
+  deliverWarnings();
 }
 
 std::shared_ptr<PyImage> readExr(const std::string& path) {
@@ -485,6 +521,7 @@ std::shared_ptr<PyImage> readExr(const std::string& path) {
   r->names = r->image.names;
   for (const auto& p : r->image.planes) r->planes.push_back(p.data());
   r->attributes = r->image.attributes;
+  deliverWarnings();
   return r;
 }
 
@@ -574,6 +611,7 @@ py::list compare(const py::object& scene, const std::string& output, const py::o
   int code = 0;
   runInterruptible([&](const std::atomic<bool>& cancel) { code = runCompare(a, &cancel); });
   if (code != 0) throw Error("compare: stopped with exit code " + std::to_string(code));
+  deliverWarnings();
   return readResults(output);
 }
 
@@ -589,7 +627,19 @@ PYBIND11_MODULE(obscura, m) {
   // line `obscura` prints.
   nameSettingsAsFlags();
   static py::exception<Error> error(m, "Error");
+  gWarningType = PyErr_NewExceptionWithDoc("obscura.Warning",
+                                           "A warning obscura prints as `obscura: warning: ...` on the CLI",
+                                           PyExc_UserWarning, nullptr);
+  m.attr("Warning") = py::reinterpret_borrow<py::object>(gWarningType);
+  Log::setWarningSink(collectWarning);
   py::register_exception_translator([](std::exception_ptr p) {
+    // The warnings of the failed call first (a filter that makes one an
+    // error does not replace the call's own error).
+    try {
+      deliverWarnings();
+    } catch (const py::error_already_set&) {
+      PyErr_Clear();
+    }
     try {
       if (p) std::rethrow_exception(p);
     } catch (const Error& e) {
@@ -696,12 +746,20 @@ PYBIND11_MODULE(obscura, m) {
         "render(scene, integrator='ao', params={...}, **options): options as `obscura render`'s (README \"Python\")");
   m.def("read_exr", &readExr, py::arg("path"), "Every channel and the header of an EXR (an Image)");
   m.def("integrators", &integratorList, "The registered integrators with their parameters");
-  m.def("load_plugin", [](const std::string& path) { loadPlugin(path); }, py::arg("path"),
+  m.def("load_plugin",
+        [](const std::string& path) {
+          loadPlugin(path);
+          deliverWarnings();
+        },
+        py::arg("path"),
         "Loads an integrator plugin (shared library), as --plugin");
   m.def("merge",
         [](const std::string& output, const std::vector<std::string>& tiles) {
-          py::gil_scoped_release release;
-          mergeRegions(output, tiles);
+          {
+            py::gil_scoped_release release;
+            mergeRegions(output, tiles);
+          }
+          deliverWarnings();
         },
         py::arg("output"), py::arg("tiles"), "`obscura merge`: region renders assembled into the full frame");
   m.def("compare", &compare, py::arg("scene"), py::arg("output"), py::arg("configs"),

@@ -5,11 +5,15 @@ renders many times; Ctrl-C stops a render; the GIL is released while one runs.
 
 Run by CTest (python.tests) with PYTHONPATH=build/python and OBSCURA_BINARY
 the CLI of the same build."""
+import base64
+import json
 import os
 import signal
+import struct
 import subprocess
 import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -165,6 +169,45 @@ def test_scene_errors_match_cli(tmp_path):
     with pytest.raises(obscura.Error) as e:
         obscura.Scene(SCENE, subdiv="bogus")
     assert str(e.value) == cli_error("render", SCENE, "-o", str(tmp_path / "x.exr"), "-q", "--subdiv", "bogus")
+
+
+def write_emissive_triangle(path):
+    """A one-triangle glTF whose material is emissive: loading it warns
+    (ambient passes ignore emission)."""
+    positions = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": len(positions),
+                     "uri": "data:application/octet-stream;base64," + base64.b64encode(positions).decode()}],
+        "bufferViews": [{"buffer": 0, "byteLength": len(positions)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "materials": [{"emissiveFactor": [1, 1, 1]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "material": 0}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    }
+    path.write_text(json.dumps(doc))
+    return str(path)
+
+
+def test_warnings_are_python_warnings(tmp_path):
+    """The CLI's `obscura: warning: ...` lines reach Python as obscura.Warning
+    (a UserWarning), so filters and pytest.warns apply; nothing is printed."""
+    first = write_emissive_triangle(tmp_path / "emissive.gltf")
+    code, err = cli("render", first, "-o", str(tmp_path / "x.exr"), "--res", "8x8", "--spp", "1", "-q")
+    assert code == 0 and f"obscura: warning: {first}: emission is ignored by ambient passes" in err
+    with pytest.warns(obscura.Warning, match="emission is ignored by ambient passes") as record:
+        obscura.Scene(first)
+    assert issubclass(obscura.Warning, UserWarning)
+    assert [str(w.message) for w in record] == [f"{first}: emission is ignored by ambient passes"]
+    # A filter that makes it an error raises it (another file: each warning is given once).
+    second = write_emissive_triangle(tmp_path / "emissive2.gltf")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", obscura.Warning)
+        with pytest.raises(obscura.Warning, match="emission is ignored"):
+            obscura.Scene(second)
 
 
 def test_bad_keywords(scene):
