@@ -4,8 +4,9 @@
 //
 // Every pixel takes the first --min-spp samples; after each round, a pixel
 // whose error estimate and the pooled (RMS) estimate of its 3 x 3
-// neighbourhood are both at most the target stops, and every other pixel is given its next samples, up to
-// --spp. A pixel's samples are always its first n samples in sample order,
+// neighbourhood are both at most the target stops (the marginal rule of a
+// denoised pass: the RMS over its 5 x 5 neighbourhood, see setMarginal),
+// and every other pixel is given its next samples, up to --spp. A pixel's samples are always its first n samples in sample order,
 // the very samples of a fixed-spp render, so a pixel that never stops equals
 // the fixed-spp render bit for bit; and the decisions read only the sums at
 // round boundaries, so the image does not depend on threads or tile size.
@@ -63,7 +64,12 @@ class SampleSchedule {
   // round's, and plans n proportional to its per-sample deviation
   // error sqrt(n): the allocation that minimizes the image's mean squared
   // error for the samples spent (docs/math.md §13), where the default rule
-  // (every pixel to E) spends as a fixed-spp render would.
+  // (every pixel to E) spends as a fixed-spp render would. The error it
+  // decides on is the RMS over the pixel's 5 x 5 neighbourhood, with no
+  // term of its own (the filter averages neighbourhoods; an own term was a
+  // stopping bias): the allocation is optimal per neighbourhood, and a
+  // lone pixel the filter cannot average among quiet ones (a thin
+  // silhouette) may stop above the threshold.
   void setMarginal(bool on) { marginal_ = on; }
   // Drops the round just planned (the time limit): the render ends with
   // the samples taken.

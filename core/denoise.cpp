@@ -107,8 +107,9 @@ struct TapPass {
 // x86-64 clone. Every operation is per lane, so the width changes no bit.
 constexpr int kLanes = 8;
 // The baseline clone passes no VF across a call (everything below is
-// inlined into tapRow), so GCC's note that such a call's ABI would differ
-// from AVX code's does not apply.
+// inlined into tapRow), so GCC's -Wpsabi warning that such a call's ABI
+// would differ from AVX code's does not apply (GCC may still print its
+// one-time note on the parameter alignment of 32-byte vectors).
 #pragma GCC diagnostic ignored "-Wpsabi"
 using VF = float __attribute__((vector_size(4 * kLanes)));
 using VI = int32_t __attribute__((vector_size(4 * kLanes)));

@@ -101,7 +101,7 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]);
 // achieve); 1 where the pixel holds no W or its variance is 0. Adaptive sampling for a denoised pass reads it
 // (README "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
 // filter").
-// The working planes (guides, two iterations' states: ~40 floats a pixel)
+// The working planes (guides, two iterations' states: 18-21 floats a pixel)
 // of a caller that filters more than once - adaptive rounds filter the first
 // round's film for the gain, then the final one: the second call reuses the
 // first's pages instead of faulting in new ones, which the kernel clears

@@ -211,7 +211,7 @@ void runInterruptible(const std::function<void(const std::atomic<bool>&)>& work)
 // Log::warn's sink (core/error.h) collects them from any thread - loads and
 // renders run with the GIL released, the renders on TBB's threads - and each
 // call of the module hands them to Python's `warnings` (category
-// obscura.Warning, a UserWarning) before it returns or raises, so filters,
+// obscura.ObscuraWarning, a UserWarning) before it returns or raises, so filters,
 // `-W error` and pytest.warns work as for any Python warning.
 std::mutex gWarningsMutex;
 std::vector<std::string> gWarnings;
@@ -223,19 +223,16 @@ void collectWarning(const std::string& message) {
 }
 
 // With the GIL held. Throws error_already_set when a filter turns a warning
-// into an error (the rest stay pending for the next call).
+// into an error; the call's remaining warnings are dropped with it (they
+// belong to the call that raised, not to the next one).
 void deliverWarnings() {
   std::vector<std::string> pending;
   {
     std::lock_guard<std::mutex> lock(gWarningsMutex);
     pending.swap(gWarnings);
   }
-  for (size_t i = 0; i < pending.size(); ++i)
-    if (PyErr_WarnEx(gWarningType, pending[i].c_str(), 1) != 0) {
-      std::lock_guard<std::mutex> lock(gWarningsMutex);
-      gWarnings.insert(gWarnings.begin(), pending.begin() + std::ptrdiff_t(i) + 1, pending.end());
-      throw py::error_already_set();
-    }
+  for (const std::string& m : pending)
+    if (PyErr_WarnEx(gWarningType, m.c_str(), 1) != 0) throw py::error_already_set();
 }
 
 // --- Scene ----------------------------------------------------------------------
@@ -479,6 +476,9 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
       result->film = render(*sc.scene, camera, passes, s, result->stats, &cancel);
     });
   }
+  // Before the checkpoint goes: a filter that makes a warning an error
+  // loses this result, and the checkpoint lets the next call resume it.
+  deliverWarnings();
   result->header = renderHeader(a, setups, camera, s, result->stats, *sc.scene);
   if (checkpoint) {
     if (checkpoint->runs() > 1) result->header.attributes.push_back({"obscura:checkpointRuns", checkpoint->runs()});
@@ -490,7 +490,6 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   result->width = f.width(), result->height = f.height();
   for (int c : f.channels()) result->names.push_back(f.name(c)), result->planes.push_back(f.plane(c));
   result->attributes = result->header.attributes;
-  deliverWarnings();
   return result;
 }
 
@@ -627,10 +626,12 @@ PYBIND11_MODULE(obscura, m) {
   // line `obscura` prints.
   nameSettingsAsFlags();
   static py::exception<Error> error(m, "Error");
-  gWarningType = PyErr_NewExceptionWithDoc("obscura.Warning",
+  // Not named Warning: `from obscura import *` would hide the built-in.
+  gWarningType = PyErr_NewExceptionWithDoc("obscura.ObscuraWarning",
                                            "A warning obscura prints as `obscura: warning: ...` on the CLI",
                                            PyExc_UserWarning, nullptr);
-  m.attr("Warning") = py::reinterpret_borrow<py::object>(gWarningType);
+  if (!gWarningType) throw py::error_already_set();
+  m.attr("ObscuraWarning") = py::reinterpret_borrow<py::object>(gWarningType);
   Log::setWarningSink(collectWarning);
   py::register_exception_translator([](std::exception_ptr p) {
     // The warnings of the failed call first (a filter that makes one an

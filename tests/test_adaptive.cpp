@@ -464,6 +464,15 @@ TEST(Adaptive, TheMarginalRulePoolsFiveByFiveWithoutTheOwnTerm) {
     b.setMarginal(marginal);
     b.next(hole.data());
     EXPECT_EQ(b.target(4 * 9 + 4), 24u) << "marginal " << marginal;
+    // The own term itself: one pixel at 0.3 among pixels at 0.05. Its 5 x 5
+    // RMS, sqrt((24 0.05^2 + 0.3^2) / 25) = 0.077, is below E: under the
+    // marginal rule every pixel stops. The per-pixel rule keeps it (0.3 > E)
+    // and its 8 neighbours (3 x 3 RMS sqrt((8 0.05^2 + 0.3^2) / 9) = 0.111).
+    std::vector<float> lone(window.size(), 0.05f);
+    lone[4 * 9 + 4] = 0.3f;
+    SampleSchedule c(window, s);
+    c.setMarginal(marginal);
+    EXPECT_EQ(c.next(lone.data()), marginal ? 0u : 9u * 8u) << "marginal " << marginal;
   }
 }
 

@@ -192,21 +192,23 @@ def write_emissive_triangle(path):
     return str(path)
 
 
-def test_warnings_are_python_warnings(tmp_path):
-    """The CLI's `obscura: warning: ...` lines reach Python as obscura.Warning
-    (a UserWarning), so filters and pytest.warns apply; nothing is printed."""
+def test_warnings_are_python_warnings(tmp_path, capfd):
+    """The CLI's `obscura: warning: ...` lines reach Python as
+    obscura.ObscuraWarning (a UserWarning), so filters and pytest.warns apply;
+    nothing is printed."""
     first = write_emissive_triangle(tmp_path / "emissive.gltf")
     code, err = cli("render", first, "-o", str(tmp_path / "x.exr"), "--res", "8x8", "--spp", "1", "-q")
     assert code == 0 and f"obscura: warning: {first}: emission is ignored by ambient passes" in err
-    with pytest.warns(obscura.Warning, match="emission is ignored by ambient passes") as record:
+    with pytest.warns(obscura.ObscuraWarning, match="emission is ignored by ambient passes") as record:
         obscura.Scene(first)
-    assert issubclass(obscura.Warning, UserWarning)
+    assert issubclass(obscura.ObscuraWarning, UserWarning)
     assert [str(w.message) for w in record] == [f"{first}: emission is ignored by ambient passes"]
+    assert "warning" not in capfd.readouterr().err
     # A filter that makes it an error raises it (another file: each warning is given once).
     second = write_emissive_triangle(tmp_path / "emissive2.gltf")
     with warnings.catch_warnings():
-        warnings.simplefilter("error", obscura.Warning)
-        with pytest.raises(obscura.Warning, match="emission is ignored"):
+        warnings.simplefilter("error", obscura.ObscuraWarning)
+        with pytest.raises(obscura.ObscuraWarning, match="emission is ignored"):
             obscura.Scene(second)
 
 
