@@ -26,8 +26,9 @@
 // --exe (default: the `obscura` next to this bench's directory) and a file
 // scene it also times the whole process `obscura render SCENE -q -i ao ...`
 // (wall clock and the child's user + system CPU seconds, EXR written to
-// /tmp) and prints its Mrays/s, once with the default EXR compression (zip)
-// and once with --compression none, so the write's share shows. With
+// /tmp, to a path that does not exist yet: a new frame) and prints its
+// Mrays/s, once with the default EXR compression (zip) and once with
+// --compression none, so the write's share shows. With
 // --before-exe OTHER, OTHER's process is timed the same way in the same
 // runs (e.g. a build of main: before/after in one run).
 //
@@ -43,6 +44,7 @@
 // Run:   build/bench/obscura_bench_bare                      viking (if present) + generated, 1024x1024, 32 spp, 2 threads
 //        build/bench/obscura_bench_bare --scene viking --runs 7
 //        build/bench/obscura_bench_bare --scene viking --trade --runs 1
+//        perf record -g -- build/bench/obscura_bench_bare --scene viking --profile bare --runs 10
 // The viking room is skipped with a note when ../shared/scenes is absent.
 #include <CLI/CLI.hpp>
 #include <embree3/rtcore.h>
@@ -309,6 +311,7 @@ struct Options : CommonOptions {
   std::string tradeRes = "256x256";
   std::string tradeSpp = "4,16,64";
   int tradeSeeds = 8;
+  std::string only;  // --profile: run just this loop (bare, aovs, no-aovs)
 };
 
 double mrays(const BareTally& t, double sec) { return double(t.camera + t.ao) / sec * 1e-6; }
@@ -341,11 +344,12 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
     std::vector<double> wall, cpu;
   };
   std::vector<ProcessCase> cases;
+  const std::string output = "/tmp/obscura_bench_bare_" + std::to_string(getpid()) + ".exr";
   if (process) {
     const auto command = [&](const std::string& exe, const char* extra) {
       return exe + " render '" + bs.source + "' -q -i ao --res " + std::to_string(width) + "x" +
              std::to_string(height) + " --spp " + std::to_string(o.spp) + " --threads " + std::to_string(threads) +
-             extra + " -o /tmp/obscura_bench_bare_" + std::to_string(getpid()) + ".exr";
+             extra + " -o " + output;
     };
     for (const std::string& exe : {o.exe, o.beforeExe}) {
       if (exe.empty()) continue;
@@ -378,11 +382,26 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
     cpu.push_back(processCpuSeconds() - c0);
     return sec;
   };
+  if (!o.only.empty()) {
+    // --profile: one loop alone, --runs times, for a CPU profile
+    // (perf record -- obscura_bench_bare --profile bare): its samples are
+    // that loop's and the warm-up's only.
+    for (int r = 0; r < o.runs; ++r) {
+      const double sec = o.only == "bare" ? bare.run(kb) : o.only == "aovs" ? withAovs.run(bs, ka) : noAovs.run(bs, kn);
+      std::printf("   run %d/%d: %s %.3f s\n", r + 1, o.runs, o.only.c_str(), sec);
+    }
+    return;
+  }
   for (int r = 0; r < o.runs; ++r) {
     tb.push_back(timed(cb, [&] { return bare.run(kb); }));
     ta.push_back(timed(ca, [&] { return withAovs.run(bs, ka); }));
     tn.push_back(timed(cn, [&] { return noAovs.run(bs, kn); }));
     for (ProcessCase& pc : cases) {
+      // A new frame: the output does not exist yet. (Renaming the finished
+      // file over an existing 64 MiB one adds ext4's work - the flush it
+      // starts on a replacing rename and the old file's truncation - about
+      // 40 ms here, which has nothing to do with rendering.)
+      std::filesystem::remove(output);
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = childCpuSeconds();
       if (std::system(pc.cmd.c_str()) != 0) throw Error("failed: " + pc.cmd);
@@ -395,6 +414,7 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
     std::printf("\n");
     std::fflush(stdout);
   }
+  if (!cases.empty()) std::filesystem::remove(output);
   double load[3] = {0, 0, 0};
   if (getloadavg(load, 3) < 0) load[0] = load[1] = load[2] = -1;
   std::printf("   load average after the runs: %.2f %.2f %.2f (1, 5, 15 min)\n", load[0], load[1], load[2]);
@@ -476,6 +496,8 @@ int main(int argc, char** argv) {
   app.add_option("--trade-res", o.tradeRes, "Resolution of the trade's images (default 256x256)");
   app.add_option("--trade-spp", o.tradeSpp, "Comma list of spp for the trade (default 4,16,64)");
   app.add_option("--trade-seeds", o.tradeSeeds, "Independent renders per trade cell (default 8)");
+  app.add_option("--profile", o.only, "Run only this loop --runs times, nothing else timed (for perf record)")
+      ->check(CLI::IsMember({"bare", "aovs", "no-aovs"}));
   CLI11_PARSE(app, argc, argv);
   try {
     if (o.quick) {
