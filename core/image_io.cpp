@@ -1,5 +1,7 @@
 #include "core/image_io.h"
 
+#include "core/large_vector.h"
+
 #include <Imath/half.h>
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfChromaticitiesAttribute.h>
@@ -191,7 +193,9 @@ uint64_t availableMemoryBytes() {
   while (std::fgets(line, sizeof line, f))
     if (std::sscanf(line, "MemAvailable: %" SCNu64 " kB", &kib) == 1) break;
   std::fclose(f);
-  return kib * 1024;
+  if (kib == 0) return 0;  // unknown
+  // The whole-image blocks this process keeps for reuse are its to use.
+  return kib * 1024 + detail::keptBytes();
 }
 
 OutputSet::~OutputSet() {

@@ -102,8 +102,9 @@ class OutputSet {
 void checkWritable(const std::string& path);
 // Bytes a film of w x h pixels takes (with or without AOVs).
 uint64_t filmBytes(int width, int height, bool aovs);
-// Physical memory the system reports as available (MemAvailable), or 0 if
-// unknown.
+// Physical memory the system reports as available (MemAvailable), plus
+// the whole-image blocks this process keeps for reuse (core/large_vector.h);
+// 0 if unknown.
 uint64_t availableMemoryBytes();
 // True if the file starts with OpenEXR's magic number; throws
 // obscura::Error naming the path if it cannot be read.

@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/image_io.h"
+#include "core/large_vector.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -56,6 +58,38 @@ TEST(Outputs, NewFilmPlanesAreZeroOnReusedMemory) {
       }
     }
   }
+}
+
+// Whole-image blocks freed by one render are handed to the next allocation
+// of the same rounded size (core/large_vector.h): a process that renders
+// again finds its pages faulted in. In builds without NDEBUG every block
+// comes out filled with 0xff bytes, fresh or kept, so that reading an
+// element before writing it shows in the tests; the film's planes are
+// zeroed all the same (the test above).
+TEST(Outputs, LargeBlocksAreKeptForTheNextAllocation) {
+  detail::releaseKeptBlocks();
+  const size_t n = (size_t(3) << 20) / sizeof(float);  // 3 MiB: rounded to 4 MiB
+  const float* first = nullptr;
+  {
+    LargeVector<float> a(n);
+    std::fill(a.begin(), a.end(), 2.0f);
+    first = a.data();
+  }
+  LargeVector<float> b(n - 1000);  // another size, the same 4 MiB block
+  EXPECT_EQ(b.data(), first);
+#ifndef NDEBUG
+  size_t unpoisoned = 0;
+  for (float x : b) unpoisoned += !std::isnan(x);
+  EXPECT_EQ(unpoisoned, 0u);
+#endif
+  {
+    LargeVector<uint8_t> c(size_t(9) << 20);  // a 10 MiB block: none kept, a new one
+    EXPECT_NE(static_cast<const void*>(c.data()), static_cast<const void*>(first));
+  }
+  b = {};
+  b.shrink_to_fit();
+  EXPECT_GE(detail::releaseKeptBlocks(), (size_t(14) << 20));  // the 4 and 10 MiB blocks
+  EXPECT_EQ(detail::releaseKeptBlocks(), 0u);
 }
 
 // When the second of two staged files cannot be moved into place, the first
