@@ -22,6 +22,9 @@ struct KeptBlocks {
 // most 4 GiB (a 1080p adaptive, denoised render with every AOV keeps
 // ~0.7 GB; a 4K one ~2.8 GB).
 size_t keptCap() {
+#if defined(__SANITIZE_ADDRESS__)
+  return 0;  // AddressSanitizer must see every block freed, to catch a use after it
+#endif
   if (const char* v = std::getenv("OBSCURA_KEEP_MEMORY"); v && *v) {
     char* end = nullptr;
     const unsigned long long mib = std::strtoull(v, &end, 10);
