@@ -497,7 +497,8 @@ int main(int argc, char** argv) {
   app.add_option("--trade-spp", o.tradeSpp, "Comma list of spp for the trade (default 4,16,64)");
   app.add_option("--trade-seeds", o.tradeSeeds, "Independent renders per trade cell (default 8)");
   app.add_option("--profile", o.only, "Run only this loop --runs times, nothing else timed (for perf record)")
-      ->check(CLI::IsMember({"bare", "aovs", "no-aovs"}));
+      ->check(CLI::IsMember({"bare", "aovs", "no-aovs"}))
+      ->excludes("--trade");
   CLI11_PARSE(app, argc, argv);
   try {
     if (o.quick) {

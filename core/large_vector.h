@@ -13,21 +13,28 @@
 // parallelFill below) where zeros are needed.
 //
 // Freed blocks of 2 MiB or more are kept for the next allocation of the
-// same rounded size (up to a quarter of the machine's memory, at most
-// 4 GiB, in all, or OBSCURA_KEEP_MEMORY MiB; past that the oldest go back
-// to the system): a process that renders again - `compare`'s cells, the
-// Python module, a farm worker's frames - finds the pages of the last
-// render's film, sums and filter planes already faulted in (blocks above
-// glibc's largest mmap threshold, 32 MiB, would otherwise be unmapped and
-// faulted in anew every render). Measured on the viking room at 1080p,
-// adaptive + denoise, three renders in one Python process: the second and
-// third took 2.06 and 1.85-1.94 s wall, 0.28 and 0.01 s system, against
-// 2.31-2.36 and 2.04-2.05 s, 0.39-0.49 and 0.08-0.11 s keeping nothing. A
-// kept block holds the bytes its last owner left, which is why nothing may
-// read an element before writing it; builds without NDEBUG fill every
+// same rounded size (up to a quarter of the memory the process may use -
+// the machine's, or its cgroup's limit - at most 4 GiB, in all, or
+// OBSCURA_KEEP_MEMORY MiB; past that the oldest go back
+// to the system; a request of a size none has hands back the oldest, as
+// many bytes as it takes): a process that renders again - `compare`'s
+// cells, the Python module's renders - finds the pages of the last render's
+// film, sums and filter planes already faulted in (blocks above glibc's
+// largest mmap threshold, 32 MiB, would otherwise be unmapped and faulted
+// in anew every render). Measured on the viking room at 1080p, adaptive +
+// denoise, three renders in one Python process, three processes each way:
+// the second and third took 1.96-2.06 and 1.82-1.94 s wall, 0.26-0.29 and
+// 0.00-0.01 s system, against 2.00-2.36 and 1.88-2.05 s, 0.31-0.49 and
+// 0.08-0.11 s keeping nothing (OBSCURA_KEEP_MEMORY=0). A kept block holds
+// the bytes its last owner left, which is why nothing may read an element
+// before writing it. Builds without NDEBUG, and the sanitized builds
+// (OBSCURA_SANITIZE, OBSCURA_FUZZ: OBSCURA_SANITIZED_BUILD), fill every
 // large block with 0xff bytes (NaN floats, all-ones integers) when it is
-// handed out, fresh or kept, so a read before a write shows in the tests.
-// AddressSanitizer builds keep nothing, so a use after free still shows.
+// handed out, fresh or kept, so that a read before a write shows in their
+// tests; the sanitized builds keep nothing, so AddressSanitizer sees every
+// use after free. (Note: LargeAllocator skips the value-initialization of
+// trivially copyable types, default member initializers included: such
+// arrays are filled, parallelFill, before use.)
 #pragma once
 
 #include <sys/mman.h>
@@ -48,13 +55,18 @@ namespace detail {
 // exactly `bytes` (a multiple of 2 MiB), or null. keepBlock: keeps the
 // block (handing the oldest back to the system while the total would pass
 // the cap), or returns false for a block larger than the cap (the caller
-// frees it).
+// frees it). A miss in takeKeptBlock hands back the oldest blocks of as
+// many bytes as the caller is about to allocate.
 void* takeKeptBlock(size_t bytes);
-bool keepBlock(void* p, size_t bytes);
+bool keepBlock(void* p, size_t bytes) noexcept;
 // Hands every kept block back to the system; returns the bytes released.
 size_t releaseKeptBlocks();
 // The bytes the kept blocks hold: memory the next render has at hand.
 size_t keptBytes();
+// The cap on the kept bytes, and (for tests) another one; returns the
+// previous cap, handing back the oldest blocks past the new one.
+size_t keptCapacity();
+size_t setKeptCapacity(size_t bytes);
 }  // namespace detail
 
 template <class T>
@@ -74,7 +86,7 @@ struct LargeAllocator {
         p = std::aligned_alloc(kHuge, rounded);
         if (p) madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure is harmless
       }
-#ifndef NDEBUG
+#if !defined(NDEBUG) || defined(OBSCURA_SANITIZED_BUILD)
       if (p) std::memset(p, 0xff, rounded);
 #endif
     } else {
@@ -83,7 +95,7 @@ struct LargeAllocator {
     if (!p) throw std::bad_alloc();
     return static_cast<T*>(p);
   }
-  void deallocate(T* p, size_t n) {
+  void deallocate(T* p, size_t n) noexcept {
     const size_t bytes = n * sizeof(T);
     if (bytes >= kHuge && detail::keepBlock(p, roundedBytes(bytes))) return;
     std::free(p);

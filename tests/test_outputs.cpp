@@ -62,39 +62,56 @@ TEST(Outputs, NewFilmPlanesAreZeroOnReusedMemory) {
 
 // Whole-image blocks freed by one render are handed to the next allocation
 // of the same rounded size (core/large_vector.h): a process that renders
-// again finds its pages faulted in. In builds without NDEBUG every block
-// comes out filled with 0xff bytes, fresh or kept, so that reading an
-// element before writing it shows in the tests; the film's planes are
-// zeroed all the same (the test above).
+// again finds its pages faulted in. Past the cap the oldest go; a size no
+// kept block has hands back the oldest, as many bytes as it allocates. In
+// builds without NDEBUG and in the sanitized ones every block comes out
+// filled with 0xff bytes, fresh or kept, so that reading an element before
+// writing it shows in the tests; the film's planes are zeroed all the same
+// (the test above). Sanitized builds keep nothing.
 TEST(Outputs, LargeBlocksAreKeptForTheNextAllocation) {
+  constexpr size_t kMiB = size_t(1) << 20;
   detail::releaseKeptBlocks();
-  const size_t n = (size_t(3) << 20) / sizeof(float);  // 3 MiB: rounded to 4 MiB
-#if defined(__SANITIZE_ADDRESS__)
+  const size_t n = 3 * kMiB / sizeof(float);  // 3 MiB: a 4 MiB block
+#if defined(OBSCURA_SANITIZED_BUILD) || defined(__SANITIZE_ADDRESS__)
   { LargeVector<float> a(n); }
-  EXPECT_EQ(detail::releaseKeptBlocks(), 0u);  // AddressSanitizer builds keep nothing: it sees every free
-  return;
-#endif
+  EXPECT_EQ(detail::keptCapacity(), 0u);
+  EXPECT_EQ(detail::releaseKeptBlocks(), 0u);  // nothing kept: AddressSanitizer sees every free
+#else
+  const size_t cap = detail::setKeptCapacity(64 * kMiB);  // whatever OBSCURA_KEEP_MEMORY says
   const float* first = nullptr;
   {
     LargeVector<float> a(n);
     std::fill(a.begin(), a.end(), 2.0f);
     first = a.data();
   }
-  LargeVector<float> b(n - 1000);  // another size, the same 4 MiB block
-  EXPECT_EQ(b.data(), first);
-#ifndef NDEBUG
-  size_t unpoisoned = 0;
-  for (float x : b) unpoisoned += !std::isnan(x);
-  EXPECT_EQ(unpoisoned, 0u);
-#endif
+  EXPECT_EQ(detail::keptBytes(), 4 * kMiB);
   {
-    LargeVector<uint8_t> c(size_t(9) << 20);  // a 10 MiB block: none kept, a new one
-    EXPECT_NE(static_cast<const void*>(c.data()), static_cast<const void*>(first));
+    LargeVector<float> b(n - 1000);  // another size, the same 4 MiB block
+    EXPECT_EQ(b.data(), first);
+    EXPECT_EQ(detail::keptBytes(), 0u);
+#ifndef NDEBUG
+    size_t unpoisoned = 0;
+    for (float x : b) unpoisoned += !std::isnan(x);
+    EXPECT_EQ(unpoisoned, 0u);
+#endif
   }
-  b = {};
-  b.shrink_to_fit();
-  EXPECT_GE(detail::releaseKeptBlocks(), (size_t(14) << 20));  // the 4 and 10 MiB blocks
-  EXPECT_EQ(detail::releaseKeptBlocks(), 0u);
+  { LargeVector<uint8_t> c(10 * kMiB); }  // a miss: the kept 4 MiB block goes back first
+  EXPECT_EQ(detail::keptBytes(), 10 * kMiB);
+  // Past the cap the oldest go.
+  detail::setKeptCapacity(16 * kMiB);
+  { LargeVector<uint8_t> d(8 * kMiB); }  // a miss that frees the 10 MiB block, then kept: 8 MiB
+  EXPECT_EQ(detail::keptBytes(), 8 * kMiB);
+  {
+    LargeVector<uint8_t> e(8 * kMiB), f(6 * kMiB);  // e takes the kept block; f misses with none left
+    EXPECT_EQ(detail::keptBytes(), 0u);
+  }  // freed f (6 MiB), then e (8 MiB): 14 MiB fits under 16
+  EXPECT_EQ(detail::keptBytes(), 14 * kMiB);
+  { LargeVector<uint8_t> g(4 * kMiB - 1); }  // a miss: the oldest (f, 6 MiB) goes; then g's 4 MiB kept
+  EXPECT_EQ(detail::keptBytes(), 12 * kMiB);
+  EXPECT_EQ(detail::releaseKeptBlocks(), 12 * kMiB);
+  EXPECT_EQ(detail::keptBytes(), 0u);
+  detail::setKeptCapacity(cap);
+#endif
 }
 
 // When the second of two staged files cannot be moved into place, the first
