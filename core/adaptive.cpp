@@ -51,12 +51,17 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
     : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds),
       firstSpp_(uint32_t(firstRoundSpp(s))) {
+  // The survey needs a target (without one a pixel without a surface is
+  // not taken as exact: --time-limit alone renders every pixel towards
+  // --spp) and per-pixel rounds (a screen-space round is whole layers).
+  if (targetError_ > 0.0f && !uniform_ && firstSpp_ > kSurveySpp) phase_ = Phase::Survey;
+  const uint32_t first = phase_ == Phase::Survey ? kSurveySpp : firstSpp_;
   parallelFill(taken_, window.size(), 0U);
-  parallelFill(target_, window.size(), uint32_t(firstRoundSpp(s)));
+  parallelFill(target_, window.size(), first);
   parallelFill(active_, window.size(), uint8_t(1));
   pooled_.resize(window.size());
-  planned_ = uint64_t(window.size()) * uint64_t(firstRoundSpp(s));
-  maxTarget_ = uint32_t(firstRoundSpp(s));
+  planned_ = uint64_t(window.size()) * uint64_t(first);
+  maxTarget_ = first;
 }
 
 uint64_t SampleSchedule::planned(const PixelRect& r) const {
@@ -87,6 +92,40 @@ uint64_t SampleSchedule::next(const float* error) {
       },
       std::plus<uint64_t>());
   const int w = window_.width(), h = window_.height();
+  if (phase_ == Phase::Survey) {
+    // The survey's decision: background where no sample of the 5 x 5
+    // neighbourhood hit a surface (README "Adaptive sampling": a thin
+    // feature all 100 samples missed is missed by this render); every other
+    // pixel takes the rest of its first round.
+    phase_ = Phase::FirstRound;
+    tbb::parallel_for(0, h, [&](int y) {
+      for (int x = 0; x < w; ++x) {
+        bool surface = false;
+        for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2) && !surface; ++v)
+          for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u)
+            if (error[size_t(v) * size_t(w) + size_t(u)] != kNoSurface) {
+              surface = true;
+              break;
+            }
+        const size_t i = size_t(y) * size_t(w) + size_t(x);
+        if (surface)
+          target_[i] = firstSpp_;
+        else
+          active_[i] = 0;
+      }
+    });
+    planned_ = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, taken_.size(), kChunk), uint64_t(0),
+        [&](const tbb::blocked_range<size_t>& r, uint64_t sum) {
+          for (size_t i = r.begin(); i != r.end(); ++i) sum += target_[i] - taken_[i];
+          return sum;
+        },
+        std::plus<uint64_t>());
+    maxTarget_ = planned_ ? firstSpp_ : 0;
+    if (planned_) ++rounds_;
+    return planned_;
+  }
+  phase_ = Phase::Rounds;
   // The pixel's decision error (docs/math.md §13). The per-pixel rule: the
   // larger of its own estimate and the RMS of the estimates over its 3 x 3
   // neighbourhood's surface pixels. One estimate has one degree of freedom

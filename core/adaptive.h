@@ -2,7 +2,8 @@
 // rounds from the pixels' error estimates (README "Adaptive sampling",
 // docs/math.md §13).
 //
-// Every pixel takes the first --min-spp samples; after each round, a pixel
+// Every pixel takes the first --min-spp samples (but a background pixel,
+// SampleSchedule::Phase::Survey); after each round, a pixel
 // whose error estimate and the pooled (RMS) estimate of its 3 x 3
 // neighbourhood are both at most the target stops (the marginal rule of a
 // denoised pass: the RMS over its 5 x 5 neighbourhood, see setMarginal),
@@ -29,6 +30,11 @@ int firstRoundSpp(const RenderSettings& s);
 // Throws obscura::Error naming the setting if s's adaptive settings are out
 // of range.
 void checkAdaptiveSettings(const RenderSettings& s);
+
+// The survey's samples a pixel (SampleSchedule::Phase): 4, one in each
+// quadrant of the pixel's stratified sequence, so a 5 x 5 neighbourhood
+// shows no surface only when 100 camera samples spread over it all miss.
+inline constexpr uint32_t kSurveySpp = 4;
 
 // SampleSchedule::next's error for a pixel without a surface (no hit yet:
 // the background, exact): its neighbours do not pool it, and it goes by
@@ -59,6 +65,14 @@ class SampleSchedule {
   // without a surface; +inf where unknown), plans the next round and
   // returns its samples (0: finished).
   uint64_t next(const float* error);
+  // What the round planned now (being taken) is. With a target error a
+  // ray-traced render starts with a survey of kSurveySpp samples a pixel:
+  // a pixel with no surface within two pixels of it (every error of its
+  // 5 x 5 neighbourhood kNoSurface: none of those 100 camera samples hit)
+  // is background, exact, and stops there; every other pixel then takes
+  // the rest of --min-spp (FirstRound) before the rounds decide.
+  enum class Phase { Survey, FirstRound, Rounds };
+  Phase phase() const { return phase_; }
   // The marginal rule (a denoised pass; README "Adaptive sampling"): a
   // pixel stops when error <= E sqrt(n / n0), n its samples, n0 the first
   // round's, and plans n proportional to its per-sample deviation
@@ -86,6 +100,7 @@ class SampleSchedule {
   bool uniform_;
   bool marginal_ = false;
   uint32_t firstSpp_;
+  Phase phase_ = Phase::FirstRound;
   // Whole-window arrays on huge pages (core/large_vector.h).
   LargeVector<uint32_t> taken_, target_;
   LargeVector<uint8_t> active_;  // 0 once the pixel has stopped

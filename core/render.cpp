@@ -733,7 +733,8 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
         if (cancel && cancel->load()) return;
         tiles.windowErrors(error.data());
         const float* decision = error.data();
-        if (forFilter) {
+        // The survey's decision reads only which pixels have a surface.
+        if (forFilter && schedule.phase() != SampleSchedule::Phase::Survey) {
           if (rootGain.empty()) {
             // The film of the first round (resolved again at the end), through
             // the filter the render ends with; only its gain is kept. The
@@ -762,7 +763,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
         // --time-limit: no round starts that would end past it, at the rate
         // the rounds so far ran (samples per second).
         const double seconds = elapsed();
-        if (s.timeLimit > 0.0 &&
+        if (s.timeLimit > 0.0 && schedule.phase() == SampleSchedule::Phase::Rounds &&
             seconds + seconds / double(schedule.total()) * double(planned) > s.timeLimit) {
           schedule.dropPlan();
           break;

@@ -394,6 +394,14 @@ TEST(Adaptive, EveryIntegratorAdaptsAndDenoisesDeterministically) {
   }
 }
 
+// Takes a schedule (target error, --min-spp 16) through its survey with
+// every pixel on a surface: each then takes the rest of its 16.
+void passSurvey(SampleSchedule& a, const PixelRect& window) {
+  ASSERT_EQ(a.phase(), SampleSchedule::Phase::Survey);
+  EXPECT_EQ(a.next(std::vector<float>(window.size(), 0.0f).data()), window.size() * (16 - kSurveySpp));
+  ASSERT_EQ(a.phase(), SampleSchedule::Phase::FirstRound);
+}
+
 // The marginal rule (a denoised pass): a pixel stops when its error is at
 // most E sqrt(n / n0) and plans n' = ceil(d sqrt(n n0) / E * 1.1) samples
 // (at most 1.5 n). Uniform errors, so the 3 x 3 pooling gives each pixel
@@ -408,12 +416,15 @@ TEST(Adaptive, TheMarginalRuleStopsWhereASampleRemovesLittle) {
   {
     SampleSchedule a(window, s), b(window, s);
     a.setMarginal(true);
+    passSurvey(a, window);
+    passSurvey(b, window);
     EXPECT_EQ(a.next(uniform(0.099f).data()), 0u);  // below E: stops
     // d = 0.12: n' = ceil(0.12 * 16 / 0.1 * 1.1) = ceil(21.12) = 22; the
     // default rule asks ceil(16 (0.12 / 0.1 * 1.1)^2) = ceil(27.9) capped at 24.
     EXPECT_EQ(b.next(uniform(0.12f).data()), window.size() * 8);
     SampleSchedule c(window, s);
     c.setMarginal(true);
+    passSurvey(c, window);
     EXPECT_EQ(c.next(uniform(0.12f).data()), window.size() * 6);
     EXPECT_EQ(c.target(0), 22u);
     // Round 2 (22 samples): the threshold is 0.1 sqrt(22 / 16) = 0.1173, so
@@ -424,6 +435,7 @@ TEST(Adaptive, TheMarginalRuleStopsWhereASampleRemovesLittle) {
   {
     SampleSchedule c(window, s);
     c.setMarginal(true);
+    passSurvey(c, window);
     c.next(uniform(0.12f).data());
     // ... and 0.12 goes on, to ceil(0.12 sqrt(22 * 16) / 0.1 * 1.1) = 25.
     EXPECT_EQ(c.next(uniform(0.12f).data()), window.size() * 3);
@@ -451,6 +463,7 @@ TEST(Adaptive, TheMarginalRulePoolsFiveByFiveWithoutTheOwnTerm) {
   for (bool marginal : {false, true}) {
     SampleSchedule a(window, s);
     a.setMarginal(marginal);
+    passSurvey(a, window);
     const int reach = marginal ? 2 : 1, side = 2 * reach + 1;
     EXPECT_EQ(a.next(spike.data()), uint64_t(side * side) * 8u) << (marginal ? "marginal" : "per-pixel");
     for (int y = 0; y < 9; ++y)
@@ -462,6 +475,7 @@ TEST(Adaptive, TheMarginalRulePoolsFiveByFiveWithoutTheOwnTerm) {
     hole[4 * 9 + 4] = 0.0f;
     SampleSchedule b(window, s);
     b.setMarginal(marginal);
+    passSurvey(b, window);
     b.next(hole.data());
     EXPECT_EQ(b.target(4 * 9 + 4), 24u) << "marginal " << marginal;
     // The own term itself: one pixel at 0.3 among pixels at 0.05. Its 5 x 5
@@ -472,8 +486,102 @@ TEST(Adaptive, TheMarginalRulePoolsFiveByFiveWithoutTheOwnTerm) {
     lone[4 * 9 + 4] = 0.3f;
     SampleSchedule c(window, s);
     c.setMarginal(marginal);
+    passSurvey(c, window);
     EXPECT_EQ(c.next(lone.data()), marginal ? 0u : 9u * 8u) << "marginal " << marginal;
   }
+}
+
+// The survey (SampleSchedule::Phase::Survey): a pixel stops after
+// kSurveySpp samples exactly when no pixel within two of it had a hit; the
+// others take the rest of --min-spp. No survey without a target (a time
+// limit alone renders every pixel towards --spp), for whole-layer rounds,
+// or when --min-spp is at most the survey's samples.
+TEST(Adaptive, TheSurveyStopsPixelsWithNoSurfaceWithinTwo) {
+  RenderSettings s;
+  s.width = 12, s.height = 10;
+  s.spp = 64, s.minSpp = 16, s.targetError = 0.1f;
+  const PixelRect window{0, 0, 12, 10};
+  std::vector<float> error(window.size(), kNoSurface);
+  error[3 * 12 + 3] = 0.0f;   // one surface pixel at (3, 3) ...
+  error[9 * 12 + 11] = 0.5f;  // ... and one in the corner (11, 9)
+  SampleSchedule a(window, s);
+  ASSERT_EQ(a.phase(), SampleSchedule::Phase::Survey);
+  EXPECT_EQ(a.planned(), window.size() * kSurveySpp);
+  EXPECT_EQ(a.maxTarget(), kSurveySpp);
+  uint64_t going = 0;
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 12; ++x) {
+      const bool near = (std::abs(x - 3) <= 2 && std::abs(y - 3) <= 2) || (x >= 9 && y >= 7);
+      going += near;
+    }
+  EXPECT_EQ(going, 25u + 9u);
+  EXPECT_EQ(a.next(error.data()), going * (16 - kSurveySpp));
+  EXPECT_EQ(a.phase(), SampleSchedule::Phase::FirstRound);
+  EXPECT_EQ(a.total(), window.size() * kSurveySpp);
+  for (int y = 0; y < 10; ++y)
+    for (int x = 0; x < 12; ++x) {
+      const bool near = (std::abs(x - 3) <= 2 && std::abs(y - 3) <= 2) || (x >= 9 && y >= 7);
+      EXPECT_EQ(a.target(size_t(y) * 12 + size_t(x)), near ? 16u : kSurveySpp) << x << "," << y;
+    }
+  // The next decision is the rounds': the stopped pixels stay at 4, the
+  // others (errors above E) go on.
+  std::vector<float> noisy(window.size(), 0.5f);
+  EXPECT_GT(a.next(noisy.data()), 0u);
+  EXPECT_EQ(a.phase(), SampleSchedule::Phase::Rounds);
+  EXPECT_EQ(a.target(0), kSurveySpp);
+  EXPECT_GT(a.target(3 * 12 + 3), 16u);
+  // A frame without a surface is done after the survey.
+  SampleSchedule empty(window, s);
+  EXPECT_EQ(empty.next(std::vector<float>(window.size(), kNoSurface).data()), 0u);
+  EXPECT_EQ(empty.meanSpp(), double(kSurveySpp));
+
+  RenderSettings limitOnly = s;
+  limitOnly.targetError = 0.0f, limitOnly.timeLimit = 10.0;
+  EXPECT_EQ(SampleSchedule(window, limitOnly).phase(), SampleSchedule::Phase::FirstRound);
+  EXPECT_EQ(SampleSchedule(window, s, true).phase(), SampleSchedule::Phase::FirstRound);
+  RenderSettings fewFirst = s;
+  fewFirst.minSpp = int(kSurveySpp);
+  EXPECT_EQ(SampleSchedule(window, fewFirst).phase(), SampleSchedule::Phase::FirstRound);
+}
+
+// The survey in a render: a 2 x 2 square in the middle of a 40 x 30 frame,
+// background around it. Which pixels have a surface within two is read from
+// an independent fixed 4-spp render (the survey's samples are a pixel's
+// first four): those pixels take at least --min-spp, every other pixel
+// exactly 4 and equals the fixed render there.
+TEST(Adaptive, BackgroundPixelsStopAfterTheSurvey) {
+  Scene scene;
+  scene.addWorldPrimitive({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  scene.commit();
+  const int w = 40, h = 30;
+  const Camera cam = makeLookAtCamera(Vec3(0, 0, 5), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.9f, "down");
+  RenderSettings s = passSettings(w, h, 32);
+  s.aovs = true, s.targetError = 1e-7f, s.minSpp = 8;
+  RenderStats stats;
+  const Film adaptive = renderWith(scene, cam, "ao", {"distance=1"}, s, &stats);
+  RenderSettings four = passSettings(w, h, int(kSurveySpp));
+  four.aovs = true;
+  const Film fixed = renderWith(scene, cam, "ao", {"distance=1"}, four);
+  const int spp = adaptive.find(kSppPlane);
+  ASSERT_GE(spp, 0);
+  int background = 0, near = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      bool surface = false;
+      for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2); ++v)
+        for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u) surface = surface || fixed.at(kA, u, v) > 0.0f;
+      if (surface) {
+        ++near;
+        EXPECT_GE(adaptive.at(spp, x, y), 8.0f) << x << "," << y;
+        continue;
+      }
+      ++background;
+      EXPECT_EQ(adaptive.at(spp, x, y), float(kSurveySpp)) << x << "," << y;
+      for (Channel c : {Channel::kR, Channel::kG, Channel::kB, Channel::kA}) EXPECT_EQ(adaptive.at(c, x, y), fixed.at(c, x, y)) << x << "," << y;
+    }
+  EXPECT_GT(background, w * h / 2);
+  EXPECT_GT(near, 50);
+  EXPECT_LT(stats.meanSpp, 32.0);
 }
 
 TEST(Adaptive, SettingsOutOfRangeAreRefused) {
