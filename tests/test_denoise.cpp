@@ -392,21 +392,25 @@ TEST(Denoise, IndependentOfThreads) {
 // The filter takes a row's pixels kLanes at a time and finishes it one by
 // one, with the same operations per pixel: where a row splits must not
 // change a bit. The same 61 live columns (noisy W, a depth step, a normal
-// crease and a second object; albedo guide on and off) padded with 0..9
-// columns that hold no W (never read: their taps weigh exactly 0) move
-// every pixel between the vector part and the scalar tail of some tap
-// pass; the live pixels must come out bit for bit the same.
+// crease and a second object; albedo guide on and off) padded on the right
+// with 0..9 columns that hold no W (never read: their taps weigh exactly 0),
+// and on the left with 0, 3 or 8, move every pixel between the vector part
+// and the scalar tail of some tap pass, and move where each row's span of
+// pixels with W starts and ends (the taps are summed over that span only);
+// the live pixels must come out bit for bit the same.
 TEST(Denoise, RowSplitChangesNoBit) {
   const int live = 61, h = 23;
   for (bool albedo : {false, true}) {
     std::vector<Output> outs;
+    for (int left : {0, 3, 8})
     for (int pad = 0; pad <= 9; ++pad) {
-      Synth g(live + pad, h);
+      Synth g(left + live + pad, h);
       std::mt19937_64 rng(11);
       for (int y = 0; y < h; ++y)
-        for (int x = 0; x < live + pad; ++x) {
-          const size_t p = g.at(x, y);
-          if (x >= live) {
+        for (int X = 0; X < left + live + pad; ++X) {
+          const size_t p = g.at(X, y);
+          const int x = X - left;
+          if (x < 0 || x >= live) {
             g.alpha[p] = 0.0f, g.z[p] = kBackgroundDepth;
             continue;
           }
@@ -422,8 +426,8 @@ TEST(Denoise, RowSplitChangesNoBit) {
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < live; ++x)
           for (int c = 0; c < 3; ++c)
-            ASSERT_EQ(a.c[c][size_t(y) * size_t(live) + size_t(x)], b.c[c][g.at(x, y)])
-                << "pad " << pad << " albedo " << albedo << " at " << x << "," << y;
+            ASSERT_EQ(a.c[c][size_t(y) * size_t(live) + size_t(x)], b.c[c][g.at(left + x, y)])
+                << "left " << left << " pad " << pad << " albedo " << albedo << " at " << x << "," << y;
     }
   }
 }
