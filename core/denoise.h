@@ -100,7 +100,8 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]);
 // pixels, and the product of their factors falls below what any weights
 // achieve); 1 where the pixel holds no W or its variance is 0. Adaptive sampling for a denoised pass reads it
 // (README "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
-// filter").
+// filter"). With a gain, out may be nullptr: the gain alone is wanted (the
+// adaptive rounds' gain pass), and the pass is not written.
 // The working planes (guides, two iterations' states: 18-21 floats a pixel)
 // of a caller that filters more than once - adaptive rounds filter the first
 // round's film for the gain, then the final one: the second call reuses the

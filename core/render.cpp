@@ -745,10 +745,8 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
             eachTile([&](int t) { tiles.resolveTile(t, true); });
             LargeVector<float> variance;
             const DenoiseInput in = denoiseInput(film, kR, *denoised, objects, variance);
-            LargeVector<float> filtered(3 * window);  // written whole by the filter
-            float* out[3] = {filtered.data(), filtered.data() + window, filtered.data() + 2 * window};
             rootGain.resize(window);
-            denoise(in, denoiseSettings(s), out, rootGain.data(), denoiseWorkspace);
+            denoise(in, denoiseSettings(s), nullptr, rootGain.data(), denoiseWorkspace);  // the gain alone
             for (float& g : rootGain) g = std::sqrt(g);
             decide.resize(window);
           }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/denoise.h"
+#include "core/error.h"
 #include "core/film.h"
 
 namespace obscura {
@@ -466,7 +467,13 @@ TEST(Denoise, AReusedWorkspaceChangesNothing) {
     denoise(in, {}, outF, c.gain ? fresh[3].data() : nullptr);
     denoise(in, {}, outR, c.gain ? again[3].data() : nullptr, &reused);
     for (int k = 0; k < 4; ++k) EXPECT_EQ(fresh[k], again[k]) << in.width << "x" << in.height << " plane " << k;
+    if (!c.gain) continue;
+    // The gain alone (no output planes, as the adaptive rounds ask it): the same gain.
+    std::vector<float> gainOnly(n, -1.0f);
+    denoise(in, {}, nullptr, gainOnly.data(), &reused);
+    EXPECT_EQ(gainOnly, fresh[3]) << in.width << "x" << in.height;
   }
+  EXPECT_THROW(denoise(big.input(), {}, nullptr, nullptr), Error);
 }
 
 // Missing planes and bad settings are one clear error naming the field.
