@@ -158,6 +158,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   s.spp = args.spp;
   s.targetError = args.targetError;
   s.minSpp = args.minSpp;
+  s.backgroundSpp = args.backgroundSpp;
   s.timeLimit = args.timeLimit;
   s.denoise = args.denoise;
   if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");

@@ -33,12 +33,21 @@ bool adaptiveSampling(const RenderSettings& s) { return s.targetError > 0.0f || 
 
 int firstRoundSpp(const RenderSettings& s) { return std::min(s.spp, s.minSpp > 0 ? s.minSpp : kDefaultMinSpp); }
 
+// The survey needs a target (without one a pixel without a surface is not
+// taken as exact: --time-limit alone renders every pixel towards --spp).
+int surveySpp(const RenderSettings& s) {
+  return s.targetError > 0.0f && s.backgroundSpp > 0 && s.backgroundSpp < firstRoundSpp(s) ? s.backgroundSpp : 0;
+}
+
 void checkAdaptiveSettings(const RenderSettings& s) {
   if (!(s.targetError >= 0.0f) || !std::isfinite(s.targetError))
     throw Error(settingName(Setting::TargetError) + " must be a finite standard error >= 0 (0: off)");
   if (!(s.timeLimit >= 0.0) || !std::isfinite(s.timeLimit))
     throw Error(settingName(Setting::TimeLimit) + " must be a finite number of seconds >= 0 (0: none)");
   if (s.minSpp < 0) throw Error(settingName(Setting::MinSpp) + " must be at least 1");
+  if (s.backgroundSpp < 0)
+    throw Error(settingName(Setting::BackgroundSpp) + " must be >= 0 (0: every pixel takes " +
+                settingName(Setting::MinSpp) + ")");
   if (s.minSpp > s.spp)
     throw Error(settingName(Setting::MinSpp) + " (" + std::to_string(s.minSpp) + ") exceeds " +
                 settingName(Setting::Spp) + " (" + std::to_string(s.spp) + "), the most samples a pixel takes");
@@ -50,12 +59,11 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
     : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds),
-      firstSpp_(uint32_t(firstRoundSpp(s))) {
-  // The survey needs a target (without one a pixel without a surface is
-  // not taken as exact: --time-limit alone renders every pixel towards
-  // --spp) and per-pixel rounds (a screen-space round is whole layers).
-  if (targetError_ > 0.0f && !uniform_ && firstSpp_ > kSurveySpp) phase_ = Phase::Survey;
-  const uint32_t first = phase_ == Phase::Survey ? kSurveySpp : firstSpp_;
+      firstSpp_(uint32_t(firstRoundSpp(s))), surveySpp_(uint32_t(surveySpp(s))) {
+  // The survey needs per-pixel rounds too (a screen-space round is whole
+  // layers).
+  if (surveySpp_ > 0 && !uniform_) phase_ = Phase::Survey;
+  const uint32_t first = phase_ == Phase::Survey ? surveySpp_ : firstSpp_;
   parallelFill(taken_, window.size(), 0U);
   parallelFill(target_, window.size(), first);
   parallelFill(active_, window.size(), uint8_t(1));

@@ -31,10 +31,12 @@ int firstRoundSpp(const RenderSettings& s);
 // of range.
 void checkAdaptiveSettings(const RenderSettings& s);
 
-// The survey's samples a pixel (SampleSchedule::Phase): 4, one in each
-// quadrant of the pixel's stratified sequence, so a 5 x 5 neighbourhood
-// shows no surface only when 100 camera samples spread over it all miss.
-inline constexpr uint32_t kSurveySpp = 4;
+// The survey's samples a pixel (SampleSchedule::Phase; --background-spp,
+// default 4: one in each quadrant of the pixel's stratified sequence, so a
+// 5 x 5 neighbourhood shows no surface only when 100 camera samples spread
+// over it all miss); 0 when s takes no survey (no target, or not fewer
+// than the first round's).
+int surveySpp(const RenderSettings& s);
 
 // SampleSchedule::next's error for a pixel without a surface (no hit yet:
 // the background, exact): its neighbours do not pool it, and it goes by
@@ -66,7 +68,7 @@ class SampleSchedule {
   // returns its samples (0: finished).
   uint64_t next(const float* error);
   // What the round planned now (being taken) is. With a target error a
-  // ray-traced render starts with a survey of kSurveySpp samples a pixel:
+  // ray-traced render starts with a survey of surveySpp(s) samples a pixel:
   // a pixel with no surface within two pixels of it (every error of its
   // 5 x 5 neighbourhood kNoSurface: none of those 100 camera samples hit)
   // is background, exact, and stops there; every other pixel then takes
@@ -99,7 +101,7 @@ class SampleSchedule {
   float targetError_;
   bool uniform_;
   bool marginal_ = false;
-  uint32_t firstSpp_;
+  uint32_t firstSpp_, surveySpp_;
   Phase phase_ = Phase::FirstRound;
   // Whole-window arrays on huge pages (core/large_vector.h).
   LargeVector<uint32_t> taken_, target_;

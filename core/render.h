@@ -47,6 +47,10 @@ struct RenderSettings {
   // samples. Absolute, in units of W.
   float targetError = 0;  // 0: off
   int minSpp = 0;         // the first round's samples; 0: min(16, spp)
+  // With a target error: the survey's samples (core/adaptive.h), after which
+  // a pixel with no surface within two pixels stops; 0: no survey, every
+  // pixel takes the first round's.
+  int backgroundSpp = 4;
   double timeLimit = 0;   // seconds; 0: none. No round starts that is predicted to end past it
   // --denoise (core/denoise.h; README "Denoising"): the primary pass's R,G,B
   // (and its layer, shaded.*) replaced by the edge-aware filter's output,

@@ -8,6 +8,7 @@ namespace {
 std::array<std::string, size_t(Setting::Count)> gNames = {
     "spp", "maxMemoryBytes", "subdivision", "backend OpenSubdiv", "displacementMap", "displacementScale",
     "time", "animations", "shutter", "targetError", "minSpp", "timeLimit",
+    "backgroundSpp",
 };
 
 }  // namespace

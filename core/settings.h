@@ -23,6 +23,7 @@ enum class Setting {
   TargetError,            // RenderSettings::targetError
   MinSpp,                 // RenderSettings::minSpp
   TimeLimit,              // RenderSettings::timeLimit
+  BackgroundSpp,          // RenderSettings::backgroundSpp
   Count
 };
 

@@ -33,6 +33,8 @@ using namespace obscura::test;
 
 constexpr double kR = 1.0;
 constexpr int kW = 96, kH = 4;
+// --background-spp's default (core/render.h).
+constexpr uint32_t kBackgroundSpp = 4;
 
 double wallV(double d) {
   const double a = std::min(std::max(d, 0.0) / kR, 1.0);
@@ -398,7 +400,7 @@ TEST(Adaptive, EveryIntegratorAdaptsAndDenoisesDeterministically) {
 // every pixel on a surface: each then takes the rest of its 16.
 void passSurvey(SampleSchedule& a, const PixelRect& window) {
   ASSERT_EQ(a.phase(), SampleSchedule::Phase::Survey);
-  EXPECT_EQ(a.next(std::vector<float>(window.size(), 0.0f).data()), window.size() * (16 - kSurveySpp));
+  EXPECT_EQ(a.next(std::vector<float>(window.size(), 0.0f).data()), window.size() * (16 - kBackgroundSpp));
   ASSERT_EQ(a.phase(), SampleSchedule::Phase::FirstRound);
 }
 
@@ -492,7 +494,7 @@ TEST(Adaptive, TheMarginalRulePoolsFiveByFiveWithoutTheOwnTerm) {
 }
 
 // The survey (SampleSchedule::Phase::Survey): a pixel stops after
-// kSurveySpp samples exactly when no pixel within two of it had a hit; the
+// --background-spp samples (default 4) exactly when no pixel within two of it had a hit; the
 // others take the rest of --min-spp. No survey without a target (a time
 // limit alone renders every pixel towards --spp), for whole-layer rounds,
 // or when --min-spp is at most the survey's samples.
@@ -506,8 +508,8 @@ TEST(Adaptive, TheSurveyStopsPixelsWithNoSurfaceWithinTwo) {
   error[9 * 12 + 11] = 0.5f;  // ... and one in the corner (11, 9)
   SampleSchedule a(window, s);
   ASSERT_EQ(a.phase(), SampleSchedule::Phase::Survey);
-  EXPECT_EQ(a.planned(), window.size() * kSurveySpp);
-  EXPECT_EQ(a.maxTarget(), kSurveySpp);
+  EXPECT_EQ(a.planned(), window.size() * kBackgroundSpp);
+  EXPECT_EQ(a.maxTarget(), kBackgroundSpp);
   uint64_t going = 0;
   for (int y = 0; y < 10; ++y)
     for (int x = 0; x < 12; ++x) {
@@ -515,33 +517,43 @@ TEST(Adaptive, TheSurveyStopsPixelsWithNoSurfaceWithinTwo) {
       going += near;
     }
   EXPECT_EQ(going, 25u + 9u);
-  EXPECT_EQ(a.next(error.data()), going * (16 - kSurveySpp));
+  EXPECT_EQ(a.next(error.data()), going * (16 - kBackgroundSpp));
   EXPECT_EQ(a.phase(), SampleSchedule::Phase::FirstRound);
-  EXPECT_EQ(a.total(), window.size() * kSurveySpp);
+  EXPECT_EQ(a.total(), window.size() * kBackgroundSpp);
   for (int y = 0; y < 10; ++y)
     for (int x = 0; x < 12; ++x) {
       const bool near = (std::abs(x - 3) <= 2 && std::abs(y - 3) <= 2) || (x >= 9 && y >= 7);
-      EXPECT_EQ(a.target(size_t(y) * 12 + size_t(x)), near ? 16u : kSurveySpp) << x << "," << y;
+      EXPECT_EQ(a.target(size_t(y) * 12 + size_t(x)), near ? 16u : kBackgroundSpp) << x << "," << y;
     }
   // The next decision is the rounds': the stopped pixels stay at 4, the
   // others (errors above E) go on.
   std::vector<float> noisy(window.size(), 0.5f);
   EXPECT_GT(a.next(noisy.data()), 0u);
   EXPECT_EQ(a.phase(), SampleSchedule::Phase::Rounds);
-  EXPECT_EQ(a.target(0), kSurveySpp);
+  EXPECT_EQ(a.target(0), kBackgroundSpp);
   EXPECT_GT(a.target(3 * 12 + 3), 16u);
   // A frame without a surface is done after the survey.
   SampleSchedule empty(window, s);
   EXPECT_EQ(empty.next(std::vector<float>(window.size(), kNoSurface).data()), 0u);
-  EXPECT_EQ(empty.meanSpp(), double(kSurveySpp));
+  EXPECT_EQ(empty.meanSpp(), double(kBackgroundSpp));
 
   RenderSettings limitOnly = s;
   limitOnly.targetError = 0.0f, limitOnly.timeLimit = 10.0;
   EXPECT_EQ(SampleSchedule(window, limitOnly).phase(), SampleSchedule::Phase::FirstRound);
   EXPECT_EQ(SampleSchedule(window, s, true).phase(), SampleSchedule::Phase::FirstRound);
   RenderSettings fewFirst = s;
-  fewFirst.minSpp = int(kSurveySpp);
+  fewFirst.minSpp = int(kBackgroundSpp);
   EXPECT_EQ(SampleSchedule(window, fewFirst).phase(), SampleSchedule::Phase::FirstRound);
+  RenderSettings off = s;
+  off.backgroundSpp = 0;
+  EXPECT_EQ(SampleSchedule(window, off).phase(), SampleSchedule::Phase::FirstRound);
+  // Another survey size: 2 samples, the rest of 16 after it.
+  RenderSettings two = s;
+  two.backgroundSpp = 2;
+  SampleSchedule b(window, two);
+  ASSERT_EQ(b.phase(), SampleSchedule::Phase::Survey);
+  EXPECT_EQ(b.planned(), window.size() * 2u);
+  EXPECT_EQ(b.next(error.data()), going * 14u);
 }
 
 // The survey in a render: a 2 x 2 square in the middle of a 40 x 30 frame,
@@ -559,7 +571,7 @@ TEST(Adaptive, BackgroundPixelsStopAfterTheSurvey) {
   s.aovs = true, s.targetError = 1e-7f, s.minSpp = 8;
   RenderStats stats;
   const Film adaptive = renderWith(scene, cam, "ao", {"distance=1"}, s, &stats);
-  RenderSettings four = passSettings(w, h, int(kSurveySpp));
+  RenderSettings four = passSettings(w, h, int(kBackgroundSpp));
   four.aovs = true;
   const Film fixed = renderWith(scene, cam, "ao", {"distance=1"}, four);
   const int spp = adaptive.find(kSppPlane);
@@ -576,7 +588,7 @@ TEST(Adaptive, BackgroundPixelsStopAfterTheSurvey) {
         continue;
       }
       ++background;
-      EXPECT_EQ(adaptive.at(spp, x, y), float(kSurveySpp)) << x << "," << y;
+      EXPECT_EQ(adaptive.at(spp, x, y), float(kBackgroundSpp)) << x << "," << y;
       for (Channel c : {Channel::kR, Channel::kG, Channel::kB, Channel::kA}) EXPECT_EQ(adaptive.at(c, x, y), fixed.at(c, x, y)) << x << "," << y;
     }
   EXPECT_GT(background, w * h / 2);
@@ -617,6 +629,7 @@ TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
   ASSERT_TRUE(b.ok);
   EXPECT_FLOAT_EQ(b.spec.get_float_attribute("obscura:targetError"), 0.05f);
   EXPECT_EQ(b.spec.get_int_attribute("obscura:minSpp"), 8);
+  EXPECT_EQ(b.spec.get_int_attribute("obscura:backgroundSpp"), 4);
   double sum = 0;
   for (float v : b.planes.at("spp")) sum += v;
   EXPECT_NEAR(b.spec.get_float_attribute("obscura:meanSpp"), sum / (32 * 18), 1e-3);
@@ -626,6 +639,7 @@ TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
            {{"--min-spp", "4"}, "--min-spp needs --target-error or --time-limit"},
            {{"--target-error", "0.1", "--min-spp", "99"}, "--min-spp (99) exceeds --spp (16)"},
            {{"--time-limit", "nan"}, "--time-limit must be"},
+           {{"--target-error", "0.1", "--background-spp", "-1"}, "--background-spp must be >= 0"},
        }) {
     std::vector<std::string> a = {"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "--res", "8x8", "-o", dir + "/bad.exr"};
     a.insert(a.end(), args.begin(), args.end());
