@@ -415,7 +415,7 @@ ExrOptions passHeader(const PassInfo& i) {
     // README "Adaptive sampling": the settings, and what they took.
     exr.attributes.push_back({"obscura:targetError", i.settings.targetError});
     exr.attributes.push_back({"obscura:minSpp", firstRoundSpp(i.settings)});
-    exr.attributes.push_back({"obscura:backgroundSpp", surveySpp(i.settings)});
+    exr.attributes.push_back({"obscura:backgroundSpp", i.stats.backgroundSpp});
     exr.attributes.push_back({"obscura:timeLimit", float(i.settings.timeLimit)});
     exr.attributes.push_back({"obscura:meanSpp", float(i.stats.meanSpp)});
     exr.attributes.push_back({"obscura:rounds", i.stats.rounds});

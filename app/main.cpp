@@ -325,10 +325,14 @@ int main(int argc, char** argv) {
                    "pass is kept as noisy.R/G/B");
   render->add_option("--min-spp", r.minSpp, "Adaptive sampling: the samples every pixel takes before any may stop (but the background, see --background-spp)")
       ->default_str("min(16, --spp)");
-  render->add_option("--background-spp", r.backgroundSpp, "With --target-error: every pixel first takes this many samples, and one with no surface within 2 px (none of those 25 pixels' samples hit) stops there; 0: none, every pixel takes --min-spp");
+  render->add_option("--background-spp", r.backgroundSpp,
+                     "Needs --target-error: every pixel first takes this many samples, and one with no surface within "
+                     "2 px (none of those 25 pixels' samples hit) stops there; 0: none, every pixel takes --min-spp "
+                     "(no survey either when it is not below --min-spp, or for a screen-space primary pass)")
+      ->default_str("4");
   render->add_option("--time-limit", r.timeLimit,
                      "Stop sampling at a round boundary: no round starts that is predicted to end past SECONDS of "
-                     "render loop (the image then depends on the machine's speed)")
+                     "render loop (the image then depends on the machine's speed); --min-spp is always completed")
       ->type_name("SECONDS")
       ->default_str("none");
   render->add_option("--res", r.res, "Resolution WIDTHxHEIGHT");

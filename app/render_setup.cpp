@@ -158,7 +158,12 @@ RenderSettings renderSettings(const RenderArgs& args) {
   s.spp = args.spp;
   s.targetError = args.targetError;
   s.minSpp = args.minSpp;
-  s.backgroundSpp = args.backgroundSpp;
+  if (args.backgroundSpp) {
+    // As --min-spp: a setting that would change nothing is refused.
+    if (!(args.targetError > 0.0f))
+      throw Error("--background-spp needs --target-error (without a target every pixel takes --min-spp or more)");
+    s.backgroundSpp = *args.backgroundSpp;
+  }
   s.timeLimit = args.timeLimit;
   s.denoise = args.denoise;
   if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");

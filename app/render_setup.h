@@ -5,6 +5,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,7 +26,7 @@ struct RenderArgs : SceneArgs {
   int spp = 16;
   float targetError = 0;  // --target-error; 0 = off
   int minSpp = 0;         // --min-spp; 0 = min(16, spp)
-  int backgroundSpp = 4;  // --background-spp; 0 = no survey
+  std::optional<int> backgroundSpp;  // --background-spp (default 4); 0 = no survey
   double timeLimit = 0;   // --time-limit SECONDS; 0 = none
   bool denoise = false;   // --denoise
   std::string res = "960x540";

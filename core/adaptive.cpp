@@ -63,6 +63,7 @@ SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s,
   // The survey needs per-pixel rounds too (a screen-space round is whole
   // layers).
   if (surveySpp_ > 0 && !uniform_) phase_ = Phase::Survey;
+  if (phase_ != Phase::Survey) surveySpp_ = 0;
   const uint32_t first = phase_ == Phase::Survey ? surveySpp_ : firstSpp_;
   parallelFill(taken_, window.size(), 0U);
   parallelFill(target_, window.size(), first);

@@ -75,6 +75,8 @@ class SampleSchedule {
   // the rest of --min-spp (FirstRound) before the rounds decide.
   enum class Phase { Survey, FirstRound, Rounds };
   Phase phase() const { return phase_; }
+  // The survey's samples a pixel; 0 when this schedule takes none.
+  uint32_t backgroundSpp() const { return surveySpp_; }
   // The marginal rule (a denoised pass; README "Adaptive sampling"): a
   // pixel stops when error <= E sqrt(n / n0), n its samples, n0 the first
   // round's, and plans n proportional to its per-sample deviation

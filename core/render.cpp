@@ -771,6 +771,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     });
     stats.meanSpp = schedule.meanSpp();
     stats.rounds = schedule.rounds();
+    stats.backgroundSpp = int(schedule.backgroundSpp());
   }
   stats.seconds = elapsed();
   progress.finish();
@@ -800,7 +801,7 @@ void addStats(RenderStats& total, const RenderStats& part) {
   total.screenSpaceSeconds += part.screenSpaceSeconds;
   total.filterSeconds += part.filterSeconds;
   // The primary pass's loop runs first: its samples per pixel are the film's.
-  if (total.meanSpp == 0) total.meanSpp = part.meanSpp, total.rounds = part.rounds;
+  if (total.meanSpp == 0) total.meanSpp = part.meanSpp, total.rounds = part.rounds, total.backgroundSpp = part.backgroundSpp;
 }
 
 void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int count) {

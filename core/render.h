@@ -89,7 +89,8 @@ struct RenderStats {
   // Camera samples taken per pixel, on average over the window (spp unless
   // adaptive), and the rounds they were taken in.
   double meanSpp = 0;
-  int rounds = 1;
+  int rounds = 1;  // the survey (core/adaptive.h) counts as one
+  int backgroundSpp = 0;  // the survey's samples a pixel; 0: no survey ran
   double denoiseSeconds = 0;  // --denoise: the filter's wall time (not in `seconds`)
 };
 

@@ -409,7 +409,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   kw.take("spp", a.spp);
   kw.take("target_error", a.targetError);
   kw.take("min_spp", a.minSpp);
-  kw.take("background_spp", a.backgroundSpp);
+  if (auto v = kw.take("background_spp")) a.backgroundSpp = kw.as<int>("background_spp", *v);
   kw.take("time_limit", a.timeLimit);
   kw.take("denoise", a.denoise);
   // A scene refined for a view (subdiv_edge) renders that view unless told

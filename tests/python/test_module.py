@@ -62,10 +62,13 @@ CASES = [
      ["-i", "gi", "--spp", "2", "--res", "40x30", "--region", "8,4,30,20", "--no-aovs", "--seed", "7"]),
     (dict(integrator="ao", spp=16, res=(48, 27), target_error=0.05, min_spp=4, denoise=True),
      ["-i", "ao", "--spp", "16", "--res", "48x27", "--target-error", "0.05", "--min-spp", "4", "--denoise"]),
+    (dict(integrator="ao", spp=32, res=(48, 27), target_error=0.05, min_spp=8, background_spp=2, camera="top"),
+     ["-i", "ao", "--spp", "32", "--res", "48x27", "--target-error", "0.05", "--min-spp", "8",
+      "--background-spp", "2", "--camera", "top"]),
 ]
 
 
-@pytest.mark.parametrize("kwargs,flags", CASES, ids=["ao", "passes", "gi-region", "adaptive-denoise"])
+@pytest.mark.parametrize("kwargs,flags", CASES, ids=["ao", "passes", "gi-region", "adaptive-denoise", "survey"])
 def test_render_equals_cli(scene, tmp_path, kwargs, flags):
     kwargs = dict(kwargs)
     integrator = kwargs.pop("integrator", None)
