@@ -62,8 +62,8 @@ SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s,
       firstSpp_(uint32_t(firstRoundSpp(s))), surveySpp_(uint32_t(surveySpp(s))) {
   // The survey needs per-pixel rounds too (a screen-space round is whole
   // layers).
-  if (surveySpp_ > 0 && !uniform_) phase_ = Phase::Survey;
-  if (phase_ != Phase::Survey) surveySpp_ = 0;
+  if (uniform_) surveySpp_ = 0;
+  if (surveySpp_ > 0) phase_ = Phase::Survey;
   const uint32_t first = phase_ == Phase::Survey ? surveySpp_ : firstSpp_;
   parallelFill(taken_, window.size(), 0U);
   parallelFill(target_, window.size(), first);
@@ -104,32 +104,33 @@ uint64_t SampleSchedule::next(const float* error) {
   if (phase_ == Phase::Survey) {
     // The survey's decision: background where no sample of the 5 x 5
     // neighbourhood hit a surface (README "Adaptive sampling": a thin
-    // feature all 100 samples missed is missed by this render); every other
-    // pixel takes the rest of its first round.
+    // feature all 25 m samples missed - 100 at the default m = 4 - is missed
+    // by this render); every other pixel takes the rest of its first round.
+    // One pass: the decision per pixel, and the count of pixels that go on
+    // (an integer sum: the same whatever the split).
     phase_ = Phase::FirstRound;
-    tbb::parallel_for(0, h, [&](int y) {
-      for (int x = 0; x < w; ++x) {
-        bool surface = false;
-        for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2) && !surface; ++v)
-          for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u)
-            if (error[size_t(v) * size_t(w) + size_t(u)] != kNoSurface) {
-              surface = true;
-              break;
+    const uint64_t goOn = tbb::parallel_reduce(
+        tbb::blocked_range<int>(0, h), uint64_t(0),
+        [&](const tbb::blocked_range<int>& rows, uint64_t count) {
+          for (int y = rows.begin(); y != rows.end(); ++y)
+            for (int x = 0; x < w; ++x) {
+              bool surface = false;
+              for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2) && !surface; ++v)
+                for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u)
+                  if (error[size_t(v) * size_t(w) + size_t(u)] != kNoSurface) {
+                    surface = true;
+                    break;
+                  }
+              const size_t i = size_t(y) * size_t(w) + size_t(x);
+              if (surface)
+                target_[i] = firstSpp_, ++count;
+              else
+                active_[i] = 0;
             }
-        const size_t i = size_t(y) * size_t(w) + size_t(x);
-        if (surface)
-          target_[i] = firstSpp_;
-        else
-          active_[i] = 0;
-      }
-    });
-    planned_ = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, taken_.size(), kChunk), uint64_t(0),
-        [&](const tbb::blocked_range<size_t>& r, uint64_t sum) {
-          for (size_t i = r.begin(); i != r.end(); ++i) sum += target_[i] - taken_[i];
-          return sum;
+          return count;
         },
         std::plus<uint64_t>());
+    planned_ = goOn * uint64_t(firstSpp_ - surveySpp_);
     maxTarget_ = planned_ ? firstSpp_ : 0;
     if (planned_) ++rounds_;
     return planned_;

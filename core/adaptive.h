@@ -33,8 +33,8 @@ void checkAdaptiveSettings(const RenderSettings& s);
 
 // The survey's samples a pixel (SampleSchedule::Phase; --background-spp,
 // default 4: one in each quadrant of the pixel's stratified sequence, so a
-// 5 x 5 neighbourhood shows no surface only when 100 camera samples spread
-// over it all miss); 0 when s takes no survey (no target, or not fewer
+// 5 x 5 neighbourhood shows no surface only when its 25 m camera samples -
+// 100 at the default - all miss); 0 when s takes no survey (no target, or not fewer
 // than the first round's).
 int surveySpp(const RenderSettings& s);
 
@@ -70,7 +70,7 @@ class SampleSchedule {
   // What the round planned now (being taken) is. With a target error a
   // ray-traced render starts with a survey of surveySpp(s) samples a pixel:
   // a pixel with no surface within two pixels of it (every error of its
-  // 5 x 5 neighbourhood kNoSurface: none of those 100 camera samples hit)
+  // 5 x 5 neighbourhood kNoSurface: none of its 25 m camera samples hit)
   // is background, exact, and stops there; every other pixel then takes
   // the rest of --min-spp (FirstRound) before the rounds decide.
   enum class Phase { Survey, FirstRound, Rounds };

@@ -565,46 +565,48 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3], fl
   rows([&](int y0, int y1) {
     constexpr size_t kSpan = 512;
     bool okSpan[kSpan];
-    for (size_t b = size_t(y0) * size_t(w), end = size_t(y1) * size_t(w); b < end; b += kSpan) {
-      const size_t n = std::min(kSpan, end - b);
-      const float* __restrict al = in.alpha + b;
-      const float* __restrict z = in.depth + b;
-      const float* __restrict v = in.variance + b;
+    // s0: the span's first pixel, len its pixels (n and b name the frame's
+    // pixel count and the second state).
+    for (size_t s0 = size_t(y0) * size_t(w), end = size_t(y1) * size_t(w); s0 < end; s0 += kSpan) {
+      const size_t len = std::min(kSpan, end - s0);
+      const float* __restrict al = in.alpha + s0;
+      const float* __restrict z = in.depth + s0;
+      const float* __restrict v = in.variance + s0;
       bool* __restrict ok = okSpan;
-      for (size_t i = 0; i < n; ++i) {
+      for (size_t i = 0; i < len; ++i) {
         bool k = al[i] > 0.0f && z[i] > 0.0f && z[i] < kBackgroundDepth && std::isfinite(z[i]) && std::isfinite(v[i]);
-        for (int c = 0; c < 3; ++c) k = k && std::isfinite(in.color[c][b + i]) && std::isfinite(in.normal[c][b + i]);
+        for (int c = 0; c < 3; ++c) k = k && std::isfinite(in.color[c][s0 + i]) && std::isfinite(in.normal[c][s0 + i]);
         ok[i] = k;
       }
       for (int c = 0; c < 3; ++c) {
-        const float* __restrict nc = in.normal[c] + b;
-        const float* __restrict wc = in.color[c] + b;
-        float* __restrict gn = g.n[c].data() + b;
-        float* __restrict aw = a.w[c].data() + b;
-        for (size_t i = 0; i < n; ++i) gn[i] = ok[i] ? nc[i] : 0.0f;
-        for (size_t i = 0; i < n; ++i) aw[i] = ok[i] ? wc[i] / al[i] : wc[i];
+        const float* __restrict nc = in.normal[c] + s0;
+        const float* __restrict wc = in.color[c] + s0;
+        float* __restrict gn = g.n[c].data() + s0;
+        float* __restrict aw = a.w[c].data() + s0;
+        for (size_t i = 0; i < len; ++i) gn[i] = ok[i] ? nc[i] : 0.0f;
+        for (size_t i = 0; i < len; ++i) aw[i] = ok[i] ? wc[i] / al[i] : wc[i];
         if (hasAlbedo) {
-          const float* __restrict ac = in.albedo[c] + b;
-          float* __restrict ga = g.albedo[c].data() + b;
-          for (size_t i = 0; i < n; ++i) ga[i] = ok[i] ? ac[i] / al[i] : 0.0f;
+          const float* __restrict ac = in.albedo[c] + s0;
+          float* __restrict ga = g.albedo[c].data() + s0;
+          for (size_t i = 0; i < len; ++i) ga[i] = ok[i] ? ac[i] / al[i] : 0.0f;
         }
       }
-      float* __restrict d = g.d.data() + b;
-      float* __restrict live = g.live.data() + b;
-      float* __restrict count = g.count.data() + b;
-      float* __restrict var = a.var.data() + b;
-      for (size_t i = 0; i < n; ++i) d[i] = ok[i] ? 1.0f / z[i] : -1.0f;
-      for (size_t i = 0; i < n; ++i) live[i] = ok[i] ? 1.0f : 0.0f;
-      // n / max: equal counts give exactly 1.
-      for (size_t i = 0; i < n; ++i)
-        count[i] = !ok[i] ? 0.0f : maxCount > 0.0f ? std::max(in.samples[b + i], 1.0f) / maxCount : 1.0f;
-      for (size_t i = 0; i < n; ++i) var[i] = ok[i] ? std::max(0.0f, v[i]) : 0.0f;
-      std::fill_n(g.gx.data() + b, n, 0.0f);
-      std::fill_n(g.gy.data() + b, n, 0.0f);
+      float* __restrict d = g.d.data() + s0;
+      float* __restrict live = g.live.data() + s0;
+      float* __restrict count = g.count.data() + s0;
+      float* __restrict var = a.var.data() + s0;
+      for (size_t i = 0; i < len; ++i) d[i] = ok[i] ? 1.0f / z[i] : -1.0f;
+      for (size_t i = 0; i < len; ++i) live[i] = ok[i] ? 1.0f : 0.0f;
+      // samples / max: equal counts give exactly 1.
+      for (size_t i = 0; i < len; ++i)
+        count[i] = !ok[i] ? 0.0f : maxCount > 0.0f ? std::max(in.samples[s0 + i], 1.0f) / maxCount : 1.0f;
+      for (size_t i = 0; i < len; ++i) var[i] = ok[i] ? std::max(0.0f, v[i]) : 0.0f;
+      std::fill_n(g.gx.data() + s0, len, 0.0f);
+      std::fill_n(g.gy.data() + s0, len, 0.0f);
       if (in.object)
-        std::copy_n(in.object + b, n, g.object.data() + b);
+        std::copy_n(in.object + s0, len, g.object.data() + s0);
       else
-        std::fill_n(g.object.data() + b, n, 0u);
+        std::fill_n(g.object.data() + s0, len, 0u);
     }
   });
 

@@ -736,7 +736,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
         // The survey's decision reads only which pixels have a surface.
         if (forFilter && schedule.phase() != SampleSchedule::Phase::Survey) {
           if (rootGain.empty()) {
-            // The film of the first round (resolved again at the end), through
+            // The film at --min-spp (resolved again at the end), through
             // the filter the render ends with; only its gain is kept. The
             // filter reads the whole film and the gain is indexed like the
             // window's errors: the same pixels, as --denoise refuses --region
