@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <string>
 
 #include "core/error.h"
 #include "core/render.h"
@@ -60,6 +61,11 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
     : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds),
       firstSpp_(uint32_t(firstRoundSpp(s))), surveySpp_(uint32_t(surveySpp(s))) {
+  // The running list holds 32-bit pixel indices (--res allows 65536 x 65536,
+  // one pixel more than they count; such a window's sums alone would be
+  // hundreds of GB).
+  if (window.size() > size_t(std::numeric_limits<uint32_t>::max()))
+    throw Error("adaptive sampling: a window of " + std::to_string(window.size()) + " pixels (at most 2^32 - 1)");
   // The survey needs per-pixel rounds too (a screen-space round is whole
   // layers).
   if (uniform_) surveySpp_ = 0;
@@ -67,8 +73,10 @@ SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s,
   const uint32_t first = phase_ == Phase::Survey ? surveySpp_ : firstSpp_;
   parallelFill(taken_, window.size(), 0U);
   parallelFill(target_, window.size(), first);
-  parallelFill(active_, window.size(), uint8_t(1));
-  pooled_.resize(window.size());
+  running_.resize(window.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, running_.size(), kChunk), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) running_[i] = uint32_t(i);
+  });
   planned_ = uint64_t(window.size()) * uint64_t(first);
   maxTarget_ = first;
 }
@@ -84,19 +92,25 @@ uint64_t SampleSchedule::planned(const PixelRect& r) const {
 
 void SampleSchedule::dropPlan() {
   if (planned_) --rounds_;
-  target_ = taken_;
+  for (const uint32_t i : running_) target_[i] = taken_[i];
+  running_.clear();
   planned_ = 0;
   maxTarget_ = 0;
 }
 
 uint64_t SampleSchedule::next(const float* error) {
-  // The round just taken: its samples into the total, every target becomes
-  // the samples taken (in parallel: a 1080p window is 2 M pixels a round;
-  // integer sums, so the same total whatever the split).
+  // The round just taken: its samples into the total, and every running
+  // pixel's target becomes its samples taken (the others' already are). In
+  // parallel over the running list (a 1080p window is 2 M pixels in the
+  // first round, a few thousand in the last); integer sums, so the same
+  // total whatever the split.
   total_ += tbb::parallel_reduce(
-      tbb::blocked_range<size_t>(0, taken_.size(), kChunk), uint64_t(0),
+      tbb::blocked_range<size_t>(0, running_.size(), kChunk), uint64_t(0),
       [&](const tbb::blocked_range<size_t>& r, uint64_t sum) {
-        for (size_t i = r.begin(); i != r.end(); ++i) sum += target_[i] - taken_[i], taken_[i] = target_[i];
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+          const uint32_t i = running_[k];
+          sum += target_[i] - taken_[i], taken_[i] = target_[i];
+        }
         return sum;
       },
       std::plus<uint64_t>());
@@ -106,31 +120,25 @@ uint64_t SampleSchedule::next(const float* error) {
     // neighbourhood hit a surface (README "Adaptive sampling": a thin
     // feature all 25 m samples missed - 100 at the default m = 4 - is missed
     // by this render); every other pixel takes the rest of its first round.
-    // One pass: the decision per pixel, and the count of pixels that go on
-    // (an integer sum: the same whatever the split).
     phase_ = Phase::FirstRound;
-    const uint64_t goOn = tbb::parallel_reduce(
-        tbb::blocked_range<int>(0, h), uint64_t(0),
-        [&](const tbb::blocked_range<int>& rows, uint64_t count) {
-          for (int y = rows.begin(); y != rows.end(); ++y)
-            for (int x = 0; x < w; ++x) {
-              bool surface = false;
-              for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2) && !surface; ++v)
-                for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u)
-                  if (error[size_t(v) * size_t(w) + size_t(u)] != kNoSurface) {
-                    surface = true;
-                    break;
-                  }
-              const size_t i = size_t(y) * size_t(w) + size_t(x);
-              if (surface)
-                target_[i] = firstSpp_, ++count;
-              else
-                active_[i] = 0;
+    tbb::parallel_for(0, h, [&](int y) {
+      for (int x = 0; x < w; ++x) {
+        bool surface = false;
+        for (int v = std::max(0, y - 2); v <= std::min(h - 1, y + 2) && !surface; ++v)
+          for (int u = std::max(0, x - 2); u <= std::min(w - 1, x + 2); ++u)
+            if (error[size_t(v) * size_t(w) + size_t(u)] != kNoSurface) {
+              surface = true;
+              break;
             }
-          return count;
-        },
-        std::plus<uint64_t>());
-    planned_ = goOn * uint64_t(firstSpp_ - surveySpp_);
+        if (surface) target_[size_t(y) * size_t(w) + size_t(x)] = firstSpp_;
+      }
+    });
+    // Every pixel ran the survey: the running list is the window in order,
+    // and keeps the pixels that go on, in order.
+    running_.resize(size_t(std::remove_if(running_.begin(), running_.end(),
+                                          [&](uint32_t i) { return target_[i] == taken_[i]; }) -
+                           running_.begin()));
+    planned_ = uint64_t(running_.size()) * uint64_t(firstSpp_ - surveySpp_);
     maxTarget_ = planned_ ? firstSpp_ : 0;
     if (planned_) ++rounds_;
     return planned_;
@@ -160,46 +168,44 @@ uint64_t SampleSchedule::next(const float* error) {
   // 7 x 7 with it: 0.00968 at 27.76).
   const int radius = marginal_ ? 2 : 1;
   const bool ownTerm = !marginal_;
-  tbb::parallel_for(0, h, [&](int y) {
-    for (int x = 0; x < w; ++x) {
-      if (!active_[size_t(y) * size_t(w) + size_t(x)]) continue;  // stopped: never read again
-      double sq = 0;
-      int k = 0;
-      for (int v = std::max(0, y - radius); v <= std::min(h - 1, y + radius); ++v)
-        for (int u = std::max(0, x - radius); u <= std::min(w - 1, x + radius); ++u)
-          if (const double e = error[size_t(v) * size_t(w) + size_t(u)]; e != double(kNoSurface)) sq += e * e, ++k;
-      // A pixel without a surface (yet) goes by its surface neighbours: a
-      // sliver of coverage it has not hit may be there.
-      const float own = ownTerm ? std::max(0.0f, error[size_t(y) * size_t(w) + size_t(x)]) : 0.0f;
-      pooled_[size_t(y) * size_t(w) + size_t(x)] = std::max(own, k ? float(std::sqrt(sq / k)) : 0.0f);
-    }
-  });
-  // Each pixel that goes on takes the samples its estimate says it needs -
-  // the error falls as 1/sqrt(n), so n (d/E)^2, aimed at E / kAim so that
-  // a pixel whose estimate was low is usually done after the next round -
-  // but at least one and at most half again what it has: the estimate is
-  // noisy, and a round that overshoots cannot be taken back.
-  // Per pixel, independent of the others: in parallel, with the planned
-  // samples summed and the largest target found (exact, any split).
+  const auto decisionError = [&](uint32_t i) {
+    const int y = int(i / uint32_t(w)), x = int(i - uint32_t(y) * uint32_t(w));
+    double sq = 0;
+    int k = 0;
+    for (int v = std::max(0, y - radius); v <= std::min(h - 1, y + radius); ++v)
+      for (int u = std::max(0, x - radius); u <= std::min(w - 1, x + radius); ++u)
+        if (const double e = error[size_t(v) * size_t(w) + size_t(u)]; e != double(kNoSurface)) sq += e * e, ++k;
+    // A pixel without a surface (yet) goes by its surface neighbours: a
+    // sliver of coverage it has not hit may be there.
+    const float own = ownTerm ? std::max(0.0f, error[i]) : 0.0f;
+    return std::max(own, k ? float(std::sqrt(sq / k)) : 0.0f);
+  };
+  // Each running pixel either stops (its target stays its samples taken)
+  // or takes the samples its estimate says it needs - the error falls as
+  // 1/sqrt(n), so n (d/E)^2, aimed at E / kAim so that a pixel whose
+  // estimate was low is usually done after the next round - but at least
+  // one and at most half again what it has: the estimate is noisy, and a
+  // round that overshoots cannot be taken back. Stopped pixels are never
+  // read again. Per pixel, independent of the others (the errors are the
+  // round's, read only): in parallel, with the planned samples summed and
+  // the largest target found (exact, any split).
   struct Plan {
     uint64_t planned = 0;
     uint32_t maxTarget = 0;
   };
   const Plan plan = tbb::parallel_reduce(
-      tbb::blocked_range<size_t>(0, taken_.size(), kChunk), Plan{},
+      tbb::blocked_range<size_t>(0, running_.size(), kChunk / 8), Plan{},
       [&](const tbb::blocked_range<size_t>& r, Plan acc) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
-          if (!active_[i]) continue;  // stopped pixels stay stopped
+        for (size_t k = r.begin(); k != r.end(); ++k) {
+          const uint32_t i = running_[k];
           const uint32_t n = taken_[i];
-          const float d = pooled_[i];
+          if (n >= spp_) continue;
+          const float d = decisionError(i);
           // The marginal rule's threshold grows with the samples taken: the
           // error a sample more removes, d^2 / n, is what every pixel is stopped at.
           const double threshold =
               marginal_ ? double(targetError_) * std::sqrt(double(n) / double(firstSpp_)) : double(targetError_);
-          if (n >= spp_ || (targetError_ > 0.0f && double(d) <= threshold)) {
-            active_[i] = 0;
-            continue;
-          }
+          if (targetError_ > 0.0f && double(d) <= threshold) continue;
           const double grow = std::max(1.0, std::floor(double(n) * 0.5));
           double want = double(n) + grow;
           if (targetError_ > 0.0f && std::isfinite(d)) {
@@ -221,12 +227,16 @@ uint64_t SampleSchedule::next(const float* error) {
         return acc;
       },
       [](Plan a, Plan b) { return Plan{a.planned + b.planned, std::max(a.maxTarget, b.maxTarget)}; });
+  // The pixels that go on, in order (one pass over the list: a stable
+  // compaction, so the list stays ascending).
+  running_.resize(size_t(
+      std::remove_if(running_.begin(), running_.end(), [&](uint32_t i) { return target_[i] == taken_[i]; }) -
+      running_.begin()));
   uint64_t planned = plan.planned;
   maxTarget_ = plan.maxTarget;
   if (uniform_) {
     planned = 0;
-    for (size_t i = 0; i < taken_.size(); ++i)
-      if (active_[i]) target_[i] = maxTarget_, planned += maxTarget_ - taken_[i];
+    for (const uint32_t i : running_) target_[i] = maxTarget_, planned += maxTarget_ - taken_[i];
   }
   planned_ = planned;
   if (planned) ++rounds_;

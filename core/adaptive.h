@@ -61,6 +61,9 @@ class SampleSchedule {
   // The largest target: the samples the round runs up to.
   uint32_t maxTarget() const { return maxTarget_; }
   uint64_t planned(const PixelRect& r) const;
+  // The pixels that take samples this round (window row-major indices,
+  // ascending); every other pixel's target is its samples taken.
+  const LargeVector<uint32_t>& running() const { return running_; }
   // The round is done: every pixel's samples so far become its target.
   // Then, from each pixel's error (window row-major: the composited pass's
   // standard error, compositedError in core/pixel_sums.h; kNoSurface
@@ -107,8 +110,10 @@ class SampleSchedule {
   Phase phase_ = Phase::FirstRound;
   // Whole-window arrays on huge pages (core/large_vector.h).
   LargeVector<uint32_t> taken_, target_;
-  LargeVector<uint8_t> active_;  // 0 once the pixel has stopped
-  LargeVector<float> pooled_;    // read for active pixels only
+  // The pixels that take samples this round (target > taken), ascending:
+  // the rounds' passes are over these, not the window (late rounds run a
+  // few thousand pixels of millions).
+  LargeVector<uint32_t> running_;
   uint64_t planned_ = 0, total_ = 0;
   uint32_t maxTarget_ = 0;
   int rounds_ = 1;

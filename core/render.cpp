@@ -183,16 +183,19 @@ class TileRenderer {
 
   // The primary pass's composited standard error (compositedError) of
   // every pixel of the window (window row-major) from the adaptive sums:
-  // what the schedule decides on. Only pixels that took samples this round
-  // are recomputed: the others' sums, and so their errors in `error` from
-  // an earlier round, have not changed (late rounds touch few pixels).
-  void windowErrors(float* error) const {
-    const int w = window_.width();
-    tbb::parallel_for(0, window_.height(), [&](int y) {
-      for (int x = 0; x < w; ++x) {
-        const size_t i = size_t(y) * size_t(w) + size_t(x);
-        if (schedule_->target(i) == schedule_->taken(i)) continue;
-        error[i] = scheduleError(window_sums_->sums[i], window_sums_->even[i], schedule_->target(i));
+  // what the schedule decides on. Only the pixels that took samples this
+  // round (the schedule's running list) are recomputed: the others' sums,
+  // and so their errors in `error` from an earlier round, have not changed
+  // (late rounds touch few pixels). With `gain`, decide[i] = error[i] x
+  // gain[i] for those pixels as well (kNoSurface and 0 as they are).
+  void windowErrors(float* error, const float* gain = nullptr, float* decide = nullptr) const {
+    const LargeVector<uint32_t>& running = schedule_->running();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, running.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t k = r.begin(); k != r.end(); ++k) {
+        const uint32_t i = running[k];
+        const float e = scheduleError(window_sums_->sums[i], window_sums_->even[i], schedule_->target(i));
+        error[i] = e;
+        if (gain) decide[i] = e > 0.0f ? e * gain[i] : e;
       }
     });
   }
@@ -731,29 +734,34 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
       for (;;) {
         eachTile(renderTile);
         if (cancel && cancel->load()) return;
-        tiles.windowErrors(error.data());
-        const float* decision = error.data();
+        // Once the gain is known, each round's decision errors are updated
+        // with the errors, for the running pixels only.
+        const bool haveGain = !rootGain.empty();
+        tiles.windowErrors(error.data(), haveGain ? rootGain.data() : nullptr, haveGain ? decide.data() : nullptr);
+        const float* decision = haveGain ? decide.data() : error.data();
         // The survey's decision reads only which pixels have a surface.
-        if (forFilter && schedule.phase() != SampleSchedule::Phase::Survey) {
-          if (rootGain.empty()) {
-            // The film at --min-spp (resolved again at the end), through
-            // the filter the render ends with; only its gain is kept. The
-            // filter reads the whole film and the gain is indexed like the
-            // window's errors: the same pixels, as --denoise refuses --region
-            // (checkSettings), so the window is the frame.
-            assert(window == uint64_t(film.width()) * uint64_t(film.height()));
-            eachTile([&](int t) { tiles.resolveTile(t, true); });
-            LargeVector<float> variance;
-            const DenoiseInput in = denoiseInput(film, kR, *denoised, objects, variance);
-            rootGain.resize(window);
-            denoise(in, denoiseSettings(s), nullptr, rootGain.data(), denoiseWorkspace);  // the gain alone
-            for (float& g : rootGain) g = std::sqrt(g);
-            decide.resize(window);
-          }
-          // The error the filtered pixel keeps; kNoSurface and 0 as they are.
-          tbb::parallel_for(size_t(0), size_t(window), [&](size_t i) {
-            decide[i] = error[i] > 0.0f ? error[i] * rootGain[i] : error[i];
-          });
+        if (forFilter && !haveGain && schedule.phase() != SampleSchedule::Phase::Survey) {
+          // The film at --min-spp (resolved again at the end), through
+          // the filter the render ends with; only its gain is kept. The
+          // filter reads the whole film and the gain is indexed like the
+          // window's errors: the same pixels, as --denoise refuses --region
+          // (checkSettings), so the window is the frame.
+          assert(window == uint64_t(film.width()) * uint64_t(film.height()));
+          eachTile([&](int t) { tiles.resolveTile(t, true); });
+          LargeVector<float> variance;
+          const DenoiseInput in = denoiseInput(film, kR, *denoised, objects, variance);
+          rootGain.resize(window);
+          denoise(in, denoiseSettings(s), nullptr, rootGain.data(), denoiseWorkspace);  // the gain alone
+          // The error the filtered pixel keeps (error x sqrt(gain));
+          // kNoSurface and 0 as they are.
+          decide.resize(window);
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, size_t(window), size_t(1) << 15),
+                            [&](const tbb::blocked_range<size_t>& r) {
+                              for (size_t i = r.begin(); i != r.end(); ++i) {
+                                rootGain[i] = std::sqrt(rootGain[i]);
+                                decide[i] = error[i] > 0.0f ? error[i] * rootGain[i] : error[i];
+                              }
+                            });
           decision = decide.data();
         }
         const uint64_t planned = schedule.next(decision);

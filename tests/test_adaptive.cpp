@@ -556,6 +556,65 @@ TEST(Adaptive, TheSurveyStopsPixelsWithNoSurfaceWithinTwo) {
   EXPECT_EQ(b.next(error.data()), going * 14u);
 }
 
+// The schedule's rounds pass over its running list, not the window: after
+// every decision the list is exactly the pixels whose target exceeds their
+// samples taken, ascending, and the round's planned samples are theirs.
+// Errors from a fixed pseudo-random sequence (some pixels without a
+// surface), for the per-pixel and marginal rules, with and without the
+// survey, and for whole-layer rounds; then a dropped plan leaves none.
+TEST(Adaptive, TheRunningListIsThePixelsThatTakeSamples) {
+  const PixelRect window{0, 0, 23, 17};
+  const auto check = [&](const SampleSchedule& a, const char* what, int round) {
+    std::vector<uint32_t> expect;
+    uint64_t planned = 0;
+    for (size_t i = 0; i < window.size(); ++i)
+      if (a.target(i) > a.taken(i)) expect.push_back(uint32_t(i)), planned += a.target(i) - a.taken(i);
+    const auto& running = a.running();
+    EXPECT_EQ(std::vector<uint32_t>(running.begin(), running.end()), expect) << what << ", round " << round;
+    EXPECT_EQ(a.planned(), planned) << what << ", round " << round;
+    EXPECT_EQ(a.planned(window), planned) << what << ", round " << round;
+  };
+  for (int variant = 0; variant < 6; ++variant) {
+    RenderSettings s;
+    s.width = window.width(), s.height = window.height();
+    s.spp = 200, s.minSpp = 16, s.targetError = 0.05f;
+    s.backgroundSpp = variant % 2 ? 0 : int(kBackgroundSpp);
+    const bool marginal = variant / 2 == 1, uniform = variant / 2 == 2;
+    const char* what = uniform ? "uniform" : marginal ? "marginal" : "per-pixel";
+    SampleSchedule a(window, s, uniform);
+    a.setMarginal(marginal);
+    uint32_t state = 12345u + uint32_t(variant);
+    const auto uniform01 = [&] {
+      state = state * 1664525u + 1013904223u;
+      return float(state >> 8) * 0x1p-24f;
+    };
+    std::vector<float> error(window.size());
+    check(a, what, 0);
+    int round = 1;
+    for (; round < 100; ++round) {
+      // A pixel's error falls with its samples; columns 0-4 have no surface.
+      for (size_t i = 0; i < window.size(); ++i)
+        error[i] = i % size_t(window.width()) < 5
+                       ? kNoSurface
+                       : 0.3f * uniform01() * std::sqrt(16.0f / float(std::max(a.target(i), 1u)));
+      const uint64_t planned = a.next(error.data());
+      check(a, what, round);
+      if (planned == 0) break;
+    }
+    EXPECT_LT(round, 100) << what;
+    EXPECT_TRUE(a.running().empty()) << what;
+  }
+  RenderSettings s;
+  s.width = window.width(), s.height = window.height();
+  s.spp = 200, s.targetError = 0.001f;
+  SampleSchedule a(window, s);
+  a.next(std::vector<float>(window.size(), 0.0f).data());  // the survey: every pixel goes on
+  EXPECT_EQ(a.running().size(), window.size());
+  a.dropPlan();
+  check(a, "dropped", 1);
+  EXPECT_TRUE(a.running().empty());
+}
+
 // The survey in a render: a 2 x 2 square in the middle of a 40 x 30 frame,
 // background around it. Which pixels have a surface within two is read from
 // an independent fixed 4-spp render (the survey's samples are a pixel's
