@@ -26,7 +26,8 @@ constexpr int kDefaultMinSpp = 16;
 // 1.0 E on the viking room, 1.06 E in a simulation of the rule; with 1.1,
 // 0.95 E and 1.02 E, for 8 % more samples).
 constexpr double kAim = 1.1;
-// Pixels per task of the schedule's passes over the window.
+// Pixels per task of the schedule's passes (over the window at set-up, over
+// the running list after).
 constexpr size_t kChunk = size_t(1) << 15;
 }  // namespace
 
@@ -61,11 +62,11 @@ void checkAdaptiveSettings(const RenderSettings& s) {
 SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s, bool uniformRounds)
     : window_(window), spp_(uint32_t(s.spp)), targetError_(s.targetError), uniform_(uniformRounds),
       firstSpp_(uint32_t(firstRoundSpp(s))), surveySpp_(uint32_t(surveySpp(s))) {
-  // The running list holds 32-bit pixel indices (--res allows 65536 x 65536,
-  // one pixel more than they count; such a window's sums alone would be
-  // hundreds of GB).
-  if (window.size() > size_t(std::numeric_limits<uint32_t>::max()))
-    throw Error("adaptive sampling: a window of " + std::to_string(window.size()) + " pixels (at most 2^32 - 1)");
+  // The running list holds 32-bit pixel indices, 0 ... 2^32 - 1 (--res
+  // allows 65536 x 65536, exactly 2^32 pixels; the index arithmetic of
+  // next() stays below that too).
+  if (window.size() > (size_t(1) << 32))
+    throw Error("adaptive sampling: a window of " + std::to_string(window.size()) + " pixels (at most 2^32)");
   // The survey needs per-pixel rounds too (a screen-space round is whole
   // layers).
   if (uniform_) surveySpp_ = 0;

@@ -186,16 +186,18 @@ class TileRenderer {
   // what the schedule decides on. Only the pixels that took samples this
   // round (the schedule's running list) are recomputed: the others' sums,
   // and so their errors in `error` from an earlier round, have not changed
-  // (late rounds touch few pixels). With `gain`, decide[i] = error[i] x
-  // gain[i] for those pixels as well (kNoSurface and 0 as they are).
-  void windowErrors(float* error, const float* gain = nullptr, float* decide = nullptr) const {
+  // (late rounds touch few pixels). With `rootGain` (the square root of
+  // the filter's variance reduction, docs/math.md §13), decide[i] =
+  // error[i] x rootGain[i] for those pixels as well (kNoSurface and 0 as
+  // they are).
+  void windowErrors(float* error, const float* rootGain = nullptr, float* decide = nullptr) const {
     const LargeVector<uint32_t>& running = schedule_->running();
     tbb::parallel_for(tbb::blocked_range<size_t>(0, running.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t k = r.begin(); k != r.end(); ++k) {
         const uint32_t i = running[k];
         const float e = scheduleError(window_sums_->sums[i], window_sums_->even[i], schedule_->target(i));
         error[i] = e;
-        if (gain) decide[i] = e > 0.0f ? e * gain[i] : e;
+        if (rootGain) decide[i] = e > 0.0f ? e * rootGain[i] : e;
       }
     });
   }

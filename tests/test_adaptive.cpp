@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <string>
 
 #include "core/adaptive.h"
 #include "core/camera.h"
@@ -558,45 +559,54 @@ TEST(Adaptive, TheSurveyStopsPixelsWithNoSurfaceWithinTwo) {
 
 // The schedule's rounds pass over its running list, not the window: after
 // every decision the list is exactly the pixels whose target exceeds their
-// samples taken, ascending, and the round's planned samples are theirs.
-// Errors from a fixed pseudo-random sequence (some pixels without a
-// surface), for the per-pixel and marginal rules, with and without the
-// survey, and for whole-layer rounds; then a dropped plan leaves none.
+// samples taken, ascending, the round's planned samples are theirs, and the
+// total is the samples taken. Errors from a fixed pseudo-random sequence
+// (some pixels without a surface), for the per-pixel and marginal rules,
+// with and without the survey, and for whole-layer rounds, on a window
+// larger than the passes' chunks (so they split); then a plan dropped
+// after some pixels have stopped leaves none running.
 TEST(Adaptive, TheRunningListIsThePixelsThatTakeSamples) {
-  const PixelRect window{0, 0, 23, 17};
-  const auto check = [&](const SampleSchedule& a, const char* what, int round) {
+  const PixelRect window{0, 0, 211, 173};  // 36503 pixels: more than a chunk of every pass
+  const auto check = [&](const SampleSchedule& a, const std::string& what, int round) {
     std::vector<uint32_t> expect;
-    uint64_t planned = 0;
-    for (size_t i = 0; i < window.size(); ++i)
+    uint64_t planned = 0, taken = 0;
+    for (size_t i = 0; i < window.size(); ++i) {
+      taken += a.taken(i);
       if (a.target(i) > a.taken(i)) expect.push_back(uint32_t(i)), planned += a.target(i) - a.taken(i);
+    }
     const auto& running = a.running();
-    EXPECT_EQ(std::vector<uint32_t>(running.begin(), running.end()), expect) << what << ", round " << round;
+    EXPECT_TRUE(std::vector<uint32_t>(running.begin(), running.end()) == expect) << what << ", round " << round;
     EXPECT_EQ(a.planned(), planned) << what << ", round " << round;
     EXPECT_EQ(a.planned(window), planned) << what << ", round " << round;
+    EXPECT_EQ(a.total(), taken) << what << ", round " << round;
   };
-  for (int variant = 0; variant < 6; ++variant) {
-    RenderSettings s;
-    s.width = window.width(), s.height = window.height();
-    s.spp = 200, s.minSpp = 16, s.targetError = 0.05f;
-    s.backgroundSpp = variant % 2 ? 0 : int(kBackgroundSpp);
-    const bool marginal = variant / 2 == 1, uniform = variant / 2 == 2;
-    const char* what = uniform ? "uniform" : marginal ? "marginal" : "per-pixel";
-    SampleSchedule a(window, s, uniform);
+  // Round by round errors that fall with a pixel's samples; columns 0-4
+  // have no surface.
+  const auto errors = [&](const SampleSchedule& a, uint32_t& state, std::vector<float>& error) {
+    for (size_t i = 0; i < window.size(); ++i) {
+      state = state * 1664525u + 1013904223u;
+      error[i] = i % size_t(window.width()) < 5
+                     ? kNoSurface
+                     : 0.3f * float(state >> 8) * 0x1p-24f * std::sqrt(16.0f / float(std::max(a.target(i), 1u)));
+    }
+  };
+  RenderSettings s;
+  s.width = window.width(), s.height = window.height();
+  s.spp = 200, s.minSpp = 16, s.targetError = 0.05f;
+  for (int variant = 0; variant < 5; ++variant) {
+    RenderSettings v = s;
+    v.backgroundSpp = variant % 2 ? 0 : int(kBackgroundSpp);
+    const bool marginal = variant / 2 == 1, uniform = variant == 4;  // uniform rounds take no survey
+    const std::string what = std::string(uniform ? "uniform" : marginal ? "marginal" : "per-pixel") +
+                             (v.backgroundSpp && !uniform ? " with the survey" : "");
+    SampleSchedule a(window, v, uniform);
     a.setMarginal(marginal);
     uint32_t state = 12345u + uint32_t(variant);
-    const auto uniform01 = [&] {
-      state = state * 1664525u + 1013904223u;
-      return float(state >> 8) * 0x1p-24f;
-    };
     std::vector<float> error(window.size());
     check(a, what, 0);
     int round = 1;
     for (; round < 100; ++round) {
-      // A pixel's error falls with its samples; columns 0-4 have no surface.
-      for (size_t i = 0; i < window.size(); ++i)
-        error[i] = i % size_t(window.width()) < 5
-                       ? kNoSurface
-                       : 0.3f * uniform01() * std::sqrt(16.0f / float(std::max(a.target(i), 1u)));
+      errors(a, state, error);
       const uint64_t planned = a.next(error.data());
       check(a, what, round);
       if (planned == 0) break;
@@ -604,15 +614,30 @@ TEST(Adaptive, TheRunningListIsThePixelsThatTakeSamples) {
     EXPECT_LT(round, 100) << what;
     EXPECT_TRUE(a.running().empty()) << what;
   }
-  RenderSettings s;
-  s.width = window.width(), s.height = window.height();
-  s.spp = 200, s.targetError = 0.001f;
+  // The time limit: a plan dropped in the rounds, after some pixels have
+  // stopped, takes nothing more, and the round it planned is not counted.
   SampleSchedule a(window, s);
-  a.next(std::vector<float>(window.size(), 0.0f).data());  // the survey: every pixel goes on
-  EXPECT_EQ(a.running().size(), window.size());
+  uint32_t state = 777u;
+  std::vector<float> error(window.size());
+  // Rounds until some pixel with a surface has stopped while others run.
+  const auto someStopped = [&] {
+    for (size_t i = 0; i < window.size(); ++i)
+      if (i % size_t(window.width()) >= 5 && a.target(i) == a.taken(i)) return true;
+    return false;
+  };
+  for (int round = 0; round < 20 && !(a.phase() == SampleSchedule::Phase::Rounds && someStopped()); ++round) {
+    errors(a, state, error);
+    a.next(error.data());
+  }
+  ASSERT_TRUE(someStopped());
+  ASSERT_GT(a.running().size(), 0u);
+  const int rounds = a.rounds();
   a.dropPlan();
-  check(a, "dropped", 1);
+  check(a, "dropped", rounds);
   EXPECT_TRUE(a.running().empty());
+  EXPECT_EQ(a.rounds(), rounds - 1);
+  EXPECT_EQ(a.next(error.data()), 0u);
+  check(a, "after the drop", rounds);
 }
 
 // The survey in a render: a 2 x 2 square in the middle of a 40 x 30 frame,
