@@ -99,6 +99,12 @@ void SampleSchedule::dropPlan() {
   maxTarget_ = 0;
 }
 
+void SampleSchedule::dropStopped() {
+  running_.resize(size_t(
+      std::remove_if(running_.begin(), running_.end(), [&](uint32_t i) { return target_[i] == taken_[i]; }) -
+      running_.begin()));
+}
+
 uint64_t SampleSchedule::next(const float* error) {
   // The round just taken: its samples into the total, and every running
   // pixel's target becomes its samples taken (the others' already are). In
@@ -136,9 +142,7 @@ uint64_t SampleSchedule::next(const float* error) {
     });
     // Every pixel ran the survey: the running list is the window in order,
     // and keeps the pixels that go on, in order.
-    running_.resize(size_t(std::remove_if(running_.begin(), running_.end(),
-                                          [&](uint32_t i) { return target_[i] == taken_[i]; }) -
-                           running_.begin()));
+    dropStopped();
     planned_ = uint64_t(running_.size()) * uint64_t(firstSpp_ - surveySpp_);
     maxTarget_ = planned_ ? firstSpp_ : 0;
     if (planned_) ++rounds_;
@@ -228,11 +232,8 @@ uint64_t SampleSchedule::next(const float* error) {
         return acc;
       },
       [](Plan a, Plan b) { return Plan{a.planned + b.planned, std::max(a.maxTarget, b.maxTarget)}; });
-  // The pixels that go on, in order (one pass over the list: a stable
-  // compaction, so the list stays ascending).
-  running_.resize(size_t(
-      std::remove_if(running_.begin(), running_.end(), [&](uint32_t i) { return target_[i] == taken_[i]; }) -
-      running_.begin()));
+  // The pixels that go on, in order.
+  dropStopped();
   uint64_t planned = plan.planned;
   maxTarget_ = plan.maxTarget;
   if (uniform_) {

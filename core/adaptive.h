@@ -114,6 +114,9 @@ class SampleSchedule {
   // the rounds' passes are over these, not the window (late rounds run a
   // few thousand pixels of millions).
   LargeVector<uint32_t> running_;
+  // Drops the pixels that reached their target from running_ (a stable
+  // compaction, so the list stays ascending).
+  void dropStopped();
   uint64_t planned_ = 0, total_ = 0;
   uint32_t maxTarget_ = 0;
   int rounds_ = 1;

@@ -32,6 +32,11 @@ Vec3 pixelAlbedo(const Sum3& albedo, uint32_t hits, bool wantAlbedo) {
   return Vec3(float(albedo.x * invHits), float(albedo.y * invHits), float(albedo.z * invHits));
 }
 
+// The error a pixel keeps after the filter: its error times the square root
+// of the filter's variance reduction there (docs/math.md §13); kNoSurface
+// (negative) and 0 pass as they are.
+inline float filteredError(float error, float rootGain) { return error > 0.0f ? error * rootGain : error; }
+
 // Camera samples per chunk. Large enough that per-chunk overhead
 // vanishes, small enough that the batch and its hits stay in L1/L2.
 constexpr size_t kChunk = 256;
@@ -197,7 +202,7 @@ class TileRenderer {
         const uint32_t i = running[k];
         const float e = scheduleError(window_sums_->sums[i], window_sums_->even[i], schedule_->target(i));
         error[i] = e;
-        if (rootGain) decide[i] = e > 0.0f ? e * rootGain[i] : e;
+        if (rootGain) decide[i] = filteredError(e, rootGain[i]);
       }
     });
   }
@@ -761,7 +766,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
                             [&](const tbb::blocked_range<size_t>& r) {
                               for (size_t i = r.begin(); i != r.end(); ++i) {
                                 rootGain[i] = std::sqrt(rootGain[i]);
-                                decide[i] = error[i] > 0.0f ? error[i] * rootGain[i] : error[i];
+                                decide[i] = filteredError(error[i], rootGain[i]);
                               }
                             });
           decision = decide.data();
