@@ -79,6 +79,7 @@ SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s,
     for (size_t i = r.begin(); i != r.end(); ++i) running_[i] = uint32_t(i);
   });
   planned_ = uint64_t(window.size()) * uint64_t(first);
+  expected_ = uint64_t(window.size()) * uint64_t(spp_);  // nothing known yet
   maxTarget_ = first;
 }
 
@@ -95,7 +96,7 @@ void SampleSchedule::dropPlan() {
   if (planned_) --rounds_;
   for (const uint32_t i : running_) target_[i] = taken_[i];
   running_.clear();
-  planned_ = 0;
+  planned_ = expected_ = 0;
   maxTarget_ = 0;
 }
 
@@ -144,6 +145,7 @@ uint64_t SampleSchedule::next(const float* error) {
     // and keeps the pixels that go on, in order.
     dropStopped();
     planned_ = uint64_t(running_.size()) * uint64_t(firstSpp_ - surveySpp_);
+    expected_ = uint64_t(running_.size()) * uint64_t(spp_ - surveySpp_);  // no estimate yet
     maxTarget_ = planned_ ? firstSpp_ : 0;
     if (planned_) ++rounds_;
     return planned_;
@@ -195,7 +197,7 @@ uint64_t SampleSchedule::next(const float* error) {
   // round's, read only): in parallel, with the planned samples summed and
   // the largest target found (exact, any split).
   struct Plan {
-    uint64_t planned = 0;
+    uint64_t planned = 0, expected = 0;
     uint32_t maxTarget = 0;
   };
   const Plan plan = tbb::parallel_reduce(
@@ -212,26 +214,30 @@ uint64_t SampleSchedule::next(const float* error) {
               marginal_ ? double(targetError_) * std::sqrt(double(n) / double(firstSpp_)) : double(targetError_);
           if (targetError_ > 0.0f && double(d) <= threshold) continue;
           const double grow = std::max(1.0, std::floor(double(n) * 0.5));
-          double want = double(n) + grow;
+          // What the estimate asks for (the most there is without one).
+          double need = double(spp_);
           if (targetError_ > 0.0f && std::isfinite(d)) {
             if (marginal_) {
               // n' = d sqrt(n) sqrt(n0) / E: the deviation over the threshold's
               // scale, aimed kAim beyond it.
-              want = std::min(want, std::ceil(double(d) * std::sqrt(double(n) * double(firstSpp_)) /
-                                              double(targetError_) * kAim));
+              need = std::ceil(double(d) * std::sqrt(double(n) * double(firstSpp_)) / double(targetError_) * kAim);
             } else {
               const double ratio = double(d) / double(targetError_) * kAim;
-              want = std::min(want, std::ceil(double(n) * ratio * ratio));
+              need = std::ceil(double(n) * ratio * ratio);
             }
           }
-          want = std::max(want, double(n) + 1.0);
+          need = std::max(need, double(n) + 1.0);
+          const double want = std::min(double(n) + grow, need);
           target_[i] = uint32_t(std::min(double(spp_), want));
           acc.planned += target_[i] - n;
+          acc.expected += uint32_t(std::min(double(spp_), need)) - n;
           acc.maxTarget = std::max(acc.maxTarget, target_[i]);
         }
         return acc;
       },
-      [](Plan a, Plan b) { return Plan{a.planned + b.planned, std::max(a.maxTarget, b.maxTarget)}; });
+      [](Plan a, Plan b) {
+        return Plan{a.planned + b.planned, a.expected + b.expected, std::max(a.maxTarget, b.maxTarget)};
+      });
   // The pixels that go on, in order.
   dropStopped();
   uint64_t planned = plan.planned;
@@ -241,6 +247,7 @@ uint64_t SampleSchedule::next(const float* error) {
     for (const uint32_t i : running_) target_[i] = maxTarget_, planned += maxTarget_ - taken_[i];
   }
   planned_ = planned;
+  expected_ = std::max(plan.expected, planned);  // uniform rounds may plan more
   if (planned) ++rounds_;
   return planned;
 }

@@ -60,6 +60,14 @@ class SampleSchedule {
   uint64_t planned() const { return planned_; }
   // The largest target: the samples the round runs up to.
   uint32_t maxTarget() const { return maxTarget_; }
+  // The samples the render is expected to take from this round on, this
+  // round's included (for the progress bar's total and ETA, not for any
+  // decision): each running pixel's own forecast, the samples its estimate
+  // says it needs to reach the target (the error falling as 1/sqrt(n), as
+  // next() plans, without the round's growth cap), at least this round's
+  // and at most --spp; where no estimate exists yet (the survey, no target,
+  // an unknown error) the most it may take, --spp.
+  uint64_t expectedRemaining() const { return expected_; }
   uint64_t planned(const PixelRect& r) const;
   // The pixels that take samples this round (window row-major indices,
   // ascending); every other pixel's target is its samples taken.
@@ -117,7 +125,7 @@ class SampleSchedule {
   // Drops the pixels that reached their target from running_ (a stable
   // compaction, so the list stays ascending).
   void dropStopped();
-  uint64_t planned_ = 0, total_ = 0;
+  uint64_t planned_ = 0, total_ = 0, expected_ = 0;
   uint32_t maxTarget_ = 0;
   int rounds_ = 1;
 };

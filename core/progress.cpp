@@ -34,6 +34,8 @@ void Progress::advance(uint64_t amount) {
   print(done, false);
 }
 
+void Progress::setTotal(uint64_t total) { total_.store(total ? total : 1); }
+
 void Progress::finish() {
   if (!enabled_ || finished_) return;
   std::lock_guard lock(mutex_);
@@ -44,7 +46,7 @@ void Progress::finish() {
 void Progress::print(uint64_t done, bool final) {
   const auto now = std::chrono::steady_clock::now();
   const double elapsed = std::chrono::duration<double>(now - start_).count();
-  const double frac = std::min(1.0, double(done) / double(total_));
+  const double frac = std::min(1.0, double(done) / double(total_.load()));
   const double eta = frac > 0 ? elapsed * (1.0 - frac) / frac : NAN;
   if (tty_) {
     if (!final && done != 0 && now - lastPrint_ < std::chrono::milliseconds(200)) return;

@@ -15,12 +15,17 @@ class Progress {
   Progress(std::string label, uint64_t total, bool enabled);
   ~Progress();
   void advance(uint64_t amount);
+  // A new total, when the work turns out to be more or less than first
+  // thought (an adaptive render's forecast, revised each round); the bar
+  // and the ETA follow it. Not from the hot loop.
+  void setTotal(uint64_t total);
+  uint64_t done() const { return done_.load(); }
   void finish();
 
  private:
   void print(uint64_t done, bool final);
   std::string label_;
-  uint64_t total_;
+  std::atomic<uint64_t> total_;
   bool enabled_, tty_;
   std::atomic<uint64_t> done_{0};
   std::mutex mutex_;

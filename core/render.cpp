@@ -673,8 +673,9 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
   tiles.setObjects(objects);
 
   tbb::enumerable_thread_specific<std::unique_ptr<ThreadScratch>> scratch;
-  // Adaptive renders count samples against the most they may take (every
-  // pixel at spp), and finish early; fixed ones count pixels.
+  // Adaptive renders count samples, against the most they may take (every
+  // pixel at spp) until the rounds' forecast revises it; fixed ones count
+  // pixels.
   const bool adaptive = adaptiveSampling(s);
   const uint64_t window = uint64_t(renderWindow(s).size());
   Progress progress("render", adaptive ? window * uint64_t(s.spp) : window, s.progress);
@@ -772,6 +773,9 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
           decision = decide.data();
         }
         const uint64_t planned = schedule.next(decision);
+        // The bar's total: what is taken and what the pixels' estimates
+        // say is still to come.
+        progress.setTotal(progress.done() + schedule.expectedRemaining());
         if (planned == 0) break;
         // --time-limit: no round starts that would end past it, at the rate
         // the rounds so far ran (samples per second).
@@ -779,6 +783,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
         if (s.timeLimit > 0.0 && schedule.phase() == SampleSchedule::Phase::Rounds &&
             seconds + seconds / double(schedule.total()) * double(planned) > s.timeLimit) {
           schedule.dropPlan();
+          progress.setTotal(progress.done());
           break;
         }
       }

@@ -290,6 +290,23 @@ TEST(Adaptive, ATimeLimitAlreadyPassedStopsAfterTheFirstRound) {
   expectSameFilm(limited, renderAo(*scene, fixed), "time-limited vs fixed 8 spp");
 }
 
+// The progress bar counts an adaptive render's samples against a total the
+// rounds revise (SampleSchedule::expectedRemaining): a render that stops
+// far below --spp still ends at 100 %, not at the fraction of its maximum.
+TEST(Adaptive, TheProgressBarEndsFull) {
+  const auto scene = wallScene();
+  RenderSettings s = adaptiveSettings(0.05f, 1024, 8);
+  s.progress = true;
+  RenderStats stats;
+  testing::internal::CaptureStderr();
+  renderAo(*scene, s, &stats);
+  const std::string out = testing::internal::GetCapturedStderr();
+  ASSERT_LT(stats.meanSpp, 1024.0 / 4.0);  // far below the maximum
+  const size_t last = out.rfind("render:");
+  ASSERT_NE(last, std::string::npos) << out;
+  EXPECT_NE(out.find("100.0%", last), std::string::npos) << out;
+}
+
 TEST(Adaptive, TheErrorEstimateAgainstTheSpreadAcrossSeeds) {
   // Per pixel, W.error^2 estimates Var(W); the variance across independent
   // seeds measures it. Over the pixels near the wall (0 < V < 1), the mean
@@ -567,13 +584,19 @@ TEST(Adaptive, TheSurveyStopsPixelsWithNoSurfaceWithinTwo) {
 // after some pixels have stopped leaves none running.
 TEST(Adaptive, TheRunningListIsThePixelsThatTakeSamples) {
   const PixelRect window{0, 0, 211, 173};  // 36503 pixels: more than a chunk of every pass
+  constexpr uint32_t kSpp = 200;
   const auto check = [&](const SampleSchedule& a, const std::string& what, int round) {
     std::vector<uint32_t> expect;
-    uint64_t planned = 0, taken = 0;
+    uint64_t planned = 0, taken = 0, most = 0;
     for (size_t i = 0; i < window.size(); ++i) {
       taken += a.taken(i);
-      if (a.target(i) > a.taken(i)) expect.push_back(uint32_t(i)), planned += a.target(i) - a.taken(i);
+      if (a.target(i) > a.taken(i))
+        expect.push_back(uint32_t(i)), planned += a.target(i) - a.taken(i), most += kSpp - a.taken(i);
     }
+    // The progress forecast: at least the round planned, at most every
+    // running pixel to --spp (nothing once none runs).
+    EXPECT_GE(a.expectedRemaining(), planned) << what << ", round " << round;
+    EXPECT_LE(a.expectedRemaining(), most) << what << ", round " << round;
     const auto& running = a.running();
     EXPECT_TRUE(std::vector<uint32_t>(running.begin(), running.end()) == expect) << what << ", round " << round;
     EXPECT_EQ(a.planned(), planned) << what << ", round " << round;
@@ -592,7 +615,7 @@ TEST(Adaptive, TheRunningListIsThePixelsThatTakeSamples) {
   };
   RenderSettings s;
   s.width = window.width(), s.height = window.height();
-  s.spp = 200, s.minSpp = 16, s.targetError = 0.05f;
+  s.spp = int(kSpp), s.minSpp = 16, s.targetError = 0.05f;
   for (int variant = 0; variant < 5; ++variant) {
     RenderSettings v = s;
     v.backgroundSpp = variant % 2 ? 0 : int(kBackgroundSpp);
