@@ -80,6 +80,7 @@ SampleSchedule::SampleSchedule(const PixelRect& window, const RenderSettings& s,
   });
   planned_ = uint64_t(window.size()) * uint64_t(first);
   expected_ = uint64_t(window.size()) * uint64_t(spp_);  // nothing known yet
+  expectedMax_ = spp_;
   maxTarget_ = first;
 }
 
@@ -97,7 +98,7 @@ void SampleSchedule::dropPlan() {
   for (const uint32_t i : running_) target_[i] = taken_[i];
   running_.clear();
   planned_ = expected_ = 0;
-  maxTarget_ = 0;
+  maxTarget_ = expectedMax_ = 0;
 }
 
 void SampleSchedule::dropStopped() {
@@ -147,6 +148,7 @@ uint64_t SampleSchedule::next(const float* error) {
     planned_ = uint64_t(running_.size()) * uint64_t(firstSpp_ - surveySpp_);
     expected_ = uint64_t(running_.size()) * uint64_t(spp_ - surveySpp_);  // no estimate yet
     maxTarget_ = planned_ ? firstSpp_ : 0;
+    expectedMax_ = planned_ ? spp_ : 0;
     if (planned_) ++rounds_;
     return planned_;
   }
@@ -198,7 +200,7 @@ uint64_t SampleSchedule::next(const float* error) {
   // the largest target found (exact, any split).
   struct Plan {
     uint64_t planned = 0, expected = 0;
-    uint32_t maxTarget = 0;
+    uint32_t maxTarget = 0, maxExpected = 0;
   };
   const Plan plan = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(0, running_.size(), kChunk / 8), Plan{},
@@ -230,24 +232,31 @@ uint64_t SampleSchedule::next(const float* error) {
           const double want = std::min(double(n) + grow, need);
           target_[i] = uint32_t(std::min(double(spp_), want));
           acc.planned += target_[i] - n;
-          acc.expected += uint32_t(std::min(double(spp_), need)) - n;
+          const uint32_t expected = uint32_t(std::min(double(spp_), need));
+          acc.expected += expected - n;
+          acc.maxExpected = std::max(acc.maxExpected, expected);
           acc.maxTarget = std::max(acc.maxTarget, target_[i]);
         }
         return acc;
       },
       [](Plan a, Plan b) {
-        return Plan{a.planned + b.planned, a.expected + b.expected, std::max(a.maxTarget, b.maxTarget)};
+        return Plan{a.planned + b.planned, a.expected + b.expected, std::max(a.maxTarget, b.maxTarget),
+                    std::max(a.maxExpected, b.maxExpected)};
       });
   // The pixels that go on, in order.
   dropStopped();
   uint64_t planned = plan.planned;
   maxTarget_ = plan.maxTarget;
+  expectedMax_ = std::max(plan.maxExpected, maxTarget_);
+  expected_ = plan.expected;
   if (uniform_) {
-    planned = 0;
-    for (const uint32_t i : running_) target_[i] = maxTarget_, planned += maxTarget_ - taken_[i];
+    // Every running pixel takes the round's largest target, and is
+    // expected to go on to the largest forecast.
+    planned = expected_ = 0;
+    for (const uint32_t i : running_)
+      target_[i] = maxTarget_, planned += maxTarget_ - taken_[i], expected_ += expectedMax_ - taken_[i];
   }
   planned_ = planned;
-  expected_ = std::max(plan.expected, planned);  // uniform rounds may plan more
   if (planned) ++rounds_;
   return planned;
 }

@@ -68,6 +68,9 @@ class SampleSchedule {
   // and at most --spp; where no estimate exists yet (the survey, no target,
   // an unknown error) the most it may take, --spp.
   uint64_t expectedRemaining() const { return expected_; }
+  // The most samples a pixel is expected to end with, by the same forecast
+  // (a screen-space render's layers run up to it); 0 once none runs.
+  uint32_t expectedMaxTarget() const { return expectedMax_; }
   uint64_t planned(const PixelRect& r) const;
   // The pixels that take samples this round (window row-major indices,
   // ascending); every other pixel's target is its samples taken.
@@ -126,7 +129,7 @@ class SampleSchedule {
   // compaction, so the list stays ascending).
   void dropStopped();
   uint64_t planned_ = 0, total_ = 0, expected_ = 0;
-  uint32_t maxTarget_ = 0;
+  uint32_t maxTarget_ = 0, expectedMax_ = 0;
   int rounds_ = 1;
 };
 

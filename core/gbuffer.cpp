@@ -387,10 +387,10 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         if (planned && s.timeLimit > 0.0 &&
             seconds + seconds / double(schedule->total()) * double(planned) > s.timeLimit)
           schedule->dropPlan();
-        if (!schedule->planned()) {  // done early: the bar ends full
-          progress.setTotal(progress.done());
-          break;
-        }
+        // The bar counts layers: those taken and those the forecast says
+        // are still to come (the bar ends full when the rounds end early).
+        progress.setTotal(schedule->planned() ? schedule->expectedMaxTarget() : progress.done());
+        if (!schedule->planned()) break;
       }
     }
     // The shared resolution (core/pixel_sums.h) from these sums.

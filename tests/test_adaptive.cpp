@@ -597,6 +597,10 @@ TEST(Adaptive, TheRunningListIsThePixelsThatTakeSamples) {
     // running pixel to --spp (nothing once none runs).
     EXPECT_GE(a.expectedRemaining(), planned) << what << ", round " << round;
     EXPECT_LE(a.expectedRemaining(), most) << what << ", round " << round;
+    // The forecast's largest final count: at least the round's largest
+    // target, at most --spp, 0 once none runs.
+    EXPECT_GE(a.expectedMaxTarget(), expect.empty() ? 0u : a.maxTarget()) << what << ", round " << round;
+    EXPECT_LE(a.expectedMaxTarget(), expect.empty() ? 0u : kSpp) << what << ", round " << round;
     const auto& running = a.running();
     EXPECT_TRUE(std::vector<uint32_t>(running.begin(), running.end()) == expect) << what << ", round " << round;
     EXPECT_EQ(a.planned(), planned) << what << ", round " << round;
