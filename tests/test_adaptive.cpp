@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -293,18 +294,35 @@ TEST(Adaptive, ATimeLimitAlreadyPassedStopsAfterTheFirstRound) {
 // The progress bar counts an adaptive render's samples against a total the
 // rounds revise (SampleSchedule::expectedRemaining): a render that stops
 // far below --spp still ends at 100 %, not at the fraction of its maximum.
+// Ray-traced rounds stopped by the target and by the time limit, and a
+// screen-space pass's rounds of layers.
 TEST(Adaptive, TheProgressBarEndsFull) {
   const auto scene = wallScene();
+  const auto lastLine = [](const std::function<void()>& render) {
+    testing::internal::CaptureStderr();
+    render();
+    const std::string out = testing::internal::GetCapturedStderr();
+    const size_t last = out.rfind("render:");
+    return last == std::string::npos ? out : out.substr(last);
+  };
+  RenderStats stats;
   RenderSettings s = adaptiveSettings(0.05f, 1024, 8);
   s.progress = true;
-  RenderStats stats;
-  testing::internal::CaptureStderr();
-  renderAo(*scene, s, &stats);
-  const std::string out = testing::internal::GetCapturedStderr();
+  std::string line = lastLine([&] { renderAo(*scene, s, &stats); });
   ASSERT_LT(stats.meanSpp, 1024.0 / 4.0);  // far below the maximum
-  const size_t last = out.rfind("render:");
-  ASSERT_NE(last, std::string::npos) << out;
-  EXPECT_NE(out.find("100.0%", last), std::string::npos) << out;
+  EXPECT_NE(line.find("100.0%"), std::string::npos) << line;
+
+  s.timeLimit = 1e-9;  // the first round's plan is dropped: --min-spp
+  line = lastLine([&] { renderAo(*scene, s, &stats); });
+  ASSERT_EQ(stats.meanSpp, 8.0);
+  EXPECT_NE(line.find("100.0%"), std::string::npos) << line;
+
+  const Camera cam = makeLookAtCamera(Vec3(1.5f, -2.0f, 1.5f), Vec3(0.3f, 0, 0), Vec3(0, 0, 1), 0.9f, "oblique");
+  RenderSettings ss = passSettings(48, 32, 256);
+  ss.aovs = true, ss.targetError = 0.05f, ss.minSpp = 6, ss.progress = true;
+  line = lastLine([&] { renderWith(*scene, cam, "vo", {"radius=0.5"}, ss, &stats); });
+  ASSERT_LT(stats.meanSpp, 256.0 / 4.0);
+  EXPECT_NE(line.find("100.0%"), std::string::npos) << line;
 }
 
 TEST(Adaptive, TheErrorEstimateAgainstTheSpreadAcrossSeeds) {
@@ -442,6 +460,11 @@ TEST(Adaptive, TheMarginalRuleStopsWhereASampleRemovesLittle) {
     // d = 0.12: n' = ceil(0.12 * 16 / 0.1 * 1.1) = ceil(21.12) = 22; the
     // default rule asks ceil(16 (0.12 / 0.1 * 1.1)^2) = ceil(27.9) capped at 24.
     EXPECT_EQ(b.next(uniform(0.12f).data()), window.size() * 8);
+    // The progress forecast is the uncapped ask: 28 samples a pixel, 12 more.
+    EXPECT_EQ(b.expectedRemaining(), window.size() * 12);
+    EXPECT_EQ(b.expectedMaxTarget(), 28u);
+    EXPECT_EQ(a.expectedRemaining(), 0u);
+    EXPECT_EQ(a.expectedMaxTarget(), 0u);
     SampleSchedule c(window, s);
     c.setMarginal(true);
     passSurvey(c, window);
