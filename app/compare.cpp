@@ -373,7 +373,12 @@ class CompareRun {
   std::optional<PassImage> renderPass(const IntegratorDescriptor& d, const ParamSet& p, const RenderSettings& s,
                                       RenderStats& stats) const {
     auto integ = d.create(p);
-    Film film = render(scene_, camera_, *integ, d.needs(p), s, stats, cancel_);
+    const IntegratorNeeds needs = d.needs(p);
+    // AOVs that are on for the denoiser alone (settingsFor) skip the albedo
+    // lookups unless the filter reads albedo: the timings are the pass's.
+    RenderSettings rs = s;
+    if (!plan_.base.aovs && rs.denoise) rs.albedoAov = needs.pixelAlbedo;
+    Film film = render(scene_, camera_, *integ, needs, rs, stats, cancel_);
     if (cancel_ && cancel_->load()) return std::nullopt;
     return passFromFilm(film);
   }

@@ -346,6 +346,7 @@ int main(int argc, char** argv) {
   render->add_flag("--half", r.half, "Write 16-bit half floats instead of 32-bit floats");
   render->add_option("--compression", r.compression, "EXR compression: none, rle, zips, zip or piz (lossless)")->check(CLI::IsMember({"none", "rle", "zips", "zip", "piz"}, CLI::ignore_case));
   render->add_flag("--no-aovs", r.noAovs, "Write only R,G,B,A (skips albedo, N, Z, shaded)");
+  render->add_flag("--no-albedo", r.noAlbedo, "Skip the albedo.* and shaded.* AOVs and, unless the integrator reads albedo, their texture lookups (the other AOVs stay)");
   render->add_flag("-q,--quiet", r.quiet, "No progress bar or summary");
   render->add_option("--plugin", r.plugins, "Load an integrator plugin (shared library); repeatable. Also: OBSCURA_PLUGIN_PATH");
   render->add_option("--cryptomatte", r.cryptomatte, "Cryptomatte ID matte layers: object, material, object,material or none");

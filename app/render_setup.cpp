@@ -173,6 +173,8 @@ RenderSettings renderSettings(const RenderArgs& args) {
   s.tileSize = args.tileSize;
   s.sky = parseSky(args.sky);
   s.aovs = !args.noAovs;
+  if (args.noAlbedo && args.noAovs) throw Error("--no-albedo: --no-aovs already drops every AOV; give one of them");
+  s.albedoAov = !args.noAlbedo;
   s.progress = !args.quiet;
   s.cryptomatte = parseCryptomatte(args.cryptomatte, args.cryptomatteRanks);
   s.motionBlur = !args.shutter.empty();
@@ -223,7 +225,7 @@ void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSp
 Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header) {
   // The switches whose effect spreads over many header attributes first, so
   // that a refusal names them rather than one of their consequences.
-  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", s.aovs ? "on" : "off"}};
+  Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", !s.aovs ? "off" : s.albedoAov ? "on" : "on, no albedo"}};
   for (const HeaderAttribute& h : header.attributes) {
     const std::string& n = h.name;
     if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n == "obscura:denoiseTime" ||

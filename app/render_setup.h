@@ -40,6 +40,7 @@ struct RenderArgs : SceneArgs {
   bool half = false;
   std::string compression = exrCompressionName(ExrOptions{}.compression);  // --compression
   bool noAovs = false;
+  bool noAlbedo = false;  // --no-albedo
   bool quiet = false;
   std::vector<std::string> plugins;
   std::string cryptomatte = "none";

@@ -237,6 +237,7 @@ struct Options {
   double startError = 0;  // adaptive modes' first E; 0: the RMSE target
   std::string reference, saveReference, csv;
   bool checkNoise = false;
+  bool albedoAov = false;  // --albedo-aov
 };
 
 struct Trial {
@@ -279,11 +280,14 @@ std::string paramText(const Mode& m, double p) {
   return b;
 }
 
-RenderSettings modeSettings(const Mode& m, double param, const Options& o, int width, int height, int threads) {
+RenderSettings modeSettings(const Mode& m, const BenchIntegrator& integ, double param, const Options& o, int width,
+                            int height, int threads) {
   RenderSettings s = benchRenderSettings(width, height, m.adaptive ? o.maxSpp : int(param), threads, kTestSeed);
   // Each mode renders as cheaply as it can: the AOVs only where the
   // denoiser reads them (N, Z, W.error, objects, albedo).
   s.aovs = m.denoise;
+  // The albedo AOV only where the filter reads it, or as the CLI's default.
+  s.albedoAov = integ.needs.pixelAlbedo || o.albedoAov;
   s.denoise = m.denoise;
   if (m.adaptive) {
     s.targetError = float(param);
@@ -305,7 +309,7 @@ ModeResult searchMode(const Mode& m, const Options& o, const BenchIntegrator& in
   for (int k = 0; k < o.maxRenders; ++k) {
     Trial tr;
     tr.param = p;
-    tr.t = timedRender(integ, sc, modeSettings(m, p, o, width, height, threads));
+    tr.t = timedRender(integ, sc, modeSettings(m, integ, p, o, width, height, threads));
     tr.e = measure(tr.t.film, ref);
     tr.hits = surfaceSamples(tr.t.film, m.adaptive ? 0 : int(p));
     tr.t.film = Film();  // keep only the numbers
@@ -385,7 +389,7 @@ ModeResult searchMode(const Mode& m, const Options& o, const BenchIntegrator& in
   r.hits = best.hits;
   std::vector<double> wall{best.t.wall}, cpu{best.t.cpu}, loop{best.t.stats.seconds}, dn{best.t.stats.denoiseSeconds};
   for (int run = 1; run < o.runs; ++run) {
-    const Timed t = timedRender(integ, sc, modeSettings(m, best.param, o, width, height, threads));
+    const Timed t = timedRender(integ, sc, modeSettings(m, integ, best.param, o, width, height, threads));
     wall.push_back(t.wall), cpu.push_back(t.cpu), loop.push_back(t.stats.seconds), dn.push_back(t.stats.denoiseSeconds);
     std::printf("    run %d: wall %.2f s, cpu %.2f s\n", run + 1, t.wall, t.cpu);
   }
@@ -440,6 +444,9 @@ int main(int argc, char** argv) {
                  "E is the filtered error at --min-spp, often well below it)");
   app.add_option("--max-renders", o.maxRenders, "Renders per mode's search at most (default 8)");
   app.add_option("--csv", o.csv, "Also write the table as CSV to this file");
+  app.add_flag("--albedo-aov", o.albedoAov,
+               "Denoised modes: also the albedo AOV (albedo.*, shaded.*) and its texture lookups, as `obscura render` "
+               "writes by default (default: only where the filter reads albedo, as with --no-albedo)");
   app.add_flag("--check-noise", o.checkNoise,
                "Check the reference-noise correction: a second reference (another seed), mean (r1-r2)^2 "
                "against mean (W.error1^2 + W.error2^2)");
@@ -528,7 +535,7 @@ int main(int argc, char** argv) {
           for (int c = 0; c < 3; ++c) avg.w[c][i] = 0.5f * (ref.w[c][i] + r2.w[c][i]);
           avg.var[i] = 0.25f * (ref.var[i] + r2.var[i]);
         }
-        const Timed x = timedRender(integ, sc, modeSettings(parseMode("fixed"), o.startSpp, o, W, H, threads.threads()));
+        const Timed x = timedRender(integ, sc, modeSettings(parseMode("fixed"), integ, o.startSpp, o, W, H, threads.threads()));
         const Rmse e1 = measure(x.film, ref), e2 = measure(x.film, r2), ea = measure(x.film, avg);
         std::printf("   check      a %d-spp render against reference 1 / 2 / their mean: corrected RMSE %.6f / %.6f / "
                     "%.6f, raw %.6f / %.6f / %.6f\n",

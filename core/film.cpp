@@ -10,15 +10,18 @@ const char* channelName(int c) {
   return names[c];
 }
 
-Film::Film(int width, int height, bool aovs) : Film(PixelRect{0, 0, width, height}, width, height, aovs) {}
+Film::Film(int width, int height, bool aovs, bool albedo)
+    : Film(PixelRect{0, 0, width, height}, width, height, aovs, albedo) {}
 
-Film::Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs)
+Film::Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs, bool albedo)
     : width_(window.width()), height_(window.height()), x0_(window.x0), y0_(window.y0), fullWidth_(fullWidth),
-      fullHeight_(fullHeight), aovs_(aovs) {
+      fullHeight_(fullHeight), aovs_(aovs), albedo_(albedo) {
   planes_.resize(kChannelCount);
   for (int c = 0; c < kChannelCount; ++c) names_.emplace_back(channelName(c));
   const int n = aovs ? int(kChannelCount) : 4;
   for (int c = 0; c < n; ++c) {
+    const bool albedoPlane = (c >= kAlbedoR && c <= kAlbedoB) || (c >= kShadedR && c <= kShadedB);
+    if (albedoPlane && !albedo) continue;  // empty, never written
     channels_.push_back(c);
     planes_[c].assign(size_t(width_) * size_t(height_), 0.0f);
   }

@@ -5,7 +5,9 @@
 // normal (mean over the pixel's hits, renormalized; 0 where nothing was hit);
 // Z = camera distance (mean over hits; +inf where nothing was hit);
 // shaded.R/G/B = albedo * W * sky, from the pixel's albedo and W
-// (premultiplied).
+// (premultiplied). A film without the albedo AOV (--no-albedo) holds
+// neither albedo.* nor shaded.*: those planes are empty and not among
+// channels().
 #pragma once
 
 #include <algorithm>
@@ -72,9 +74,11 @@ struct PixelRect {
 class Film {
  public:
   Film() = default;
-  Film(int width, int height, bool aovs);
+  // aovs: the channels after R,G,B,A; albedo (with aovs): albedo.* and
+  // shaded.* among them.
+  Film(int width, int height, bool aovs, bool albedo = true);
   // A film of `window` inside a fullWidth x fullHeight frame.
-  Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs);
+  Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs, bool albedo = true);
   int width() const { return width_; }
   int height() const { return height_; }
   // The window's origin in the frame, and the frame (the EXR's data and
@@ -85,6 +89,8 @@ class Film {
   int fullHeight() const { return fullHeight_; }
   PixelRect window() const { return {x0_, y0_, x0_ + width_, y0_ + height_}; }
   bool hasAovs() const { return aovs_; }
+  // The albedo.* and shaded.* planes are there (the AOVs without --no-albedo).
+  bool hasAlbedo() const { return aovs_ && albedo_; }
   // The channels stored, in file order (RGBA, then AOVs if enabled, then
   // extra planes in the order they were added).
   const std::vector<int>& channels() const { return channels_; }
@@ -105,7 +111,7 @@ class Film {
  private:
   int width_ = 0, height_ = 0;
   int x0_ = 0, y0_ = 0, fullWidth_ = 0, fullHeight_ = 0;
-  bool aovs_ = true;
+  bool aovs_ = true, albedo_ = true;
   std::vector<int> channels_;
   std::vector<std::string> names_;
   // Whole-image planes on huge pages (core/large_vector.h): zeroing a 1080p

@@ -251,11 +251,11 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
                        const IntegratorNeeds& needs, const RenderSettings& s, RenderStats& stats,
                        const std::atomic<bool>* cancel) {
   // render() has checked the settings (it is the one entry point).
-  const bool wantAlbedo = needs.albedo || s.aovs;
+  const bool wantAlbedo = needs.albedo || (s.aovs && s.albedoAov);
   if (wantAlbedo)  // decode once, up front: the loops never throw or block
     for (const auto& t : scene.textures) t->decode();
 
-  Film film(s.width, s.height, s.aovs);
+  Film film(s.width, s.height, s.aovs, s.albedoAov);
   const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
   const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());

@@ -479,14 +479,16 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
   film.at(kG, fx, fy) = float(double(W.y) * coverage);
   film.at(kB, fx, fy) = float(double(W.z) * coverage);
   if (!aovs) return;
-  film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
-  film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
-  film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
-  // shaded = albedo * W * La (docs/math.md §1), from the pixel's
-  // albedo and pass: exactly the product a compositor would form.
-  film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * sky.x * coverage);
-  film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * sky.y * coverage);
-  film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * sky.z * coverage);
+  if (film.hasAlbedo()) {
+    film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
+    film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
+    film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
+    // shaded = albedo * W * La (docs/math.md §1), from the pixel's
+    // albedo and pass: exactly the product a compositor would form.
+    film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * sky.x * coverage);
+    film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * sky.y * coverage);
+    film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * sky.z * coverage);
+  }
   const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
   const float nl = length(nsum);
   const Vec3 n = nl > 0.0f ? nsum * (1.0f / nl) : Vec3(0, 0, 0);
@@ -847,6 +849,7 @@ void denoisePrimary(Film& film, const IntegratorNeeds& needs, const uint32_t* ob
     float* out[3] = {film.plane(kR), film.plane(kG), film.plane(kB)};
     denoise(in, denoiseSettings(s), out, nullptr, &workspace);
     if (layer >= 0) copyPlanes(film, kR, film, layer, 3);
+    if (!film.hasAlbedo()) return;
     const double sky[3] = {s.sky.x, s.sky.y, s.sky.z};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -881,6 +884,11 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
       std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.integrator->screenSpace() != nullptr; });
   checkRegionPasses(s, anyScreenSpace);
   checkCheckpointPasses(s, anyScreenSpace);
+  // A pass whose W depends on the pixel's albedo (multibounce) is denoised
+  // with albedo edges as edges: the filter reads the film's albedo planes.
+  if (s.denoise && !s.albedoAov && passes[0].needs.pixelAlbedo)
+    throw Error("--no-albedo: the denoiser of this pass is guided by the albedo AOV (its W depends on albedo); "
+                "drop --no-albedo or --denoise");
   // Decode what the passes read, once, up front: estimate() never throws or
   // blocks on a lazy decode (the albedo textures: in each loop).
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
@@ -889,7 +897,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   // The film: the primary pass's loop fills R,G,B,A and the AOVs.
   RenderStats part;
   Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
-                             : Film(renderWindow(s), s.width, s.height, s.aovs);
+                             : Film(renderWindow(s), s.width, s.height, s.aovs, s.albedoAov);
   if (!screenSpace(0) && s.aovs) film.addPlane(kErrorPlane), film.addPlane(kSppPlane);
   addStats(stats, part);
   // Layer planes in pass order, after the fixed channels (and the
@@ -911,7 +919,10 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
 
   // The ray-traced passes: one shared walk over the camera samples.
   std::vector<size_t> rayTraced;
-  bool wantAlbedo = s.aovs;
+  // The albedo AOV's lookups only where the film keeps it; a pass that
+  // reads albedo looks it up either way.
+  const bool albedoAov = s.aovs && s.albedoAov;
+  bool wantAlbedo = albedoAov;
   for (size_t k = 0; k < passes.size(); ++k)
     if (!screenSpace(k)) {
       rayTraced.push_back(k);
@@ -919,7 +930,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     }
   const auto slotsFor = [&](const std::vector<int>& layerOf) {
     std::vector<PassSlot> slots;
-    for (size_t k : rayTraced) slots.push_back({passes[k].integrator, passes[k].needs.albedo || s.aovs, layerOf[k]});
+    for (size_t k : rayTraced) slots.push_back({passes[k].integrator, passes[k].needs.albedo || albedoAov, layerOf[k]});
     return slots;
   };
   // The denoiser's object guide: each pixel's first object, from the
@@ -937,7 +948,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     } else {
       // The first ray-traced pass lands in R,G,B of a film of its own; every
       // ray-traced pass's layer is copied over.
-      Film rt(renderWindow(s), s.width, s.height, s.aovs);
+      Film rt(renderWindow(s), s.width, s.height, s.aovs, s.albedoAov);
       const std::vector<int> rtLayer = addLayers(rt);
       renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel, nullptr);
       for (size_t k : rayTraced) copyPlanes(rt, rtLayer[k], film, layer[k], 3);

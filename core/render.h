@@ -27,6 +27,10 @@ struct RenderSettings {
   PixelFilter filter = PixelFilter::Box;
   Vec3 sky{1, 1, 1};       // La of docs/math.md §1 (only scales shaded.*)
   bool aovs = true;        // write albedo/N/Z/shaded channels
+  // With aovs: the albedo.* and shaded.* channels too. false (--no-albedo)
+  // drops them and, unless a pass reads albedo, the texture lookup at every
+  // camera hit that they cost (README "Speed").
+  bool albedoAov = true;
   bool progress = false;   // progress bar on stderr
   CryptomatteSettings cryptomatte;  // ID matte layers (core/cryptomatte.h); off by default
   // --region: the window of the frame rendered, [x0, x1) x [y0, y1) in

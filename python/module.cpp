@@ -425,6 +425,9 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   bool aovs = true;
   kw.take("aovs", aovs);
   a.noAovs = !aovs;
+  bool albedo = true;  // albedo=False: --no-albedo
+  kw.take("albedo", albedo);
+  a.noAlbedo = !albedo;
   bool progress = false;
   kw.take("progress", progress);
   a.quiet = !progress;

@@ -902,5 +902,62 @@ TEST(DenoiseCli, KeepsTheRawPassAndShadedFollows) {
   }
 }
 
+// --no-albedo drops albedo.* and shaded.* and nothing else: every other
+// channel is the default render's, bit for bit — fixed spp, adaptive +
+// denoise (the filter of a pass that does not depend on albedo reads no
+// albedo), a pass that reads albedo itself (transfer: its lookups happen
+// anyway), and a screen-space pass (the G-buffer loop). It is refused with
+// --no-aovs (nothing left to drop) and where the filter reads the albedo
+// planes (multibounce --denoise), before anything is written.
+TEST(AovChoice, NoAlbedoDropsAlbedoAndShadedOnly) {
+  const std::string dir = tempDir("no_albedo");
+  const std::vector<std::string> base = {"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "--res", "64x36", "-q"};
+  const std::vector<std::vector<std::string>> variants = {
+      {"-i", "ao", "--spp", "8"},
+      {"-i", "ao", "--spp", "64", "--target-error", "0.05", "--denoise"},
+      {"-i", "transfer", "--spp", "8"},
+      {"-i", "vo", "--spp", "4"},
+  };
+  std::vector<std::vector<std::string>> runs;
+  for (size_t v = 0; v < variants.size(); ++v)
+    for (const bool noAlbedo : {false, true}) {
+      std::vector<std::string> a = base;
+      a.insert(a.end(), variants[v].begin(), variants[v].end());
+      if (noAlbedo) a.push_back("--no-albedo");
+      a.insert(a.end(), {"-o", dir + "/v" + std::to_string(v) + (noAlbedo ? "n" : "a") + ".exr"});
+      runs.push_back(a);
+    }
+  const auto refused = [&](std::vector<std::string> extra, const std::string& out) {
+    std::vector<std::string> a = base;
+    a.insert(a.end(), extra.begin(), extra.end());
+    a.insert(a.end(), {"--no-albedo", "-o", dir + "/" + out});
+    return a;
+  };
+  runs.push_back(refused({"-i", "ao", "--no-aovs"}, "bad1.exr"));
+  runs.push_back(refused({"-i", "multibounce", "--denoise"}, "bad2.exr"));
+  const std::vector<CliResult> rs = runClis(runs, dir);
+  for (size_t k = 0; k < 2 * variants.size(); ++k) ASSERT_EQ(rs[k].exitCode, 0) << rs[k].stderrText;
+
+  for (size_t v = 0; v < variants.size(); ++v) {
+    const ReadBack all = readExr(dir + "/v" + std::to_string(v) + "a.exr");
+    const ReadBack some = readExr(dir + "/v" + std::to_string(v) + "n.exr");
+    ASSERT_TRUE(all.ok && some.ok) << v;
+    EXPECT_EQ(all.planes.size(), some.planes.size() + 6) << v;
+    for (const auto& [name, plane] : all.planes) {
+      const bool albedoPlane = name.rfind("albedo.", 0) == 0 || name.rfind("shaded.", 0) == 0;
+      ASSERT_EQ(some.planes.count(name), albedoPlane ? 0u : 1u) << v << " " << name;
+      if (!albedoPlane) EXPECT_EQ(some.planes.at(name), plane) << v << " " << name;
+    }
+  }
+  const char* refusals[] = {"--no-albedo: --no-aovs already drops every AOV",
+                            "--no-albedo: the denoiser of this pass is guided by the albedo AOV"};
+  for (size_t k = 0; k < 2; ++k) {
+    const CliResult& r = rs[2 * variants.size() + k];
+    EXPECT_EQ(r.exitCode, 1) << refusals[k];
+    EXPECT_NE(r.stderrText.find(refusals[k]), std::string::npos) << r.stderrText;
+    EXPECT_FALSE(std::filesystem::exists(dir + "/bad" + std::to_string(k + 1) + ".exr"));
+  }
+}
+
 }  // namespace
 }  // namespace obscura

@@ -205,6 +205,7 @@ TEST(Checkpoint, OfAnotherRenderIsRefused) {
       {{"--seed", "3"}, "obscura:seed"},
       {{"--tile", "16"}, "tile size"},
       {{"--no-aovs"}, "AOVs"},
+      {{"--no-albedo"}, "AOVs"},
       {{"-p", "depth=2"}, "obscura:param:depth"},
   };
   for (const auto& [extra, key] : cases) {

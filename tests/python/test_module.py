@@ -65,10 +65,12 @@ CASES = [
     (dict(integrator="ao", spp=32, res=(48, 27), target_error=0.05, min_spp=8, background_spp=2, camera="top"),
      ["-i", "ao", "--spp", "32", "--res", "48x27", "--target-error", "0.05", "--min-spp", "8",
       "--background-spp", "2", "--camera", "top"]),
+    (dict(integrator="ao", spp=16, res=(48, 27), target_error=0.05, denoise=True, albedo=False),
+     ["-i", "ao", "--spp", "16", "--res", "48x27", "--target-error", "0.05", "--denoise", "--no-albedo"]),
 ]
 
 
-@pytest.mark.parametrize("kwargs,flags", CASES, ids=["ao", "passes", "gi-region", "adaptive-denoise", "survey"])
+@pytest.mark.parametrize("kwargs,flags", CASES, ids=["ao", "passes", "gi-region", "adaptive-denoise", "survey", "no-albedo"])
 def test_render_equals_cli(scene, tmp_path, kwargs, flags):
     kwargs = dict(kwargs)
     integrator = kwargs.pop("integrator", None)
