@@ -20,7 +20,8 @@
 //
 // In the same run, interleaved, obscura::render() with the registered `ao`
 // integrator at the same resolution, spp, camera and threads: once with
-// AOVs (as `obscura render`), once without (--no-aovs). Mrays/s = (camera +
+// AOVs (as `obscura render`), once without the albedo AOV (--no-albedo), once
+// without any (--no-aovs). Mrays/s = (camera +
 // AO rays) / median wall seconds of the loop (render(): RenderStats::seconds,
 // its render loop; the bare loop: its parallel_for, arena included). With
 // --exe (default: the `obscura` next to this bench's directory) and a file
@@ -332,9 +333,11 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   BareSettings bset;
   bset.width = width, bset.height = height, bset.spp = o.spp, bset.threads = threads;
   BareLoop bare(bs.scene->rtcScene(), bs.camera, bset);
-  RenderRun withAovs, noAovs;
+  RenderRun withAovs, noAlbedo, noAovs;
   withAovs.settings = benchRenderSettings(width, height, o.spp, threads);
   withAovs.settings.aovs = true;  // as `obscura render` (default)
+  noAlbedo.settings = withAovs.settings;
+  noAlbedo.settings.albedoAov = false;  // --no-albedo
   noAovs.settings = benchRenderSettings(width, height, o.spp, threads);
   const bool process = !o.noProcess && !o.exe.empty() && which != "generated";
   // The processes timed each run: this build's `obscura` (and --before-exe's),
@@ -356,6 +359,8 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
       const std::string who = exe == o.exe ? "whole process" : "before: process";
       cases.push_back({who + " (zip, default)", command(exe, ""), {}, {}});
       cases.push_back({who + " (--compression none)", command(exe, " --compression none"), {}, {}});
+      if (exe == o.exe)
+        cases.push_back({who + " (none, --no-albedo)", command(exe, " --compression none --no-albedo"), {}, {}});
     }
   }
 
@@ -374,8 +379,8 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   // Wall seconds and process CPU seconds of each run: on a shared machine
   // the CPU seconds (Mrays per CPU-second) are what other processes disturb
   // least.
-  std::vector<double> tb, ta, tn, cb, ca, cn;
-  BareTally kb, ka, kn;
+  std::vector<double> tb, ta, tl, tn, cb, ca, cl, cn;
+  BareTally kb, ka, kl, kn;
   const auto timed = [](std::vector<double>& cpu, auto&& f) {
     const double c0 = processCpuSeconds();
     const double sec = f();
@@ -387,7 +392,10 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
     // (perf record -- obscura_bench_bare --profile bare): its samples are
     // that loop's and the warm-up's only.
     for (int r = 0; r < o.runs; ++r) {
-      const double sec = o.only == "bare" ? bare.run(kb) : o.only == "aovs" ? withAovs.run(bs, ka) : noAovs.run(bs, kn);
+      const double sec = o.only == "bare"        ? bare.run(kb)
+                         : o.only == "aovs"      ? withAovs.run(bs, ka)
+                         : o.only == "no-albedo" ? noAlbedo.run(bs, kl)
+                                                 : noAovs.run(bs, kn);
       std::printf("   run %d/%d: %s %.3f s\n", r + 1, o.runs, o.only.c_str(), sec);
     }
     return;
@@ -395,6 +403,7 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   for (int r = 0; r < o.runs; ++r) {
     tb.push_back(timed(cb, [&] { return bare.run(kb); }));
     ta.push_back(timed(ca, [&] { return withAovs.run(bs, ka); }));
+    tl.push_back(timed(cl, [&] { return noAlbedo.run(bs, kl); }));
     tn.push_back(timed(cn, [&] { return noAovs.run(bs, kn); }));
     for (ProcessCase& pc : cases) {
       // A new frame: the output does not exist yet. (Renaming the finished
@@ -408,8 +417,8 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
       pc.wall.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       pc.cpu.push_back(childCpuSeconds() - c0);
     }
-    std::printf("   run %d/%d: bare %.3f s, render %.3f s, render --no-aovs %.3f s", r + 1, o.runs, tb.back(),
-                ta.back(), tn.back());
+    std::printf("   run %d/%d: bare %.3f s, render %.3f s, render --no-albedo %.3f s, render --no-aovs %.3f s", r + 1,
+                o.runs, tb.back(), ta.back(), tl.back(), tn.back());
     for (const ProcessCase& pc : cases) std::printf(", %s %.3f s", pc.label.c_str(), pc.wall.back());
     std::printf("\n");
     std::fflush(stdout);
@@ -433,6 +442,7 @@ void benchScene(const std::string& which, const Options& o, int width, int heigh
   };
   row("bare Embree loop", kb, tb, cb);
   row("render() loop, AOVs (CLI default)", ka, ta, ca);
+  row("render() loop, --no-albedo", kl, tl, cl);
   row("render() loop, --no-aovs", kn, tn, cn);
   for (const ProcessCase& pc : cases) row(pc.label, ka, pc.wall, pc.cpu);
   std::printf("   (medians of %d runs, interleaved; Mr/CPUs = Mrays per CPU-second of this process (the loop's\n"
@@ -497,7 +507,7 @@ int main(int argc, char** argv) {
   app.add_option("--trade-spp", o.tradeSpp, "Comma list of spp for the trade (default 4,16,64)");
   app.add_option("--trade-seeds", o.tradeSeeds, "Independent renders per trade cell (default 8)");
   app.add_option("--profile", o.only, "Run only this loop --runs times, nothing else timed (for perf record)")
-      ->check(CLI::IsMember({"bare", "aovs", "no-aovs"}))
+      ->check(CLI::IsMember({"bare", "aovs", "no-albedo", "no-aovs"}))
       ->excludes("--trade");
   CLI11_PARSE(app, argc, argv);
   try {
