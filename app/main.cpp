@@ -113,6 +113,7 @@ int runRender(const RenderArgs& args) {
 
   const bool anyScreenSpace = obscura::anyScreenSpace(setups);
   checkRegionPasses(s, anyScreenSpace);  // before loading the scene
+  checkAlbedoPasses(s, setups[0].needs);
   // Every frame's outputs and scene options are checked before the file is read.
   const std::vector<FrameJob> jobs = frameJobs(args);
   for (const FrameJob& job : jobs) {

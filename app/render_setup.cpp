@@ -193,7 +193,7 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSp
   // Each layer adds three planes.
   // A --region film holds the region only.
   const PixelRect win = renderWindow(s);
-  const uint64_t need = filmBytes(win.width(), win.height(), s.aovs) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
+  const uint64_t need = filmBytes(win.width(), win.height(), s.aovs, s.albedoAov) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
                         (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
                         (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
                         cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +

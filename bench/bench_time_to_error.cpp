@@ -609,7 +609,7 @@ int main(int argc, char** argv) {
         // cost the same in both (it does: README "Speed").
         if (fixed->hits > 0 && r.hits > 0)
           std::printf("bound: surface samples (camera samples that hit) fixed %.1f M, adaptive+denoise %.1f M: "
-                      "%.2fx at most from sampling alone; the rest of the gap is its other costs\n",
+                      "%.2fx at most from sampling alone at equal cost a surface sample; the rest of the gap is its other costs\n",
                       fixed->hits * 1e-6, r.hits * 1e-6, fixed->hits / r.hits);
       }
       if (!fastest || r.cpu < fastest->cpu) fastest = &r;

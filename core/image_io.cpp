@@ -179,10 +179,11 @@ void checkWritable(const std::string& path) {
     throw Error(path + ": cannot write: directory '" + parent.string() + "' is not writable");
 }
 
-uint64_t filmBytes(int width, int height, bool aovs) {
-  // With the AOVs, the fixed channels and the W.error and spp planes.
-  return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * uint64_t(aovs ? kChannelCount + 2 : 4) *
-         sizeof(float);
+uint64_t filmBytes(int width, int height, bool aovs, bool albedo) {
+  // With the AOVs, the fixed channels (but albedo.* and shaded.* without
+  // the albedo AOV) and the W.error and spp planes.
+  const uint64_t planes = !aovs ? 4 : kChannelCount + 2 - (albedo ? 0 : 6);
+  return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * planes * sizeof(float);
 }
 
 uint64_t availableMemoryBytes() {

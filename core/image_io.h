@@ -100,8 +100,9 @@ class OutputSet {
 // is missing or not writable, or the path is a directory (the message names
 // the path).
 void checkWritable(const std::string& path);
-// Bytes a film of w x h pixels takes (with or without AOVs).
-uint64_t filmBytes(int width, int height, bool aovs);
+// Bytes a film of w x h pixels takes (with or without AOVs, with or without
+// the albedo AOV).
+uint64_t filmBytes(int width, int height, bool aovs, bool albedo = true);
 // Physical memory the system reports as available (MemAvailable), plus
 // the whole-image blocks this process keeps for reuse (core/large_vector.h);
 // 0 if unknown.

@@ -586,6 +586,14 @@ void checkCheckpointPasses(const RenderSettings& s, bool anyScreenSpace) {
                 "render without --checkpoint");
 }
 
+void checkAlbedoPasses(const RenderSettings& s, const IntegratorNeeds& primary) {
+  // A pass whose W depends on the pixel's albedo is denoised with albedo
+  // edges as edges: the filter reads the film's albedo planes.
+  if (s.denoise && !s.albedoAov && primary.pixelAlbedo)
+    throw Error("--no-albedo: the denoiser of the primary pass is guided by the albedo AOV (its W depends on "
+                "albedo); drop --no-albedo or --denoise");
+}
+
 namespace {
 
 RayCounters threadRays(const ThreadScratch& ts) {
@@ -884,11 +892,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
       std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.integrator->screenSpace() != nullptr; });
   checkRegionPasses(s, anyScreenSpace);
   checkCheckpointPasses(s, anyScreenSpace);
-  // A pass whose W depends on the pixel's albedo (multibounce) is denoised
-  // with albedo edges as edges: the filter reads the film's albedo planes.
-  if (s.denoise && !s.albedoAov && passes[0].needs.pixelAlbedo)
-    throw Error("--no-albedo: the denoiser of this pass is guided by the albedo AOV (its W depends on albedo); "
-                "drop --no-albedo or --denoise");
+  checkAlbedoPasses(s, passes[0].needs);
   // Decode what the passes read, once, up front: estimate() never throws or
   // blocks on a lazy decode (the albedo textures: in each loop).
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
@@ -916,12 +920,15 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   // The loops after the primary's leave the ID mattes to it.
   RenderSettings others = s;
   others.cryptomatte = {};
+  // Their films give only their R,G,B to a layer: no albedo AOV to look up.
+  others.albedoAov = false;
 
   // The ray-traced passes: one shared walk over the camera samples.
   std::vector<size_t> rayTraced;
-  // The albedo AOV's lookups only where the film keeps it; a pass that
+  // The albedo AOV's lookups only where the output film keeps it (the
+  // walk's film is the output when the primary is ray-traced); a pass that
   // reads albedo looks it up either way.
-  const bool albedoAov = s.aovs && s.albedoAov;
+  const bool albedoAov = s.aovs && s.albedoAov && !screenSpace(0);
   bool wantAlbedo = albedoAov;
   for (size_t k = 0; k < passes.size(); ++k)
     if (!screenSpace(k)) {
@@ -948,7 +955,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     } else {
       // The first ray-traced pass lands in R,G,B of a film of its own; every
       // ray-traced pass's layer is copied over.
-      Film rt(renderWindow(s), s.width, s.height, s.aovs, s.albedoAov);
+      Film rt(renderWindow(s), s.width, s.height, others.aovs, others.albedoAov);
       const std::vector<int> rtLayer = addLayers(rt);
       renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel, nullptr);
       for (size_t k : rayTraced) copyPlanes(rt, rtLayer[k], film, layer[k], 3);

@@ -79,6 +79,10 @@ void checkRegion(const PixelRect& r, int width, int height);
 // pass reads its neighbours in the G-buffer, so a region's pixels near its
 // edges would differ from the full render's.
 void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace);
+// Throws naming --no-albedo if s denoises a primary pass whose W depends on
+// the pixel's albedo (multibounce) without the albedo AOV: the filter is
+// guided by the albedo planes.
+void checkAlbedoPasses(const RenderSettings& s, const IntegratorNeeds& primary);
 // Throws naming --checkpoint if s has one and a pass is screen-space: its
 // G-buffer loop has no tiles that finish one by one.
 void checkCheckpointPasses(const RenderSettings& s, bool anyScreenSpace);

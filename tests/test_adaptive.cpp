@@ -916,7 +916,9 @@ TEST(AovChoice, NoAlbedoDropsAlbedoAndShadedOnly) {
       {"-i", "ao", "--spp", "8"},
       {"-i", "ao", "--spp", "64", "--target-error", "0.05", "--denoise"},
       {"-i", "transfer", "--spp", "8"},
+      {"-i", "multibounce", "--spp", "8"},  // W from the pixel's albedo (resolvePixel)
       {"-i", "vo", "--spp", "4"},
+      {"--pass", "v=vo", "--pass", "t=transfer", "--spp", "4"},  // a ray-traced layer beside a screen-space primary
   };
   std::vector<std::vector<std::string>> runs;
   for (size_t v = 0; v < variants.size(); ++v)
@@ -950,7 +952,7 @@ TEST(AovChoice, NoAlbedoDropsAlbedoAndShadedOnly) {
     }
   }
   const char* refusals[] = {"--no-albedo: --no-aovs already drops every AOV",
-                            "--no-albedo: the denoiser of this pass is guided by the albedo AOV"};
+                            "--no-albedo: the denoiser of the primary pass is guided by the albedo AOV"};
   for (size_t k = 0; k < 2; ++k) {
     const CliResult& r = rs[2 * variants.size() + k];
     EXPECT_EQ(r.exitCode, 1) << refusals[k];

@@ -18,12 +18,20 @@ RenderSettings small(bool aovs) {
 }
 
 // The default scene's ground is textured. An AO pass without AOVs reads no
-// albedo, so the texture stays encoded; asking for the albedo AOV decodes it.
+// albedo, so the texture stays encoded; nor does one with every AOV but
+// albedo (--no-albedo), ray-traced or screen-space; asking for the albedo
+// AOV decodes it.
 TEST(Needs, TexturesAreDecodedOnlyWhenAlbedoIsRead) {
   auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
   ASSERT_FALSE(scene->textures.empty());
   renderWith(*scene, scene->cameras[0], "ao", {}, small(false));
   for (const auto& t : scene->textures) EXPECT_FALSE(t->decoded());
+  RenderSettings noAlbedo = small(true);
+  noAlbedo.albedoAov = false;
+  for (const char* integrator : {"ao", "vo"}) {
+    renderWith(*scene, scene->cameras[0], integrator, {}, noAlbedo);
+    for (const auto& t : scene->textures) EXPECT_FALSE(t->decoded()) << integrator;
+  }
   renderWith(*scene, scene->cameras[0], "ao", {}, small(true));
   for (const auto& t : scene->textures) EXPECT_TRUE(t->decoded());
 }

@@ -82,6 +82,8 @@ def test_render_equals_cli(scene, tmp_path, kwargs, flags):
     from_cli = obscura.read_exr(cli_exr)
     # The in-memory channels, and the file result.write() writes.
     assert_same_image(result, from_cli)
+    if kwargs.get("albedo") is False:
+        assert "albedo.R" not in result.channel_names and "N.X" in result.channel_names
     py_exr = str(tmp_path / "py.exr")
     result.write(py_exr)
     written = obscura.read_exr(py_exr)
