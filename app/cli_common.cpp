@@ -10,11 +10,11 @@
 #include <filesystem>
 #include <sstream>
 
-#include "core/adaptive.h"
-#include "core/error.h"
-#include "core/params.h"
-#include "core/plugin.h"
-#include "core/settings.h"
+#include "core/render/adaptive.h"
+#include "obscura/error.h"
+#include "obscura/params.h"
+#include "obscura/plugin.h"
+#include "core/util/option_names.h"
 
 namespace obscura {
 
@@ -421,7 +421,7 @@ ExrOptions passHeader(const PassInfo& i) {
     exr.attributes.push_back({"obscura:rounds", i.stats.rounds});
   }
   if (i.settings.denoise) {
-    // README "Denoising": the filter and its defaults (core/denoise.h).
+    // README "Denoising": the filter and its defaults (core/image/denoise.h).
     str("obscura:denoise", "atrous");
     exr.attributes.push_back({"obscura:denoiseTime", float(i.stats.denoiseSeconds)});
   }

@@ -7,19 +7,19 @@
 #include <string>
 #include <vector>
 
-#include "core/camera.h"
-#include "core/gltf_loader.h"
-#include "core/image_io.h"
-#include "core/integrator.h"
-#include "core/render.h"
-#include "core/scene.h"
+#include "core/scene/camera.h"
+#include "core/load/gltf_loader.h"
+#include "core/image/image_io.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
+#include "core/scene/scene.h"
 
 namespace obscura {
 
 // "WIDTHxHEIGHT", each in [1, 65536]; throws obscura::Error naming --res.
 void parseResolution(const std::string& s, int& w, int& h);
 // "X0,Y0,X1,Y1" (--region, pixels, half-open); throws naming --region on a
-// malformed text (core/render.h checkRegion checks it against the frame).
+// malformed text (core/render/render.h checkRegion checks it against the frame).
 PixelRect parseRegion(const std::string& s);
 // "R,G,B" or one value, finite and non-negative; throws naming --sky.
 Vec3 parseSky(const std::string& s);
@@ -36,7 +36,7 @@ struct SceneArgs {
   double maxMemoryGiB = 8;
   std::string displace;  // height map
   double displaceScale = 0.1, displaceMidlevel = 0.5;
-  std::vector<std::string> objects;  // --object GLOB:role=value,... (core/objects.h)
+  std::vector<std::string> objects;  // --object GLOB:role=value,... (core/scene/objects.h)
   // Animation (README "Animation and frames"): --frame as typed (empty: the
   // static pose), --fps, --animation's names or indices (empty: all).
   std::string frame;
@@ -78,7 +78,7 @@ std::unique_ptr<Scene> loadSceneAndCamera(const SceneArgs& a, const SceneSource&
                                           int height, Camera& camera);
 
 // Core messages name settings by the flags that set them ("--spp must be at
-// least 1"; core/settings.h). Call once, first thing in main.
+// least 1"; core/util/option_names.h). Call once, first thing in main.
 void nameSettingsAsFlags();
 
 // OBSCURA_PLUGIN_PATH, then each --plugin.

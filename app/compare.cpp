@@ -28,10 +28,10 @@
 #include "app/cli_common.h"
 #include "app/interrupt.h"
 #include "app/report.h"
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/metrics.h"
-#include "core/render.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "core/image/metrics.h"
+#include "core/render/render.h"
 
 namespace obscura {
 namespace fs = std::filesystem;

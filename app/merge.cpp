@@ -1,7 +1,7 @@
 #include "app/merge.h"
 
-#include "core/error.h"
-#include "core/oiio_module.h"
+#include "obscura/error.h"
+#include "core/image/oiio_module.h"
 
 namespace obscura {
 

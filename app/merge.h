@@ -28,7 +28,7 @@ inline bool isPerTileAttribute(const std::string& name) {
 // obscura::Error "FILE: why" naming the first tile that does not fit (or
 // OUT for a gap); OUT is written atomically and only when every check
 // passed. Reads and writes through OpenImageIO, in libobscura_oiio.so
-// (oiio/merge.cpp; core/oiio_module.h).
+// (oiio/merge.cpp; core/image/oiio_module.h).
 void mergeRegions(const std::string& output, const std::vector<std::string>& tiles);
 
 }  // namespace obscura

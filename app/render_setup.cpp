@@ -10,10 +10,10 @@
 #include <nlohmann/json.hpp>
 #include <variant>
 
-#include "core/adaptive.h"
-#include "core/gbuffer.h"
-#include "core/pixel_sums.h"
-#include "core/error.h"
+#include "core/render/adaptive.h"
+#include "core/render/gbuffer.h"
+#include "core/render/pixel_sums.h"
+#include "obscura/error.h"
 
 namespace obscura {
 
@@ -189,7 +189,7 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSp
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer
-  // layer, the pixel sums, the estimates: core/gbuffer.h).
+  // layer, the pixel sums, the estimates: core/render/gbuffer.h).
   // Each layer adds three planes.
   // A --region film holds the region only.
   const PixelRect win = renderWindow(s);
@@ -197,9 +197,9 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSp
                         (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
                         (screenSpace ? screenSpaceWorkingBytes(s.width, s.height) : 0) +
                         cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
-                        // Adaptive sampling keeps every pixel's sums across rounds (core/render.cpp);
+                        // Adaptive sampling keeps every pixel's sums across rounds (core/render/render.cpp);
                         // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and
-                        // working planes: core/denoise.cpp).
+                        // working planes: core/image/denoise.cpp).
                         (adaptiveSampling(s) ? uint64_t(win.size()) * (sizeof(PixelSums) + sizeof(HalfSums) +
                                                                        uint64_t(layers) * sizeof(PassSums))
                                              : 0) +

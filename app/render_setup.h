@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "app/cli_common.h"
-#include "core/checkpoint.h"
-#include "core/params.h"
+#include "core/render/checkpoint.h"
+#include "obscura/params.h"
 
 namespace obscura {
 

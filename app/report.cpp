@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/image_io.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
 
 namespace obscura {
 namespace fs = std::filesystem;

@@ -21,8 +21,8 @@
 #include <cstdint>
 #include <memory>
 
-#include "core/camera.h"
-#include "core/scene.h"
+#include "core/scene/camera.h"
+#include "core/scene/scene.h"
 
 namespace obscura::bench {
 

@@ -55,10 +55,10 @@
 
 #include "bench/ao_raw.h"
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/integrator.h"
-#include "core/render.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
 
 using namespace obscura;
 using namespace obscura::bench;

@@ -2,7 +2,7 @@
 // obscurance pass, two ways, against a reference.
 //
 //   traced       the cage subdivided to level L and displaced (geometry:
-//                core/subdivision.h subdivide + displace, what `--displace`
+//                core/subd/subdivision.h subdivide + displace, what `--displace`
 //                builds), rendered with `obscurance` (step falloff, R,
 //                estimator=occlusion);
 //   containment  the UNDISPLACED cage subdivided to a coarser level L',
@@ -17,7 +17,7 @@
 // reports the time to build its scene (subdivision, displacement, BVH) and
 // to render it (medians of --runs, the two methods interleaved) and its
 // error against the reference: RMSE over the pixels the reference covers
-// fully and the test covers at all (core/metrics.h: comparedPixels,
+// fully and the test covers at all (core/image/metrics.h: comparedPixels,
 // errorMetrics). All renders of a scene share one camera, made from the
 // undisplaced surface's bounds.
 //
@@ -57,13 +57,13 @@
 #include <OpenImageIO/imageio.h>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/integrator.h"
-#include "core/metrics.h"
-#include "core/params.h"
-#include "core/render.h"
-#include "core/subdivision.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "obscura/integrator.h"
+#include "core/image/metrics.h"
+#include "obscura/params.h"
+#include "core/render/render.h"
+#include "core/subd/subdivision.h"
 
 using namespace obscura;
 using namespace obscura::bench;

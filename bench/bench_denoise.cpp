@@ -36,10 +36,10 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "core/denoise.h"
-#include "core/cryptomatte.h"
-#include "core/error.h"
-#include "core/film.h"
+#include "core/image/denoise.h"
+#include "core/render/cryptomatte.h"
+#include "obscura/error.h"
+#include "core/image/film.h"
 
 using namespace obscura;
 using namespace obscura::bench;

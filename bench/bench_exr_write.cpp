@@ -14,8 +14,8 @@
 #include <filesystem>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/image_io.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
 
 using namespace obscura;
 using namespace obscura::bench;

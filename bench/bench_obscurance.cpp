@@ -73,16 +73,16 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "core/camera.h"
-#include "core/error.h"
-#include "core/film.h"
-#include "core/integrator.h"
-#include "core/render.h"
-#include "core/sampler.h"
-#include "core/scene.h"
-#include "core/surface.h"
-#include "core/warp.h"
-#include "integrators/membership.h"
+#include "core/scene/camera.h"
+#include "obscura/error.h"
+#include "core/image/film.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
+#include "obscura/sampler.h"
+#include "core/scene/scene.h"
+#include "core/scene/surface.h"
+#include "obscura/warp.h"
+#include "integrators/falloff.h"
 
 using namespace obscura;
 using namespace obscura::bench;
@@ -90,7 +90,7 @@ using namespace obscura::bench;
 namespace {
 
 // Falloff, Estimator and the sampling of mu' are the integrator's own
-// (integrators/membership.h); this bench runs linear, sqrt and exponential.
+// (integrators/falloff.h); this bench runs linear, sqrt and exponential.
 const char* estimatorName(Estimator e) { return e == Estimator::Distance ? "distance" : "occlusion"; }
 
 // One benchmarked configuration of the integrator.

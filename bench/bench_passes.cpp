@@ -3,7 +3,7 @@
 //
 // ao + obscurance (falloff=sqrt) + transfer + the bent-normal plugin, at
 // 1920x1080 on the viking room by default, with the AOVs on (what
-// `obscura render` writes): once as one multi-pass render (core/render.h:
+// `obscura render` writes): once as one multi-pass render (core/render/render.h:
 // the passes share the camera rays, surface hits, albedo and AOVs), once as
 // four solo renders. Runs interleave combined and separate (the machine is
 // shared and noisy); the table gives medians of the render loop's wall time
@@ -24,8 +24,8 @@
 #include <filesystem>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/plugin.h"
+#include "obscura/error.h"
+#include "obscura/plugin.h"
 
 using namespace obscura;
 using namespace obscura::bench;

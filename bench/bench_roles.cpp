@@ -36,8 +36,8 @@
 #include <OpenImageIO/imageio.h>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/texture.h"
+#include "obscura/error.h"
+#include "core/image/texture.h"
 
 using namespace obscura;
 using namespace obscura::bench;

@@ -2,7 +2,7 @@
 //
 // For each level L (and each backend) the cage is loaded the way
 // `obscura render CAGE --subdiv catmull-clark --subdiv-level L
-// --subdiv-backend B --displace MAP` loads it (core/cage.h), then rendered
+// --subdiv-backend B --displace MAP` loads it (core/load/cage.h), then rendered
 // with the `ao` integrator. Reported, medians over --runs:
 //   load s    : the whole scene construction (OBJ parse, height map read,
 //               OpenSubdiv refinement + displacement, or Embree's
@@ -31,10 +31,10 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/integrator.h"
-#include "core/render.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
 
 using namespace obscura;
 using namespace obscura::bench;

@@ -9,7 +9,7 @@
 // process CPU seconds (getrusage user + sys deltas): the machine is shared,
 // and CPU seconds are less disturbed by other processes than wall seconds.
 //
-// The error (as `obscura compare` measures it, core/metrics.h): W
+// The error (as `obscura compare` measures it, core/image/metrics.h): W
 // (un-premultiplied) over the pixels the reference covers fully (A = 1) and
 // the test covers at all, all three channels, RMSE = sqrt(mean e^2).
 //
@@ -66,8 +66,8 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/image_io.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
 
 using namespace obscura;
 using namespace obscura::bench;
@@ -185,7 +185,7 @@ struct Rmse {
   size_t values = 0;
 };
 
-// The compared pixels as core/metrics.h comparedPixels: the reference's
+// The compared pixels as core/image/metrics.h comparedPixels: the reference's
 // A = 1 and the test's A > 0; all three channels.
 Rmse measure(const Film& test, const Reference& ref) {
   if (test.width() != ref.width || test.height() != ref.height) throw Error("test and reference sizes differ");

@@ -10,7 +10,7 @@
 // renderer (as bench_ao and bench_obscurance do) this bench captures them:
 //
 // 1. Capture (untimed). One render with RenderSettings::recorder set to a
-//    recorder (core/tracer.h, RayRecorder) that, for every batch the render
+//    recorder (core/scene/tracer.h, RayRecorder) that, for every batch the render
 //    traces - camera and secondary alike, in each thread's order - stores the
 //    rays (origin, tnear, direction, tfar: 32 bytes), traces the batch with
 //    the same Embree call and context, and stores what came back (geomID,
@@ -87,12 +87,12 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "core/error.h"
-#include "core/integrator.h"
-#include "core/render.h"
-#include "core/sampler.h"
-#include "core/surface.h"
-#include "core/warp.h"
+#include "obscura/error.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
+#include "obscura/sampler.h"
+#include "core/scene/surface.h"
+#include "obscura/warp.h"
 
 using namespace obscura;
 using namespace obscura::bench;

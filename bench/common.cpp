@@ -13,8 +13,8 @@
 #include <fstream>
 
 #include "bench/generated_scene.h"
-#include "core/error.h"
-#include "core/gltf_loader.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
 
 namespace obscura::bench {
 

@@ -22,13 +22,13 @@
 #include <string>
 #include <vector>
 
-#include "core/camera.h"
-#include "core/integrator.h"
-#include "core/render.h"
-#include "core/sampler.h"
-#include "core/scene.h"
-#include "core/surface.h"
-#include "core/warp.h"
+#include "core/scene/camera.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
+#include "obscura/sampler.h"
+#include "core/scene/scene.h"
+#include "core/scene/surface.h"
+#include "obscura/warp.h"
 
 namespace obscura::bench {
 
@@ -81,10 +81,10 @@ struct BenchIntegrator {
 
 // --- raw Embree replays of the renderer's rays ----------------------------
 
-// Walks a tile's camera samples in the renderer's order (core/render.cpp):
+// Walks a tile's camera samples in the renderer's order (core/render/render.cpp):
 // pixels row-major within the tile, each pixel's samples 0..spp-1
 // consecutively; sample si draws from its replicate's key at its index
-// (core/sampler.h sampleStream).
+// (include/obscura/sampler.h sampleStream).
 struct SampleWalk {
   SampleWalk(const Sampler& s, int x0_, int y0, int tw, int spp_)
       : sampler(s), x0(x0_), x1(x0_ + tw), spp(uint32_t(spp_)), px(x0_), py(y0),

@@ -10,8 +10,8 @@
 
 #include <memory>
 
-#include "core/camera.h"
-#include "core/scene.h"
+#include "core/scene/camera.h"
+#include "core/scene/scene.h"
 
 namespace obscura::bench {
 

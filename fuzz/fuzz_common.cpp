@@ -8,8 +8,8 @@
 #include <fstream>
 #include <vector>
 
-#include "core/error.h"
-#include "core/image_io.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
 
 namespace obscura::fuzz {
 

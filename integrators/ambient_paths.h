@@ -71,8 +71,8 @@
 #include <limits>
 #include <span>
 
-#include "core/integrator.h"
-#include "integrators/membership.h"
+#include "obscura/integrator.h"
+#include "integrators/falloff.h"
 
 namespace obscura {
 
@@ -87,7 +87,7 @@ struct AmbientPaths {
   uint32_t depth = 0;          // bounces after the first segment; kUnlimited with roulette
   bool closedTail = true;      // tail=closed (ratio) or tail=zero (plain mean)
   bool roulette = false;
-  // The first bounce's lobe (inside, spread, near; core/lobe.h): the camera
+  // The first bounce's lobe (inside, spread, near; include/obscura/lobe.h): the camera
   // hit's side, cone and near clip. Later bounces sample the full cosine
   // hemisphere from tnear 0 (they are light transport, not the pass's lobe).
   LobeControls lobe;

@@ -7,17 +7,17 @@
 // the plain mean of the visibility: AO ~ (1/n) Sum_i V_R(x, w_i). Only
 // any-hit rays are traced: AO never needs the occluder itself.
 //
-// inside, spread and near shape the lobe (core/lobe.h, docs/math.md §11):
+// inside, spread and near shape the lobe (include/obscura/lobe.h, docs/math.md §11):
 // AO(x) = (1/(pi sin^2 thetaMax)) Int_cone V_R,near cos dw about +-n.
 //
 // Surfaces are opaque: a direction below the geometric surface (possible
 // when the shading normal tilts away from the geometric one) is blocked by
-// the surface itself, whatever the ray finds (LobeControls::open, core/lobe.h).
+// the surface itself, whatever the ray finds (LobeControls::open, include/obscura/lobe.h).
 #include <cmath>
 #include <limits>
 
-#include "core/plugin.h"
-#include "core/warp.h"
+#include "obscura/plugin.h"
+#include "obscura/warp.h"
 
 namespace obscura {
 namespace {

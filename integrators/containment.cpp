@@ -62,7 +62,7 @@
 // - R must be finite (except for the exponential falloff, whose sampled r is
 //   always finite): the test points must be at finite distances.
 //
-// Lobe controls (core/lobe.h, docs/math.md §11): `spread` narrows the cosine
+// Lobe controls (include/obscura/lobe.h, docs/math.md §11): `spread` narrows the cosine
 // lobe about n_d to its cone; `near` ignores occluders closer than near - the
 // macro ray's tnear, and test points at r i/m < near are skipped (a segment
 // shorter than near is open). No `inside`: the hemisphere behind the
@@ -79,17 +79,17 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/plugin.h"
-#include "core/subdivision.h"
-#include "core/warp.h"
-#include "integrators/membership.h"
+#include "obscura/error.h"
+#include "obscura/plugin.h"
+#include "core/subd/subdivision.h"
+#include "obscura/warp.h"
+#include "integrators/falloff.h"
 
 namespace obscura {
 namespace {
 
 // The displacement field d(uv) = scale (h(uv) - midlevel) of a height map,
-// read and sampled as `--displace` does (core/subdivision.h HeightMap:
+// read and sampled as `--displace` does (core/subd/subdivision.h HeightMap:
 // bilinear between texel centres, repeat, v = 0 at the bottom row; the uv
 // frame reports glTF's downward v flipped, so glTF meshes read the map as
 // their extras displacement does).

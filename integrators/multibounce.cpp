@@ -11,14 +11,14 @@
 // converged AO value and the pixel's mean albedo (Integrator::resolvePixel),
 // not per camera sample: mapping a noisy one-ray estimate would be biased.
 // Directions below the geometric plane are blocked by the surface itself.
-// inside, spread and near shape the AO's lobe (core/lobe.h, docs/math.md
+// inside, spread and near shape the AO's lobe (include/obscura/lobe.h, docs/math.md
 // §11): gtao's cosine lobe within the cone, improved's uniform one within it
 // (the fraction of the cone's solid angle that is open). The mappings were
 // fitted to full-hemisphere AO; fed a narrowed lobe they are extrapolated.
 #include <limits>
 
-#include "core/plugin.h"
-#include "integrators/membership.h"
+#include "obscura/plugin.h"
+#include "integrators/falloff.h"
 #include "integrators/multibounce_mapping.h"
 
 namespace obscura {

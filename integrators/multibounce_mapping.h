@@ -44,7 +44,7 @@ inline double gtaoMultiBounce(double v, double rho) {
 // bounced light and W = 1: F0 clamped to 1, which also keeps W
 // non-decreasing in alpha. h's denominator is 0 only at alpha = 0, rho = 1
 // (nothing open, every surface white): h = 1 there, the white-furnace
-// limit, as for the ratio estimators (core/integrator.h).
+// limit, as for the ratio estimators (include/obscura/integrator.h).
 inline double improvedMultiBounce(double alpha, double rho) {
   constexpr double A = 27.576937094210385, B = 3.3364392003423804;
   alpha = std::clamp(alpha, 0.0, 1.0);

@@ -15,8 +15,8 @@
 //              with tfar = r_i. Unbiased because
 //              mu(d) = Int_0^inf mu'(r) [d > r] dr = P(r < d).
 //
-// Memberships, their sampling and their edge cases: integrators/membership.h.
-// inside, spread and near shape the lobe (core/lobe.h, docs/math.md §11);
+// Memberships, their sampling and their edge cases: integrators/falloff.h.
+// inside, spread and near shape the lobe (include/obscura/lobe.h, docs/math.md §11);
 // with near, d is the distance to the first occluder beyond near (the
 // distance estimator's tnear; the occlusion estimator tests [near, r], an
 // r below near being an empty segment), and the two estimators still agree:
@@ -49,9 +49,9 @@
 #include <limits>
 #include <string>
 
-#include "core/plugin.h"
-#include "core/warp.h"
-#include "integrators/membership.h"
+#include "obscura/plugin.h"
+#include "obscura/warp.h"
+#include "integrators/falloff.h"
 
 namespace obscura {
 namespace {
@@ -71,7 +71,7 @@ class Obscurance final : public Integrator {
   }
 
  private:
-  // Directions come from cosineDirection (core/integrator.h), the sequence
+  // Directions come from cosineDirection (include/obscura/integrator.h), the sequence
   // `ao` uses, dimension for dimension. sampleMean is the arithmetic `ao`
   // and `transfer` use.
   static void setGrey(SampleEstimate& out, double sum, uint32_t n) {

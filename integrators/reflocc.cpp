@@ -12,7 +12,7 @@
 // r. Directions are drawn from D itself, so every sample weighs D/p = 1 and
 // both integrals are counts: num = open directions, den = directions above
 // the geometric surface; a pixel's W = Sum num / Sum den (the ratio
-// estimator of core/integrator.h). An open surface is exactly 1 at every
+// estimator of include/obscura/integrator.h). An open surface is exactly 1 at every
 // roughness and view angle. A pixel none of whose directions is above its
 // surface (0/0: a mirror direction below it at roughness 0, from a shading
 // normal tilted against the view) resolves to 1, the core's convention -
@@ -23,9 +23,9 @@
 #include <cmath>
 #include <limits>
 
-#include "core/error.h"
-#include "core/plugin.h"
-#include "core/warp.h"
+#include "obscura/error.h"
+#include "obscura/plugin.h"
+#include "obscura/warp.h"
 
 namespace obscura {
 namespace {
@@ -53,7 +53,7 @@ class ReflectionOcclusion final : public Integrator {
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
     // Only directions above the surface are traced (the others are blocked
-    // by it, core/surface.h). Until the batch is traced, out[i].den holds
+    // by it, core/scene/surface.h). Until the batch is traced, out[i].den holds
     // how many of hit i's directions are above it and out[i].num how many
     // rays represent them, so the second pass knows which rays are its.
     for (size_t i = 0; i < hits.size(); ++i) {
@@ -71,7 +71,7 @@ class ReflectionOcclusion final : public Integrator {
       } else {
         const Frame frame = Frame::fromNormal(r);
         for (uint32_t k = 0; k < rays_; ++k) {
-          // Keyed like cosineDirection (core/integrator.h): a pixel's
+          // Keyed like cosineDirection (include/obscura/integrator.h): a pixel's
           // (sample, ray) pairs index one sequence, jointly stratified.
           const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
           const Vec3 w = frame.toWorld(squareToPowerCosine(s.u, s.v, e));

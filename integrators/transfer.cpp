@@ -8,12 +8,12 @@
 //
 // numerator and denominator from the same cosine-distributed samples, summed
 // over all of a pixel's camera samples and divided once (ratio estimator,
-// core/integrator.h). With the occlusion estimator mu_i is the 0/1 segment
+// include/obscura/integrator.h). With the occlusion estimator mu_i is the 0/1 segment
 // test [AT 9] and a_i the albedo of the closest occluder on the segment.
 // depth = N >= 1: the recursive transfer, N bounces of the path estimator
 // closed by the closed form (tail=closed) or by 0 (tail=zero).
 // Both live in integrators/ambient_paths.h, shared with `gi`. inside,
-// spread and near shape the first bounce's lobe in both (core/lobe.h,
+// spread and near shape the first bounce's lobe in both (include/obscura/lobe.h,
 // docs/math.md §11); later bounces are light transport, not the pass's lobe.
 //
 // Properties (tested): W <= 1 for albedo <= 1; W == 1 exactly when every
@@ -24,7 +24,7 @@
 //
 // 0/0 (no open sample and every occluder white, so num = den = 0): the pixel
 // resolves to 1, the white-furnace limit of f / (1 - a(1 - f)) as a -> 1.
-#include "core/plugin.h"
+#include "obscura/plugin.h"
 #include "integrators/ambient_paths.h"
 
 namespace obscura {

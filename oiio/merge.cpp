@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "core/error.h"
-#include "core/image_io.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
 
 namespace obscura {
 namespace {
@@ -106,7 +106,7 @@ uint64_t parseCount(const TileHeader& t, const std::string& name) {
 
 }  // namespace
 
-// Called through the module table (core/oiio_module.h) by app/merge.cpp.
+// Called through the module table (core/image/oiio_module.h) by app/merge.cpp.
 void mergeRegionsOiio(const std::string& output, const std::vector<std::string>& paths) {
   if (paths.empty()) throw Error("merge: no tiles given");
   checkWritable(output);

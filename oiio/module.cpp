@@ -1,5 +1,5 @@
 // libobscura_oiio.so: what Obscura reads and writes through OpenImageIO,
-// loaded on first need (core/oiio_module.h). Linking OpenImageIO into the
+// loaded on first need (core/image/oiio_module.h). Linking OpenImageIO into the
 // program would load its ~250 libraries at every start.
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imageio.h>
@@ -8,8 +8,8 @@
 #include <cstdio>
 #include <cstring>
 
-#include "core/error.h"
-#include "core/oiio_module.h"
+#include "obscura/error.h"
+#include "core/image/oiio_module.h"
 
 namespace obscura {
 

@@ -33,13 +33,13 @@
 #include "app/compare.h"
 #include "app/merge.h"
 #include "app/render_setup.h"
-#include "core/checkpoint.h"
-#include "core/error.h"
-#include "core/gltf_document.h"
-#include "core/gltf_loader.h"
-#include "core/image_io.h"
-#include "core/plugin.h"
-#include "core/render.h"
+#include "core/render/checkpoint.h"
+#include "obscura/error.h"
+#include "core/load/gltf_document.h"
+#include "core/load/gltf_loader.h"
+#include "core/image/image_io.h"
+#include "obscura/plugin.h"
+#include "core/render/render.h"
 
 namespace py = pybind11;
 using namespace obscura;
@@ -208,7 +208,7 @@ void runInterruptible(const std::function<void(const std::atomic<bool>&)>& work)
 }
 
 // --- warnings: obscura's warning lines as Python warnings -----------------------
-// Log::warn's sink (core/error.h) collects them from any thread - loads and
+// Log::warn's sink (include/obscura/error.h) collects them from any thread - loads and
 // renders run with the GIL released, the renders on TBB's threads - and each
 // call of the module hands them to Python's `warnings` (category
 // obscura.ObscuraWarning, a UserWarning) before it returns or raises, so filters,

@@ -2,8 +2,8 @@
 
 #include <filesystem>
 
-#include "core/image_io.h"
-#include "core/integrator.h"
+#include "core/image/image_io.h"
+#include "obscura/integrator.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "core/math.h"
+#include "obscura/math.h"
 
 namespace obscura::test {
 

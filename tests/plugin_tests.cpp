@@ -11,9 +11,9 @@
 #include <fstream>
 #include <iterator>
 
-#include "core/error.h"
-#include "core/plugin.h"
-#include "core/render.h"
+#include "obscura/error.h"
+#include "obscura/plugin.h"
+#include "core/render/render.h"
 #include "tests/readme_integrators.h"
 #include "tests/support.h"
 
@@ -188,7 +188,7 @@ TEST(Plugin, ReadmeRowMatchesThePlugin) {
 // Unoccluded plane: B = E[w] under cos/pi about n = (0,0,2/3) in the normal's
 // frame. Per-ray variances: Var(w_z) = E[z^2] - 4/9 = 1/2 - 4/9 = 1/18,
 // Var(w_x) = Var(w_y) = E[x^2] = 1/4.
-// The lobe controls (core/lobe.h, docs/math.md §11) in the plugin, which
+// The lobe controls (include/obscura/lobe.h, docs/math.md §11) in the plugin, which
 // inlines the core's lobe code: explicit defaults are the defaults bit for
 // bit; the inside lobe is the outside one mirrored - B_z exactly negated,
 // since both frames put the warp's z on +-z alone (the normal is exactly
@@ -274,7 +274,7 @@ TEST(Plugin, BentNormalAdaptsAndDenoises) {
       for (int x = 0; x < 24; ++x) ASSERT_EQ(all.at(c, x, y), ref.at(c, x, y)) << c << " at " << x << "," << y;
 }
 
-// A plugin takes part in a multi-pass render like a built-in (core/render.h):
+// A plugin takes part in a multi-pass render like a built-in (core/render/render.h):
 // its layer equals its solo render bit for bit, and so does the built-in's.
 TEST(Plugin, BentNormalInAMultiPassRender) {
   loadPlugin(OBSCURA_BENT_PLUGIN);

@@ -14,8 +14,8 @@
 #include <iterator>
 #include <thread>
 
-#include "core/error.h"
-#include "core/texture.h"
+#include "obscura/error.h"
+#include "core/image/texture.h"
 
 extern char** environ;
 

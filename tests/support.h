@@ -15,12 +15,12 @@
 #include <string>
 #include <vector>
 
-#include "core/camera.h"
-#include "core/film.h"
-#include "core/integrator.h"
-#include "core/render.h"
-#include "core/scene.h"
-#include "core/subdivision.h"
+#include "core/scene/camera.h"
+#include "core/image/film.h"
+#include "obscura/integrator.h"
+#include "core/render/render.h"
+#include "core/scene/scene.h"
+#include "core/subd/subdivision.h"
 
 namespace obscura::test {
 

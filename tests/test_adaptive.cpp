@@ -1,4 +1,4 @@
-// Adaptive sampling and the per-pixel error (core/adaptive.h, docs/math.md
+// Adaptive sampling and the per-pixel error (core/render/adaptive.h, docs/math.md
 // §13): determinism, equality with fixed-spp renders, the target met against
 // a closed form, and the error estimate against the spread across seeds.
 //
@@ -18,14 +18,14 @@
 #include <map>
 #include <string>
 
-#include "core/adaptive.h"
-#include "core/camera.h"
-#include "core/error.h"
-#include "core/integrator.h"
-#include "core/params.h"
-#include "core/pixel_sums.h"
-#include "core/render.h"
-#include "core/scene.h"
+#include "core/render/adaptive.h"
+#include "core/scene/camera.h"
+#include "obscura/error.h"
+#include "obscura/integrator.h"
+#include "obscura/params.h"
+#include "core/render/pixel_sums.h"
+#include "core/render/render.h"
+#include "core/scene/scene.h"
 #include "support.h"
 
 namespace obscura {
@@ -35,7 +35,7 @@ using namespace obscura::test;
 
 constexpr double kR = 1.0;
 constexpr int kW = 96, kH = 4;
-// --background-spp's default (core/render.h).
+// --background-spp's default (core/render/render.h).
 constexpr uint32_t kBackgroundSpp = 4;
 
 double wallV(double d) {
@@ -186,7 +186,7 @@ TEST(Adaptive, TheRealizedErrorTracksTheTarget) {
 }
 
 TEST(Adaptive, TheCompositedErrorFromTheHalves) {
-  // The schedule's error (core/pixel_sums.h compositedError, docs/math.md
+  // The schedule's error (core/render/pixel_sums.h compositedError, docs/math.md
   // §13) from hand-made sums under ao (resolvePixel: the identity), 16
   // samples, 8 in each half.
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find("ao");

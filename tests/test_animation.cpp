@@ -1,4 +1,4 @@
-// glTF animation (README "Animation and frames"; core/animation.h): the
+// glTF animation (README "Animation and frames"; core/load/animation.h): the
 // samplers against closed forms computed here (lerp, the rotation angle a
 // slerp must reach, the Hermite polynomial in its power form), held values
 // before and after the keys, poses (which nodes move, the static pose), a
@@ -16,8 +16,8 @@
 #include <filesystem>
 
 #include "app/cli_common.h"
-#include "core/error.h"
-#include "core/gltf_document.h"
+#include "obscura/error.h"
+#include "core/load/gltf_document.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

@@ -14,10 +14,10 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/scene.h"
-#include "core/texture.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "core/scene/scene.h"
+#include "core/image/texture.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 
@@ -275,7 +275,7 @@ TEST(BadInputFile, NodeCycle) {
 
 // Without `scenes`, the loader renders the root nodes; a hierarchy that is
 // all cycle has no root.
-// NOTE: fails as of this writing: core/gltf_loader.cpp collectNodes() finds
+// NOTE: fails as of this writing: core/load/gltf_loader.cpp collectNodes() finds
 // no root, visits nothing and returns an empty scene without a word.
 TEST(BadInputFile, NodeCycleWithoutScenes) {
   const std::string dir = tempDir("bad_cycle_noscene");
@@ -288,7 +288,7 @@ TEST(BadInputFile, NodeCycleWithoutScenes) {
 }
 
 // glTF 2.0 section 3.5.3: "each node MUST have zero or one parent node".
-// NOTE: fails as of this writing: visit() in core/gltf_loader.cpp only
+// NOTE: fails as of this writing: visit() in core/load/gltf_loader.cpp only
 // detects cycles on the current path, so a node shared by two parents is
 // silently rendered twice - and a DAG that shares at every level (each node
 // listing the next one twice) is visited 2^depth times: 40 such nodes hang

@@ -17,12 +17,12 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/camera.h"
-#include "core/gltf_loader.h"
-#include "core/obj_loader.h"
-#include "core/subdivision.h"
-#include "core/surface.h"
+#include "obscura/error.h"
+#include "core/scene/camera.h"
+#include "core/load/gltf_loader.h"
+#include "core/load/obj_loader.h"
+#include "core/subd/subdivision.h"
+#include "core/scene/surface.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

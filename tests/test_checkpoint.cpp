@@ -6,7 +6,7 @@
 // gone once the EXR is written.
 //
 // The interruption is deterministic: OBSCURA_TEST_CHECKPOINT_KILL=N[:INT]
-// (core/checkpoint.h, tests only) makes the process send itself SIGKILL (or
+// (core/render/checkpoint.h, tests only) makes the process send itself SIGKILL (or
 // SIGINT) right after writing a checkpoint of at least N tiles. One test
 // also kills the process from outside as soon as the file appears.
 #include <signal.h>

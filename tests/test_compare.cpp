@@ -15,8 +15,8 @@
 
 #include "app/compare.h"
 #include "app/report.h"
-#include "core/error.h"
-#include "core/metrics.h"
+#include "obscura/error.h"
+#include "core/image/metrics.h"
 #include "integrators/multibounce_mapping.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"

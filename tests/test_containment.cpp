@@ -1,7 +1,7 @@
 // The `containment` integrator (integrators/containment.cpp): obscurance of
 // height-map displacement detail by containment tests on the undisplaced
 // surface, against the same obscurance traced on the truly displaced,
-// finely tessellated surface (core/subdivision.h subdivide + displace).
+// finely tessellated surface (core/subd/subdivision.h subdivide + displace).
 //
 // Scenes: a flat plane cage [0,1]^2 with uv = xy, displaced by ripples
 // h(u) = 0.5 + 0.5 cos(2 pi P u) with midlevel 0.5, i.e. the field
@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/subdivision.h"
+#include "obscura/error.h"
+#include "core/subd/subdivision.h"
 #include "tests/support.h"
 
 namespace obscura::test {

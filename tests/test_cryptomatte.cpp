@@ -1,4 +1,4 @@
-// Cryptomatte (core/cryptomatte.h, README "Cryptomatte"): the hash and id
+// Cryptomatte (core/render/cryptomatte.h, README "Cryptomatte"): the hash and id
 // conversion against published values, the manifest, and rendered files
 // decoded pixel by pixel back to the objects and materials the test placed.
 #include <gtest/gtest.h>
@@ -11,9 +11,9 @@
 #include <map>
 #include <set>
 
-#include "core/cryptomatte.h"
-#include "core/error.h"
-#include "core/gltf_loader.h"
+#include "core/render/cryptomatte.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

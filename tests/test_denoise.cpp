@@ -1,4 +1,4 @@
-// The denoiser on synthetic passes (core/denoise.h, docs/denoise.md): a flat
+// The denoiser on synthetic passes (core/image/denoise.h, docs/denoise.md): a flat
 // exact W stays exact, a flat noisy W keeps its mean while its variance
 // drops, and step edges in depth, normal and object do not leak. The noise
 // is Gaussian of a known sigma, drawn as two halves of the samples the way
@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "core/denoise.h"
-#include "core/error.h"
-#include "core/film.h"
+#include "core/image/denoise.h"
+#include "obscura/error.h"
+#include "core/image/film.h"
 
 namespace obscura {
 namespace {

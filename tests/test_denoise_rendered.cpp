@@ -1,4 +1,4 @@
-// The denoiser on rendered ao passes (core/denoise.h, docs/denoise.md): an
+// The denoiser on rendered ao passes (core/image/denoise.h, docs/denoise.md): an
 // open plane whose W is exactly 1 stays exactly 1, and on a 90 degree crease
 // whose ao has a closed form the denoised pass's bias^2 and variance are
 // measured over seeds against the noisy pass's.
@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "core/denoise.h"
+#include "core/image/denoise.h"
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -4,7 +4,7 @@
 
 #include <cstring>
 
-#include "core/gltf_loader.h"
+#include "core/load/gltf_loader.h"
 #include "tests/support.h"
 
 namespace obscura::test {

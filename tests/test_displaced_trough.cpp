@@ -1,5 +1,5 @@
 // Ambient occlusion at the trough of a corrugated sheet - a flat cage
-// subdivided and displaced by a sinusoidal height map (core/subdivision.h) -
+// subdivided and displaced by a sinusoidal height map (core/subd/subdivision.h) -
 // against a numeric integral that never calls the renderer.
 //
 // The sheet: z(x) = A cos(2 pi x / L), extruded along y. For a surface
@@ -22,7 +22,7 @@
 
 #include <cmath>
 
-#include "core/subdivision.h"
+#include "core/subd/subdivision.h"
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -7,8 +7,8 @@
 
 #include <filesystem>
 
-#include "core/error.h"
-#include "core/image_io.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <sstream>
 
-#include "core/image_io.h"
+#include "core/image/image_io.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

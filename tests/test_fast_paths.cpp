@@ -10,12 +10,12 @@
 #include <cstring>
 #include <vector>
 
-#include "core/gltf_loader.h"
-#include "core/math.h"
-#include "core/sampler.h"
-#include "core/surface.h"
-#include "core/texture.h"
-#include "core/warp.h"
+#include "core/load/gltf_loader.h"
+#include "obscura/math.h"
+#include "obscura/sampler.h"
+#include "core/scene/surface.h"
+#include "core/image/texture.h"
+#include "obscura/warp.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

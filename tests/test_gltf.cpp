@@ -16,12 +16,12 @@
 #include <string>
 #include <vector>
 
-#include "core/camera.h"
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/scene.h"
-#include "core/surface.h"
-#include "core/texture.h"
+#include "core/scene/camera.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "core/scene/scene.h"
+#include "core/scene/surface.h"
+#include "core/image/texture.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 
@@ -457,7 +457,7 @@ TEST(GltfCameras, CliSelectsCameraByNameAndIndex) {
 // NOTE: fails as of this writing: the loader appends cameras to
 // Scene::cameras in node-traversal order and app/main.cpp selectCamera()
 // indexes that vector, so here `--camera 0` and the default pick "beta"
-// (cameras[1]). See the report: the fix belongs in core/gltf_loader.cpp.
+// (cameras[1]). See the report: the fix belongs in core/load/gltf_loader.cpp.
 TEST(GltfCameras, CameraIndexIsTheIndexInTheFile) {
   const std::string dir = tempDir("gltf_camera_index");
   const std::string scene = writeTwoCameraScene(dir, true, nullptr, nullptr);

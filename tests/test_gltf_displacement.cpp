@@ -1,5 +1,5 @@
 // Texture coordinates and displacement through glTF subdivision
-// (core/gltf_loader.cpp, extras.obscura.subdivision / .displacement):
+// (core/load/gltf_loader.cpp, extras.obscura.subdivision / .displacement):
 // uvs stay face-varying across a welded seam, a displaced glTF plane moves
 // exactly like the same cage loaded from OBJ, welding closes seams so a
 // displaced closed mesh stays watertight, and bad fields name themselves.
@@ -13,9 +13,9 @@
 #include <cmath>
 #include <set>
 
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/obj_loader.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "core/load/obj_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

@@ -1,4 +1,4 @@
-// The lobe controls of the AO family (core/lobe.h, docs/math.md §11):
+// The lobe controls of the AO family (include/obscura/lobe.h, docs/math.md §11):
 // `inside`, `spread`, `near`, against closed forms and independent
 // quadratures, and the invariants that tie the integrators together.
 //
@@ -31,9 +31,9 @@
 #include <cstdio>
 #include <limits>
 
-#include "core/error.h"
-#include "core/lobe.h"
-#include "core/warp.h"
+#include "obscura/error.h"
+#include "obscura/lobe.h"
+#include "obscura/warp.h"
 #include "tests/support.h"
 
 namespace obscura::test {

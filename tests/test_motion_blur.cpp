@@ -1,4 +1,4 @@
-// Motion blur: the step rule (core/motion.h), and renders whose time
+// Motion blur: the step rule (core/scene/motion.h), and renders whose time
 // average has a closed form.
 //
 // The closed form: a point x on the ground plane z = 0 (normal +z) at
@@ -19,12 +19,12 @@
 #include <filesystem>
 #include <cstring>
 
-#include "core/error.h"
-#include "core/motion.h"
-#include "core/params.h"
-#include "core/render.h"
-#include "core/scene.h"
-#include "core/surface.h"
+#include "obscura/error.h"
+#include "core/scene/motion.h"
+#include "obscura/params.h"
+#include "core/render/render.h"
+#include "core/scene/scene.h"
+#include "core/scene/surface.h"
 #include "gltf_builder.h"
 #include "support.h"
 

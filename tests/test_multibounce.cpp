@@ -7,7 +7,7 @@
 #include <limits>
 #include <vector>
 
-#include "core/gltf_loader.h"
+#include "core/load/gltf_loader.h"
 #include "integrators/multibounce_mapping.h"
 #include "tests/support.h"
 

@@ -1,4 +1,4 @@
-// Several passes from one render (core/render.h, README "Several passes in
+// Several passes from one render (core/render/render.h, README "Several passes in
 // one render"): each pass in a combined render equals the same pass rendered
 // alone, bit for bit - the ray-traced passes share one walk over the camera
 // samples, a screen-space pass runs its own G-buffer loop - and the CLI's
@@ -8,9 +8,9 @@
 
 #include <cstring>
 
-#include "core/error.h"
-#include "core/gltf_loader.h"
-#include "core/render.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
+#include "core/render/render.h"
 #include "tests/support.h"
 
 using namespace obscura;

@@ -2,7 +2,7 @@
 // needs decide what is fetched and traced.
 #include <gtest/gtest.h>
 
-#include "core/gltf_loader.h"
+#include "core/load/gltf_loader.h"
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -18,8 +18,8 @@
 #include <cmath>
 #include <functional>
 
-#include "core/alpha.h"
-#include "core/error.h"
+#include "core/scene/alpha.h"
+#include "obscura/error.h"
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -41,8 +41,8 @@
 #include <limits>
 #include <string>
 
-#include "core/error.h"
-#include "core/gltf_loader.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
 #include "tests/support.h"
 
 namespace obscura::test {

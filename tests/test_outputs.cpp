@@ -10,9 +10,9 @@
 #include <fstream>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/large_vector.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
+#include "core/util/large_vector.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -61,7 +61,7 @@ TEST(Outputs, NewFilmPlanesAreZeroOnReusedMemory) {
 }
 
 // Whole-image blocks freed by one render are handed to the next allocation
-// of the same rounded size (core/large_vector.h): a process that renders
+// of the same rounded size (core/util/large_vector.h): a process that renders
 // again finds its pages faulted in. Past the cap the oldest go; a size no
 // kept block has hands back the oldest, as many bytes as it allocates. In
 // builds without NDEBUG and in the sanitized ones every block comes out

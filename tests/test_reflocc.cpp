@@ -20,8 +20,8 @@
 #include <cmath>
 #include <limits>
 
-#include "core/error.h"
-#include "core/gltf_loader.h"
+#include "obscura/error.h"
+#include "core/load/gltf_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 
@@ -256,7 +256,7 @@ CeilingRef ceilingReference(const LobeTable& t, double cosBeta, double c) {
 
 TEST(ReflOcc, CeilingWithinRMatchesQuadrature) {
   // Floor and ceiling of half-size 10: the floor's rays leave 10 * 2^-16
-  // above it (core/surface.h), so the ceiling is that much nearer.
+  // above it (core/scene/surface.h), so the ceiling is that much nearer.
   const double H = 1.0, R = 2.0;
   const double Heff = H - 10.0 * std::ldexp(1.0, -16);
   Scene scene;

@@ -1,4 +1,4 @@
-// The sampler (core/sampler.h) against properties computed independently of
+// The sampler (include/obscura/sampler.h) against properties computed independently of
 // its code: the unscrambled Sobol' dimensions against the direction numbers
 // of their definition, and the scrambled sequences against the net
 // properties that make them worth using.
@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "core/sampler.h"
+#include "obscura/sampler.h"
 
 namespace obscura::test {
 namespace {

@@ -1,4 +1,4 @@
-// The screen-space seam (core/gbuffer.h) and the integrators `vo` and `ssat`
+// The screen-space seam (core/render/gbuffer.h) and the integrators `vo` and `ssat`
 // against closed forms, invariants and the ray-traced `obscurance`.
 //
 // Tolerances: a pixel's value is a mean over its layers of an estimate whose
@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/gbuffer.h"
+#include "obscura/error.h"
+#include "core/render/gbuffer.h"
 #include "integrators/screen_space/sample_sets.h"
 #include "tests/support.h"
 

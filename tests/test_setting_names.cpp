@@ -1,9 +1,9 @@
-// Core messages name a setting the way the caller set it (core/settings.h):
+// Core messages name a setting the way the caller set it (core/util/option_names.h):
 // the library's field name by default, the flag the user typed on the CLI.
 #include <string>
 
-#include "core/error.h"
-#include "core/settings.h"
+#include "obscura/error.h"
+#include "core/util/option_names.h"
 #include "tests/support.h"
 
 namespace obscura::test {

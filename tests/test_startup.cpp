@@ -8,9 +8,9 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "core/error.h"
-#include "core/image_io.h"
-#include "core/metrics.h"
+#include "obscura/error.h"
+#include "core/image/image_io.h"
+#include "core/image/metrics.h"
 #include "tests/support.h"
 
 namespace obscura::test {

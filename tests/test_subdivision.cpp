@@ -1,4 +1,4 @@
-// Subdivision surfaces (core/subdivision.h, core/obj_loader.h) against
+// Subdivision surfaces (core/subd/subdivision.h, core/load/obj_loader.h) against
 // known limits: the Catmull-Clark limit of a cube's corner, convergence of
 // area and volume, closed surfaces staying closed, and bad cages refused.
 #include <OpenImageIO/imageio.h>
@@ -8,10 +8,10 @@
 #include <filesystem>
 #include <map>
 
-#include "core/error.h"
-#include "core/obj_loader.h"
-#include "core/subdivision.h"
-#include "core/gltf_loader.h"
+#include "obscura/error.h"
+#include "core/load/obj_loader.h"
+#include "core/subd/subdivision.h"
+#include "core/load/gltf_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

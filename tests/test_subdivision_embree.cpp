@@ -1,4 +1,4 @@
-// The Embree subdivision backend (Scene::addSubdivisionSurface, core/cage.h)
+// The Embree subdivision backend (Scene::addSubdivisionSurface, core/load/cage.h)
 // against the OpenSubdiv one and against Embree's own interpolation: the same
 // limit surface, the same displacement, no cracks, adaptive rates from the
 // camera, and the budget.
@@ -10,9 +10,9 @@
 #include <filesystem>
 #include <map>
 
-#include "core/cage.h"
-#include "core/error.h"
-#include "core/subdivision.h"
+#include "core/load/cage.h"
+#include "obscura/error.h"
+#include "core/subd/subdivision.h"
 #include "tests/support.h"
 
 namespace obscura::test {

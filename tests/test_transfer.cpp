@@ -28,7 +28,7 @@
 
 #include <cmath>
 
-#include "core/gltf_loader.h"
+#include "core/load/gltf_loader.h"
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -10,9 +10,9 @@
 #include <cmath>
 #include <vector>
 
-#include "core/gbuffer.h"
-#include "core/params.h"
-#include "core/sampler.h"
+#include "core/render/gbuffer.h"
+#include "obscura/params.h"
+#include "obscura/sampler.h"
 
 namespace obscura::screen_space {
 

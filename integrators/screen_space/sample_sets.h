@@ -24,7 +24,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/math.h"
+#include "obscura/math.h"
 
 namespace obscura::screen_space {
 

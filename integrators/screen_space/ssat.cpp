@@ -7,7 +7,7 @@
 // [AT 7], sampled at n fixed points: (xi_x, xi_y, xi_z) from a Poisson-disk
 // set improved by Lloyd relaxation (AT §4.1, sample_sets.h), w cosine
 // distributed from (xi_x, xi_y), r = the membership's sample of mu' from xi_z
-// (integrators/membership.h, the draw of `obscurance`'s occlusion
+// (integrators/falloff.h, the draw of `obscurance`'s occlusion
 // estimator), as offsets (X, Y, Z) = w r [AT 8] placed in each pixel's
 // tangent frame, rotated about the normal per pixel (AT §5); (xi_y, xi_z)
 // are shifted per layer (layerOffsets), so the mean over layers is unbiased.
@@ -22,7 +22,7 @@
 //   albedo=true   W ~ Sum I_i / (n - Sum (1 - I_i) a~_i)     [AT 9]
 // with a~ the albedo of the pixel where the first inside test point
 // projects; a ratio estimator, pooled over the pixel's layers before the
-// division as `transfer` does (core/integrator.h).
+// division as `transfer` does (include/obscura/integrator.h).
 //
 // Converges to `obscurance` with the same mu when the depth buffer holds
 // every occluder and each segment crosses at most one surface.
@@ -31,10 +31,10 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/gbuffer.h"
-#include "core/plugin.h"
-#include "integrators/membership.h"
+#include "obscura/error.h"
+#include "core/render/gbuffer.h"
+#include "obscura/plugin.h"
+#include "integrators/falloff.h"
 #include "integrators/screen_space/common.h"
 #include "integrators/screen_space/sample_sets.h"
 

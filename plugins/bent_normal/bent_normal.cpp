@@ -9,15 +9,15 @@
 // It is NOT normalized: its length is the cosine-weighted "openness"
 // (2/3 on an unoccluded plane, where E[cos theta] = 2/3); the unit bent
 // normal a shader wants is normalize(RGB). Components lie in [-1, 1].
-// inside, spread and near shape the lobe (core/lobe.h, docs/math.md §11):
+// inside, spread and near shape the lobe (include/obscura/lobe.h, docs/math.md §11):
 // inside=true gives the mean open direction behind the surface; with spread
 // s = sin(thetaMax) < 1 an open plane's length is
 // E[cos theta] = 2 (1 - (1 - s^2)^(3/2)) / (3 s^2) (-> 1 as s -> 0).
 #include <cmath>
 #include <limits>
 
-#include "core/plugin.h"
-#include "core/warp.h"
+#include "obscura/plugin.h"
+#include "obscura/warp.h"
 
 namespace {
 

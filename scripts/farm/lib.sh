@@ -87,7 +87,7 @@ farm_attr() {
 # obscura:resolution, obscura:scene (absolute, as obscura records it), and
 # obscura:frame when the header carries one. A partial file cannot sit under
 # the final name: obscura writes to a temporary sibling and renames it into
-# place (core/image_io.cpp, OutputSet::commit), and `merge` does the same. The
+# place (core/image/image_io.cpp, OutputSet::commit), and `merge` does the same. The
 # other settings are guarded per work folder (submit.sh refuses a work folder
 # whose shot had other settings), and `obscura merge` refuses tiles whose
 # settings differ. FARM_VERIFY_PIXELS=1 also reads every pixel (iinfo --hash),

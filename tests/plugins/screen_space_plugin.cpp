@@ -1,5 +1,5 @@
 // A screen-space integrator built as a plugin, for the loader's tests: the
-// seam of core/gbuffer.h must work from a separately built library exactly
+// seam of core/render/gbuffer.h must work from a separately built library exactly
 // as for the built-in `vo` and `ssat` (registration with kind ScreenSpace,
 // parameters, estimateTile on the core's tiles).
 //
@@ -7,8 +7,8 @@
 // `radius` pixels (a square window, the pixel itself and pixels outside the
 // image left out) whose camera sample hit something in this layer. A value
 // the test can recompute from the image's coverage channel.
-#include "core/gbuffer.h"
-#include "core/plugin.h"
+#include "core/render/gbuffer.h"
+#include "obscura/plugin.h"
 
 namespace {
 

@@ -1,0 +1,122 @@
+// The film: one float plane per output channel.
+//
+// Channel layout (README "Channels"): R,G,B = the pass W, premultiplied by
+// coverage; A = coverage; albedo.R/G/B (premultiplied); N.X/Y/Z = world
+// normal (mean over the pixel's hits, renormalized; 0 where nothing was hit);
+// Z = camera distance (mean over hits; +inf where nothing was hit);
+// shaded.R/G/B = albedo * W * sky, from the pixel's albedo and W
+// (premultiplied). A film without the albedo AOV (--no-albedo) holds
+// neither albedo.* nor shaded.*: those planes are empty and not among
+// channels().
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "core/util/large_vector.h"
+
+namespace obscura {
+
+enum Channel : int {
+  kR, kG, kB, kA,
+  kAlbedoR, kAlbedoG, kAlbedoB,
+  kNX, kNY, kNZ,
+  kZ,
+  kShadedR, kShadedG, kShadedB,
+  kChannelCount
+};
+
+// Z where nothing was hit: large and finite, so a compositor's filters
+// (negative lobes times +inf give NaN) and range nodes stay finite. 1e10 is
+// what Cycles writes for its Depth pass's background, and above the range
+// Blender's Normalize node takes into account (|v| <= 10000). README "Depth
+// and camera conventions".
+constexpr float kBackgroundDepth = 1e10f;
+
+// The planes the render loops add with the AOVs (README "Adaptive
+// sampling"): the standard error of the pass W per pixel (un-premultiplied)
+// and the camera samples the pixel took.
+inline constexpr const char* kErrorPlane = "W.error";
+inline constexpr const char* kSppPlane = "spp";
+
+// The name of a fixed channel (Channel); extra planes are named by the Film.
+const char* channelName(int c);
+
+// A rectangle of pixels [x0, x1) x [y0, y1): the render loops' tiles (the
+// ray-traced loop's and the screen-space loop's).
+struct PixelRect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  int width() const { return x1 - x0; }
+  int height() const { return y1 - y0; }
+  size_t size() const { return size_t(x1 - x0) * size_t(y1 - y0); }
+  // Row-major index of pixel (x, y) within the rectangle.
+  size_t offset(int x, int y) const { return size_t(y - y0) * size_t(x1 - x0) + size_t(x - x0); }
+  // The size x size tiles covering a w x h image, row-major: how many, and
+  // tile `index` (clipped at the image's right and bottom edges).
+  static int tileCount(int size, int w, int h) { return ((w + size - 1) / size) * ((h + size - 1) / size); }
+  static PixelRect tile(int index, int size, int w, int h) {
+    const int across = (w + size - 1) / size;
+    PixelRect r;
+    r.x0 = (index % across) * size, r.y0 = (index / across) * size;
+    r.x1 = std::min(w, r.x0 + size), r.y1 = std::min(h, r.y0 + size);
+    return r;
+  }
+};
+
+// A film holds the planes of a window of the image (README "Regions and
+// merging"): the whole frame, or a region [x0, x1) x [y0, y1) of a
+// fullWidth x fullHeight frame. Pixels are addressed by their image
+// coordinates (at(c, x, y) with x in [x0, x1)), so the render loops write a
+// region's pixels where a full render writes them; plane(c) is the window's
+// pixels row-major from (x0, y0).
+class Film {
+ public:
+  Film() = default;
+  // aovs: the channels after R,G,B,A; albedo (with aovs): albedo.* and
+  // shaded.* among them.
+  Film(int width, int height, bool aovs, bool albedo = true);
+  // A film of `window` inside a fullWidth x fullHeight frame.
+  Film(const PixelRect& window, int fullWidth, int fullHeight, bool aovs, bool albedo = true);
+  int width() const { return width_; }
+  int height() const { return height_; }
+  // The window's origin in the frame, and the frame (the EXR's data and
+  // display windows).
+  int originX() const { return x0_; }
+  int originY() const { return y0_; }
+  int fullWidth() const { return fullWidth_; }
+  int fullHeight() const { return fullHeight_; }
+  PixelRect window() const { return {x0_, y0_, x0_ + width_, y0_ + height_}; }
+  bool hasAovs() const { return aovs_; }
+  // The albedo.* and shaded.* planes are there (the AOVs without --no-albedo).
+  bool hasAlbedo() const { return aovs_ && albedo_; }
+  // The channels stored, in file order (RGBA, then AOVs if enabled, then
+  // extra planes in the order they were added).
+  const std::vector<int>& channels() const { return channels_; }
+  // Adds a zero-filled plane named `name` (e.g. "ao.R" of a pass's layer,
+  // "CryptoObject00.R"), written after the fixed channels; returns its
+  // channel index (>= kChannelCount). Throws obscura::Error if the name is
+  // taken.
+  int addPlane(const std::string& name);
+  // The index of the plane called `name`, or -1.
+  int find(const std::string& name) const;
+  // The file name of channel c (a Channel or an added plane).
+  const std::string& name(int c) const { return names_[size_t(c)]; }
+  float* plane(int c) { return planes_[c].data(); }
+  const float* plane(int c) const { return planes_[c].data(); }
+  float at(int c, int x, int y) const { return planes_[c][size_t(y - y0_) * width_ + size_t(x - x0_)]; }
+  float& at(int c, int x, int y) { return planes_[c][size_t(y - y0_) * width_ + size_t(x - x0_)]; }
+
+ private:
+  int width_ = 0, height_ = 0;
+  int x0_ = 0, y0_ = 0, fullWidth_ = 0, fullHeight_ = 0;
+  bool aovs_ = true, albedo_ = true;
+  std::vector<int> channels_;
+  std::vector<std::string> names_;
+  // Whole-image planes on huge pages (core/util/large_vector.h): zeroing a 1080p
+  // film with every AOV faulted ~20k 4 KiB pages in, a few hundred here.
+  std::vector<LargeVector<float>> planes_;
+};
+
+}  // namespace obscura

@@ -1,0 +1,366 @@
+#include "core/image/image_io.h"
+
+#include "core/util/large_vector.h"
+
+#include <Imath/half.h>
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfChromaticitiesAttribute.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
+#include <OpenEXR/ImfIntAttribute.h>
+#include <OpenEXR/ImfFloatAttribute.h>
+#include <OpenEXR/ImfMatrixAttribute.h>
+#include <OpenEXR/ImfOutputFile.h>
+#include <OpenEXR/ImfStringAttribute.h>
+#include <OpenEXR/ImfThreading.h>
+#include <stb_image_write.h>
+#include <tbb/global_control.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cinttypes>
+#include <cmath>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+
+#include "obscura/error.h"
+#include "core/image/oiio_module.h"
+#include "core/image/texture.h"
+
+namespace obscura {
+namespace fs = std::filesystem;
+namespace {
+
+// Temporary sibling of `path` (same directory, so rename is atomic); `tag`
+// tells a backup from a new file.
+std::string siblingPath(const std::string& path, const char* tag) {
+  const fs::path p(path);
+  const std::string name = "." + p.filename().string() + tag + std::to_string(getpid());
+  return (p.parent_path() / name).string();
+}
+
+constexpr std::pair<ExrCompression, Imf::Compression> kCompressions[] = {
+    {ExrCompression::None, Imf::NO_COMPRESSION}, {ExrCompression::Rle, Imf::RLE_COMPRESSION},
+    {ExrCompression::Zips, Imf::ZIPS_COMPRESSION}, {ExrCompression::Zip, Imf::ZIP_COMPRESSION},
+    {ExrCompression::Piz, Imf::PIZ_COMPRESSION}};
+constexpr const char* kCompressionNames[] = {"none", "rle", "zips", "zip", "piz"};
+
+// The local time as the EXR standard `capDate` wants it (ImfStandardAttributes.h).
+std::string captureDate() {
+  const std::time_t now = std::time(nullptr);
+  std::tm t{};
+  localtime_r(&now, &t);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y:%m:%d %H:%M:%S", &t);
+  return text;
+}
+
+// Writes the film's channels to `tmp` as a scanline EXR, straight from the
+// planes (one slice per plane, no interleaved copy); OpenEXR converts
+// float to half per channel and compresses blocks on its thread pool.
+void writeExrFile(const std::string& path, const std::string& tmp, const Film& film, const ExrOptions& options) {
+  checkWritable(path);
+  const std::vector<int>& chans = film.channels();
+  // The data window is the film's window, the display window the frame
+  // (equal but for a --region render; README "Regions and merging").
+  const Imath::Box2i data({film.originX(), film.originY()},
+                          {film.originX() + film.width() - 1, film.originY() + film.height() - 1});
+  const Imath::Box2i display({0, 0}, {film.fullWidth() - 1, film.fullHeight() - 1});
+  Imf::Header header(display, data);
+  for (const auto& [ours, theirs] : kCompressions)
+    if (ours == options.compression) header.compression() = theirs;
+  if (options.zipLevel > 0) header.zipCompressionLevel() = options.zipLevel;
+  for (int c : chans) {
+    const std::string& n = film.name(c);
+    const bool keep = !options.half ||
+                      (c < kChannelCount ? exrKeepsFloat(c)
+                                         : std::any_of(options.floatChannelPrefixes.begin(), options.floatChannelPrefixes.end(),
+                                                       [&](const std::string& p) { return n.compare(0, p.size(), p) == 0; }));
+    header.channels().insert(n, Imf::Channel(keep ? Imf::FLOAT : Imf::HALF));
+  }
+  // CIE xy of the Rec.709 / sRGB primaries R, G, B and of the D65 white
+  // (ITU-R BT.709): what linear sRGB textures and a grey sky make.
+  header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities(
+                                      {0.64f, 0.33f}, {0.30f, 0.60f}, {0.15f, 0.06f}, {0.3127f, 0.3290f})));
+  header.insert("capDate", Imf::StringAttribute(captureDate()));
+  for (const HeaderAttribute& a : options.attributes) {
+    if (auto* s = std::get_if<std::string>(&a.value)) header.insert(a.name, Imf::StringAttribute(*s));
+    else if (auto* i = std::get_if<int>(&a.value)) header.insert(a.name, Imf::IntAttribute(*i));
+    else if (auto* f = std::get_if<float>(&a.value)) header.insert(a.name, Imf::FloatAttribute(*f));
+    else {
+      const auto& m = std::get<std::vector<float>>(a.value);
+      if (m.size() == 16)
+        header.insert(a.name, Imf::M44fAttribute(Imath::M44f(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9],
+                                                              m[10], m[11], m[12], m[13], m[14], m[15])));
+    }
+  }
+  // Float channels are written from the planes in place. OpenEXR's output
+  // does not convert, so half channels go through a buffer of `band` rows
+  // (a multiple of every block height: 16 for ZIP, 32 for PIZ), converted
+  // band by band: never a second copy of the film.
+  const size_t w = size_t(film.width());
+  std::vector<int> halves;
+  for (int c : chans)
+    if (header.channels().findChannel(film.name(c))->type == Imf::HALF) halves.push_back(c);
+  const int band = halves.empty() ? film.height() : std::min(film.height(), 128);
+  std::vector<Imath::half> halfRows(halves.size() * w * size_t(band));
+  const auto frameFor = [&](int y0) {  // the slices for rows [y0, y0 + band) of the window
+    Imf::FrameBuffer frame;
+    for (int c : chans)
+      if (std::find(halves.begin(), halves.end(), c) == halves.end())
+        frame.insert(film.name(c), Imf::Slice::Make(Imf::FLOAT, film.plane(c), data, sizeof(float), w * sizeof(float)));
+    for (size_t k = 0; k < halves.size(); ++k)
+      frame.insert(film.name(halves[k]),
+                   Imf::Slice::Make(Imf::HALF, halfRows.data() + k * w * size_t(band),
+                                    Imath::V2i(film.originX(), film.originY() + y0), int64_t(w), band,
+                                    sizeof(Imath::half), w * sizeof(Imath::half)));
+    return frame;
+  };
+  // Compression runs on OpenEXR's own pool, sized like the render's; an
+  // image of one block of scanlines (32 for PIZ, 16 for ZIP) has nothing to
+  // share, so it starts no thread.
+  int threads = options.threads > 0 ? options.threads
+                                    : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  if (film.height() <= 32) threads = 0;
+  if (Imf::globalThreadCount() != threads) Imf::setGlobalThreadCount(threads);
+  try {
+    Imf::OutputFile file(tmp.c_str(), header);
+    for (int y0 = 0; y0 < film.height(); y0 += band) {
+      const int rows = std::min(band, film.height() - y0);
+      for (size_t k = 0; k < halves.size(); ++k) {
+        const float* src = film.plane(halves[k]) + size_t(y0) * w;
+        Imath::half* dst = halfRows.data() + k * w * size_t(band);
+        for (size_t i = 0; i < size_t(rows) * w; ++i) dst[i] = Imath::half(src[i]);
+      }
+      file.setFrameBuffer(frameFor(y0));
+      file.writePixels(rows);
+    }
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + e.what());
+  }
+}
+
+void writePngFile(const std::string& path, const std::string& tmp, int width, int height, const unsigned char* rgb) {
+  checkWritable(path);
+  errno = 0;
+  if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb, width * 3)) {
+    const std::string why = errno ? std::strerror(errno) : "cannot encode the image";
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + why);
+  }
+}
+
+std::vector<unsigned char> previewPixels(const Film& film) {
+  const int w = film.width(), h = film.height();
+  std::vector<unsigned char> px(size_t(w) * h * 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < 3; ++c) px[(size_t(y) * w + x) * 3 + c] = linearToSrgb8(film.plane(kR + c)[size_t(y) * w + x]);
+  return px;
+}
+
+}  // namespace
+
+bool exrKeepsFloat(int channel) { return channel == kNX || channel == kNY || channel == kNZ || channel == kZ; }
+
+void checkWritable(const std::string& path) {
+  const fs::path p(path);
+  const fs::path parent = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec))
+    throw Error(path + ": cannot write: directory '" + parent.string() + "' does not exist");
+  if (fs::is_directory(p, ec)) throw Error(path + ": cannot write: it is a directory");
+  if (::access(parent.c_str(), W_OK | X_OK) != 0)
+    throw Error(path + ": cannot write: directory '" + parent.string() + "' is not writable");
+}
+
+uint64_t filmBytes(int width, int height, bool aovs, bool albedo) {
+  // With the AOVs, the fixed channels (but albedo.* and shaded.* without
+  // the albedo AOV) and the W.error and spp planes.
+  const uint64_t planes = !aovs ? 4 : kChannelCount + 2 - (albedo ? 0 : 6);
+  return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * planes * sizeof(float);
+}
+
+uint64_t availableMemoryBytes() {
+  std::FILE* f = std::fopen("/proc/meminfo", "r");
+  if (!f) return 0;
+  char line[256];
+  uint64_t kib = 0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "MemAvailable: %" SCNu64 " kB", &kib) == 1) break;
+  std::fclose(f);
+  if (kib == 0) return 0;  // unknown
+  // The whole-image blocks this process keeps for reuse are its to use.
+  return kib * 1024 + detail::keptBytes();
+}
+
+OutputSet::~OutputSet() {
+  for (const Staged& s : staged_) std::remove(s.tmp.c_str());
+}
+
+void OutputSet::addExr(const std::string& path, const Film& film, const ExrOptions& options) {
+  Staged s{path, siblingPath(path, ".tmp")};
+  writeExrFile(path, s.tmp, film, options);
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
+  Staged s{path, siblingPath(path, ".tmp")};
+  writePngFile(path, s.tmp, width, height, rgb);
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addFile(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
+  checkWritable(path);
+  Staged s{path, siblingPath(path, ".tmp")};
+  try {
+    write(s.tmp);
+  } catch (...) {
+    std::remove(s.tmp.c_str());
+    throw;
+  }
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addPreviewPng(const std::string& path, const Film& film) {
+  const std::vector<unsigned char> px = previewPixels(film);
+  addPngRgb8(path, film.width(), film.height(), px.data());
+}
+
+void OutputSet::commit() {
+  // Keep each destination's current file under a second name (a hard link:
+  // no copy) so a later failed move can put it back.
+  std::vector<std::string> backups(staged_.size());
+  for (size_t i = 0; i < staged_.size(); ++i) {
+    std::error_code ec;
+    if (!fs::exists(staged_[i].dest, ec)) continue;
+    backups[i] = siblingPath(staged_[i].dest, ".bak");
+    fs::remove(backups[i], ec);
+    fs::create_hard_link(staged_[i].dest, backups[i], ec);
+    if (ec) backups[i].clear();  // no hard links here: the move itself is still atomic per file
+  }
+  auto dropBackups = [&] {
+    for (const std::string& b : backups)
+      if (!b.empty()) std::remove(b.c_str());
+  };
+  for (size_t i = 0; i < staged_.size(); ++i) {
+    std::error_code ec;
+    fs::rename(staged_[i].tmp, staged_[i].dest, ec);
+    if (!ec) continue;
+    // Undo the moves already made: restore the old file or remove the new one.
+    for (size_t j = 0; j < i; ++j) {
+      std::error_code ignored;
+      if (!backups[j].empty())
+        fs::rename(backups[j], staged_[j].dest, ignored);
+      else
+        fs::remove(staged_[j].dest, ignored);
+    }
+    dropBackups();
+    throw Error(staged_[i].dest + ": cannot rename the temporary file into place: " + ec.message());
+  }
+  dropBackups();
+  staged_.clear();
+}
+
+void writeExr(const std::string& path, const Film& film, const ExrOptions& options) {
+  OutputSet out;
+  out.addExr(path, film, options);
+  out.commit();
+}
+
+unsigned char linearToSrgb8(float v) {
+  const float c = std::isfinite(v) ? std::clamp(v, 0.0f, 1.0f) : 0.0f;
+  return (unsigned char)std::lround(255.0f * linearToSrgb(c));
+}
+
+void writePreviewPng(const std::string& path, const Film& film) {
+  OutputSet out;
+  out.addPreviewPng(path, film);
+  out.commit();
+}
+
+void writePngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
+  OutputSet out;
+  out.addPngRgb8(path, width, height, rgb);
+  out.commit();
+}
+
+const char* exrCompressionName(ExrCompression c) { return kCompressionNames[int(c)]; }
+
+ExrCompression exrCompressionFromName(const std::string& name, const std::string& what) {
+  std::string lower = name, all;
+  std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+  for (const auto& [c, theirs] : kCompressions) {
+    if (lower == kCompressionNames[int(c)]) return c;
+    all += std::string(all.empty() ? "" : ", ") + kCompressionNames[int(c)];
+  }
+  throw Error(what + ": unknown compression '" + name + "' (one of " + all + ")");
+}
+
+bool isExrFile(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
+  unsigned char magic[4] = {0, 0, 0, 0};
+  const size_t n = std::fread(magic, 1, 4, f);
+  std::fclose(f);
+  return n == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
+}
+
+std::string readExrAttribute(const std::string& path, const std::string& name) {
+  if (!isExrFile(path)) return oiioModule(path).readStringAttribute(path, name);
+  try {
+    const Imf::InputFile in(path.c_str());
+    const auto* s = in.header().findTypedAttribute<Imf::StringAttribute>(name);
+    return s ? s->value() : std::string();
+  } catch (const std::exception& e) {
+    throw Error(path + ": cannot open: " + e.what());
+  }
+}
+
+ExrImage readExrImage(const std::string& path) {
+  if (!isExrFile(path)) throw Error(path + ": not an OpenEXR file");
+  ExrImage img;
+  try {
+    Imf::InputFile in(path.c_str());
+    const Imf::Header& h = in.header();
+    const Imath::Box2i data = h.dataWindow();
+    img.width = data.max.x - data.min.x + 1;
+    img.height = data.max.y - data.min.y + 1;
+    img.originX = data.min.x, img.originY = data.min.y;
+    const size_t pixels = size_t(img.width) * size_t(img.height);
+    Imf::FrameBuffer frame;
+    for (auto it = h.channels().begin(); it != h.channels().end(); ++it) img.names.push_back(it.name());
+    img.planes.resize(img.names.size());
+    for (size_t c = 0; c < img.names.size(); ++c) {
+      img.planes[c].resize(pixels);
+      frame.insert(img.names[c], Imf::Slice::Make(Imf::FLOAT, img.planes[c].data(), data, sizeof(float),
+                                                  size_t(img.width) * sizeof(float)));
+    }
+    in.setFrameBuffer(frame);
+    in.readPixels(data.min.y, data.max.y);
+    for (auto it = h.begin(); it != h.end(); ++it) {
+      const Imf::Attribute& a = it.attribute();
+      if (const auto* s = dynamic_cast<const Imf::StringAttribute*>(&a)) img.attributes.push_back({it.name(), s->value()});
+      else if (const auto* i = dynamic_cast<const Imf::IntAttribute*>(&a)) img.attributes.push_back({it.name(), i->value()});
+      else if (const auto* f = dynamic_cast<const Imf::FloatAttribute*>(&a)) img.attributes.push_back({it.name(), f->value()});
+      else if (const auto* m = dynamic_cast<const Imf::M44fAttribute*>(&a)) {
+        std::vector<float> v;
+        for (int r = 0; r < 4; ++r)
+          for (int k = 0; k < 4; ++k) v.push_back(m->value()[r][k]);
+        img.attributes.push_back({it.name(), v});
+      }
+    }
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error(path + ": cannot read: " + e.what());
+  }
+  return img;
+}
+
+}  // namespace obscura

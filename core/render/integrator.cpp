@@ -1,0 +1,52 @@
+#include "obscura/integrator.h"
+
+#include <algorithm>
+
+#include "obscura/error.h"
+#include "obscura/plugin.h"
+
+namespace obscura {
+
+IntegratorRegistry& IntegratorRegistry::instance() {
+  static IntegratorRegistry r;
+  static const bool builtins = (loadBuiltinPlugins(r), true);
+  (void)builtins;
+  return r;
+}
+
+void IntegratorRegistry::add(IntegratorDescriptor d, const std::string& origin) {
+  const bool nameOk = !d.name.empty() && std::all_of(d.name.begin(), d.name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+  if (!nameOk) throw Error(origin + ": invalid integrator name '" + d.name + "' (use [a-z0-9_-])");
+  if (!d.create || !d.needs) throw Error(origin + ": integrator '" + d.name + "' lacks create() or needs()");
+  for (size_t i = 0; i < all_.size(); ++i)
+    if (all_[i].name == d.name)
+      throw Error(origin + ": integrator '" + d.name + "' is already registered by " + origins_[i]);
+  // Validate the declared defaults now, so a bad plugin fails at load time.
+  ParamSet check(d.params, d.name);
+  (void)check;
+  all_.push_back(std::move(d));
+  origins_.push_back(origin);
+  std::vector<size_t> order(all_.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return all_[a].name < all_[b].name; });
+  std::vector<IntegratorDescriptor> sorted;
+  std::vector<std::string> sortedOrigins;
+  for (size_t i : order) {
+    sorted.push_back(std::move(all_[i]));
+    sortedOrigins.push_back(std::move(origins_[i]));
+  }
+  all_ = std::move(sorted);
+  origins_ = std::move(sortedOrigins);
+}
+
+const IntegratorDescriptor& IntegratorRegistry::find(const std::string& name) const {
+  for (const auto& e : all_)
+    if (e.name == name) return e;
+  std::string known;
+  for (const auto& e : all_) known += (known.empty() ? "" : ", ") + e.name;
+  throw Error("unknown integrator '" + name + "' (available: " + known + ")");
+}
+
+}  // namespace obscura
