@@ -11,9 +11,10 @@
 #include <sstream>
 
 #include "core/render/adaptive.h"
-#include "obscura/error.h"
-#include "obscura/params.h"
-#include "obscura/plugin.h"
+#include <obscura/error.h>
+#include <obscura/params.h>
+#include "core/render/plugin_loader.h"
+#include <obscura/plugin.h>
 #include "core/util/option_names.h"
 
 namespace obscura {

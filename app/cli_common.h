@@ -10,7 +10,8 @@
 #include "core/scene/camera.h"
 #include "core/load/gltf_loader.h"
 #include "core/image/image_io.h"
-#include "obscura/integrator.h"
+#include "core/render/plugin_loader.h"
+#include <obscura/integrator.h>
 #include "core/render/render.h"
 #include "core/scene/scene.h"
 

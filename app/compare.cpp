@@ -28,9 +28,10 @@
 #include "app/cli_common.h"
 #include "app/interrupt.h"
 #include "app/report.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/image/metrics.h"
+#include "core/render/plugin_loader.h"
 #include "core/render/render.h"
 
 namespace obscura {

@@ -15,12 +15,13 @@
 
 #include "core/render/adaptive.h"
 #include "core/render/checkpoint.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/gbuffer.h"
 #include "core/load/gltf_loader.h"
 #include "core/image/image_io.h"
-#include "obscura/integrator.h"
-#include "obscura/plugin.h"
+#include <obscura/integrator.h>
+#include "core/render/plugin_loader.h"
+#include <obscura/plugin.h>
 #include "core/util/progress.h"
 #include "core/render/pixel_sums.h"
 #include "core/render/render.h"

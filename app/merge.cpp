@@ -1,6 +1,6 @@
 #include "app/merge.h"
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/oiio_module.h"
 
 namespace obscura {

@@ -13,7 +13,7 @@
 #include "core/render/adaptive.h"
 #include "core/render/gbuffer.h"
 #include "core/render/pixel_sums.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

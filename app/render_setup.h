@@ -11,7 +11,7 @@
 
 #include "app/cli_common.h"
 #include "core/render/checkpoint.h"
-#include "obscura/params.h"
+#include <obscura/params.h>
 
 namespace obscura {
 

@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 
 namespace obscura {

@@ -13,10 +13,10 @@
 #include <new>
 
 #include "bench/common.h"
-#include "obscura/error.h"
-#include "obscura/sampler.h"
+#include <obscura/error.h>
+#include <obscura/sampler.h>
 #include "core/scene/surface.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 
 namespace obscura::bench {
 

@@ -55,9 +55,9 @@
 
 #include "bench/ao_raw.h"
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/render/render.h"
 
 using namespace obscura;

@@ -65,9 +65,9 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/film.h"
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 
 using namespace obscura;
 using namespace obscura::bench;

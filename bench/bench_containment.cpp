@@ -57,11 +57,11 @@
 #include <OpenImageIO/imageio.h>
 
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/image/metrics.h"
-#include "obscura/params.h"
+#include <obscura/params.h>
 #include "core/render/render.h"
 #include "core/subd/subdivision.h"
 

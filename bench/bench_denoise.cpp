@@ -38,7 +38,7 @@
 #include "bench/common.h"
 #include "core/image/denoise.h"
 #include "core/render/cryptomatte.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/film.h"
 
 using namespace obscura;

@@ -14,7 +14,7 @@
 #include <filesystem>
 
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 
 using namespace obscura;

@@ -74,14 +74,14 @@
 
 #include "bench/common.h"
 #include "core/scene/camera.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/film.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/render/render.h"
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 #include "core/scene/scene.h"
 #include "core/scene/surface.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 #include "integrators/falloff.h"
 
 using namespace obscura;

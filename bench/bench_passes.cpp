@@ -24,8 +24,9 @@
 #include <filesystem>
 
 #include "bench/common.h"
-#include "obscura/error.h"
-#include "obscura/plugin.h"
+#include <obscura/error.h>
+#include "core/render/plugin_loader.h"
+#include <obscura/plugin.h>
 
 using namespace obscura;
 using namespace obscura::bench;

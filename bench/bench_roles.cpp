@@ -36,7 +36,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/texture.h"
 
 using namespace obscura;

@@ -23,9 +23,9 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "obscura/error.h"
-#include "obscura/integrator.h"
-#include "obscura/params.h"
+#include <obscura/error.h>
+#include <obscura/integrator.h>
+#include <obscura/params.h>
 
 using namespace obscura;
 using namespace obscura::bench;

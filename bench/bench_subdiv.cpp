@@ -31,9 +31,9 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/render/render.h"
 
 using namespace obscura;

@@ -66,7 +66,7 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 
 using namespace obscura;

@@ -87,12 +87,12 @@
 #include <vector>
 
 #include "bench/common.h"
-#include "obscura/error.h"
-#include "obscura/integrator.h"
+#include <obscura/error.h>
+#include <obscura/integrator.h>
 #include "core/render/render.h"
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 #include "core/scene/surface.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 
 using namespace obscura;
 using namespace obscura::bench;

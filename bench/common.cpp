@@ -13,7 +13,7 @@
 #include <fstream>
 
 #include "bench/generated_scene.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 
 namespace obscura::bench {

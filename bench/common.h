@@ -23,12 +23,12 @@
 #include <vector>
 
 #include "core/scene/camera.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/render/render.h"
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 #include "core/scene/scene.h"
 #include "core/scene/surface.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 
 namespace obscura::bench {
 

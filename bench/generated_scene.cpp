@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 
 namespace obscura::bench {
 namespace {

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 
 namespace obscura::fuzz {

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "app/cli_common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura::fuzz {
 

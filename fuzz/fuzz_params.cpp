@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <cstdio>
 
-#include "obscura/error.h"
-#include "obscura/params.h"
+#include <obscura/error.h>
+#include <obscura/params.h>
 #include "fuzz/fuzz_common.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

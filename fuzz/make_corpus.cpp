@@ -2,7 +2,7 @@
 // DIR/obj and DIR/params: `obscura_fuzz_corpus DIR`.
 #include <cstdio>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "tests/fuzz_seeds.h"
 
 int main(int argc, char** argv) {

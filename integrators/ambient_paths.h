@@ -71,7 +71,7 @@
 #include <limits>
 #include <span>
 
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "integrators/falloff.h"
 
 namespace obscura {

@@ -16,8 +16,8 @@
 #include <cmath>
 #include <limits>
 
-#include "obscura/plugin.h"
-#include "obscura/warp.h"
+#include <obscura/plugin.h>
+#include <obscura/warp.h>
 
 namespace obscura {
 namespace {
@@ -54,8 +54,7 @@ IntegratorDescriptor aoDescriptor() {
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const double R = p.getFloat("distance");
-    // A finite R beyond float range is infinity for Embree.
-    const float r = R > double(std::numeric_limits<float>::max()) ? kInfinity : float(R);
+    const float r = toRayDistance(R);
     return std::make_unique<AmbientOcclusion>(r, p.getInt("rays"), lobeFromParams(p, R));
   };
   return d;

@@ -79,10 +79,10 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
-#include "obscura/plugin.h"
+#include <obscura/error.h>
+#include <obscura/plugin.h>
 #include "core/subd/subdivision.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 #include "integrators/falloff.h"
 
 namespace obscura {

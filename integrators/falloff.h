@@ -36,8 +36,9 @@
 #include <string>
 #include <vector>
 
-#include "obscura/params.h"
-#include "obscura/warp.h"
+#include <obscura/params.h>
+#include <obscura/ray_batch.h>
+#include <obscura/warp.h>
 
 namespace obscura {
 
@@ -56,10 +57,7 @@ inline const char* falloffName(Falloff f) {
 // occlusion: draw r ~ mu'(r) and test the segment [0, r] (docs/math.md §3).
 enum class Estimator { Distance, Occlusion };
 
-// A distance for an Embree ray: +inf when beyond float range.
-inline float toRayDistance(double t) {
-  return t > double(std::numeric_limits<float>::max()) ? kInfinity : float(t);
-}
+// (toRayDistance, a distance as a ray's tfar: obscura/ray_batch.h.)
 
 class Membership {
  public:

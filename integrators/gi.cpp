@@ -16,7 +16,7 @@
 // roulette (unbiased), so the estimate is a plain mean with error ~ 1/sqrt(spp).
 #include <cmath>
 
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 #include "integrators/ambient_paths.h"
 
 namespace obscura {

@@ -17,7 +17,7 @@
 // fitted to full-hemisphere AO; fed a narrowed lobe they are extrapolated.
 #include <limits>
 
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 #include "integrators/falloff.h"
 #include "integrators/multibounce_mapping.h"
 

@@ -49,8 +49,8 @@
 #include <limits>
 #include <string>
 
-#include "obscura/plugin.h"
-#include "obscura/warp.h"
+#include <obscura/plugin.h>
+#include <obscura/warp.h>
 #include "integrators/falloff.h"
 
 namespace obscura {

@@ -23,9 +23,9 @@
 #include <cmath>
 #include <limits>
 
-#include "obscura/error.h"
-#include "obscura/plugin.h"
-#include "obscura/warp.h"
+#include <obscura/error.h>
+#include <obscura/plugin.h>
+#include <obscura/warp.h>
 
 namespace obscura {
 namespace {
@@ -130,8 +130,7 @@ IntegratorDescriptor reflectionOcclusionDescriptor() {
       throw Error("integrator '" + p.owner() + "': parameter 'roughness': expected -1 (the material's) or a value in [0, 1], got '" +
                   formatFloat(roughness) + "'");
     const double R = p.getFloat("distance");
-    // A finite R beyond float range is infinity for Embree.
-    const float r = R > double(std::numeric_limits<float>::max()) ? kInfinity : float(R);
+    const float r = toRayDistance(R);
     const LobeControls near = lobeFromParams(p, R);
     return std::make_unique<ReflectionOcclusion>(r, p.getInt("rays"), float(roughness), near.tnear);
   };

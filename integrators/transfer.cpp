@@ -24,7 +24,7 @@
 //
 // 0/0 (no open sample and every occluder white, so num = den = 0): the pixel
 // resolves to 1, the white-furnace limit of f / (1 - a(1 - f)) as a -> 1.
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 #include "integrators/ambient_paths.h"
 
 namespace obscura {

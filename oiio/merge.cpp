@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 
 namespace obscura {

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/oiio_module.h"
 
 namespace obscura {

@@ -34,11 +34,12 @@
 #include "app/merge.h"
 #include "app/render_setup.h"
 #include "core/render/checkpoint.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_document.h"
 #include "core/load/gltf_loader.h"
 #include "core/image/image_io.h"
-#include "obscura/plugin.h"
+#include "core/render/plugin_loader.h"
+#include <obscura/plugin.h>
 #include "core/render/render.h"
 
 namespace py = pybind11;

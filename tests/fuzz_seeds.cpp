@@ -3,7 +3,7 @@
 #include <filesystem>
 
 #include "core/image/image_io.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/math.h"
+#include <obscura/math.h>
 
 namespace obscura::test {
 

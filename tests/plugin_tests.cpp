@@ -11,8 +11,9 @@
 #include <fstream>
 #include <iterator>
 
-#include "obscura/error.h"
-#include "obscura/plugin.h"
+#include <obscura/error.h>
+#include "core/render/plugin_loader.h"
+#include <obscura/plugin.h>
 #include "core/render/render.h"
 #include "tests/readme_integrators.h"
 #include "tests/support.h"

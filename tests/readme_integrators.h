@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 
 namespace obscura::test {
 

@@ -14,7 +14,7 @@
 #include <iterator>
 #include <thread>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/texture.h"
 
 extern char** environ;
@@ -114,17 +114,17 @@ SubdivisionCage planeCage(int n) {
   return c;
 }
 
-RTCRayHit traceClosest(const Scene& scene, Vec3 org, Vec3 dir) {
+RayHit traceClosest(const Scene& scene, Vec3 org, Vec3 dir) {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
-  RTCRayHit rh{};
+  RayHit rh{};
   rh.ray.org_x = org.x, rh.ray.org_y = org.y, rh.ray.org_z = org.z;
   rh.ray.dir_x = dir.x, rh.ray.dir_y = dir.y, rh.ray.dir_z = dir.z;
   rh.ray.tfar = kInfinity;
   rh.ray.mask = ~0u;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(scene.rtcScene(), &ctx, &rh);
+  rtcIntersect1(scene.rtcScene(), &ctx, Tracer::embree(&rh));
   return rh;
 }
 
@@ -258,7 +258,7 @@ Crease::Crease() : cam(makeLookAtCamera(Vec3(3.5f, -2.5f, 3.0f), Vec3(0.2f, 0, 0
 bool Crease::floorAtFilm(int w, int h, float fx, float fy, Vec3& p) const {
   const RasterCamera rc(cam, w, h);
   const Vec3 d = rc.direction(fx, fy);
-  const RTCRayHit hit = traceClosest(scene, rc.org, d);
+  const RayHit hit = traceClosest(scene, rc.org, d);
   if (hit.hit.geomID != 0) return false;
   p = rc.org + d * hit.ray.tfar;
   return true;

@@ -17,7 +17,7 @@
 
 #include "core/scene/camera.h"
 #include "core/image/film.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/render/render.h"
 #include "core/scene/scene.h"
 #include "core/subd/subdivision.h"
@@ -66,9 +66,9 @@ void addSphereCavity(Scene& scene, float rs, double alpha, int rings, int segmen
 // Appends a grey material of albedo a with no texture and returns its index.
 int addGreyMaterial(Scene& scene, float a);
 
-// One closest-hit ray through the scene's BVH: the traced RTCRayHit
+// One closest-hit ray through the scene's BVH: the traced RayHit
 // (hit.geomID = RTC_INVALID_GEOMETRY_ID on a miss).
-RTCRayHit traceClosest(const Scene& scene, Vec3 org, Vec3 dir);
+RayHit traceClosest(const Scene& scene, Vec3 org, Vec3 dir);
 
 // A square in the plane z = 0, side 2*halfSize, normal +Z.
 void addPlane(Scene& scene, float halfSize, float z = 0.0f);

@@ -20,9 +20,9 @@
 
 #include "core/render/adaptive.h"
 #include "core/scene/camera.h"
-#include "obscura/error.h"
-#include "obscura/integrator.h"
-#include "obscura/params.h"
+#include <obscura/error.h>
+#include <obscura/integrator.h>
+#include <obscura/params.h>
 #include "core/render/pixel_sums.h"
 #include "core/render/render.h"
 #include "core/scene/scene.h"

@@ -16,7 +16,7 @@
 #include <filesystem>
 
 #include "app/cli_common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_document.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"

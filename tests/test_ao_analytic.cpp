@@ -16,7 +16,7 @@
 // the estimator these tests check.
 #include <gtest/gtest.h>
 
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/scene/scene.h"
 #include "core/image/texture.h"

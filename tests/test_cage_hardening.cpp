@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/scene/camera.h"
 #include "core/load/gltf_loader.h"
 #include "core/load/obj_loader.h"
@@ -336,7 +336,7 @@ TEST(CageHardening, DisplacementBeyondTheTraceableRangeIsRefused) {
 
 // The uv frame at a hit on (x, y) of a plane whose uvs are its xy.
 UvFrame frameAt(const Scene& scene, float x, float y, bool* ok) {
-  const RTCRayHit rh = traceClosest(scene, Vec3(x, y, 1), Vec3(0, 0, -1));
+  const RayHit rh = traceClosest(scene, Vec3(x, y, 1), Vec3(0, 0, -1));
   SurfaceHit h{};
   UvFrame f{};
   *ok = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;

@@ -15,7 +15,7 @@
 
 #include "app/compare.h"
 #include "app/report.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/metrics.h"
 #include "integrators/multibounce_mapping.h"
 #include "tests/gltf_builder.h"

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/subd/subdivision.h"
 #include "tests/support.h"
 

@@ -12,7 +12,7 @@
 #include <set>
 
 #include "core/render/cryptomatte.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "core/image/denoise.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/film.h"
 
 namespace obscura {

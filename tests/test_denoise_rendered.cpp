@@ -122,7 +122,7 @@ TEST(DenoiseRendered, CreaseBiasAndVariance) {
       for (int j = 0; j < grid && ok; ++j)
         for (int i = 0; i < grid && ok; ++i) {
           const Vec3 d = rc.direction(float(x) + (float(i) + 0.5f) / float(grid), float(y) + (float(j) + 0.5f) / float(grid));
-          const RTCRayHit hit = traceClosest(c.scene, rc.org, d);
+          const RayHit hit = traceClosest(c.scene, rc.org, d);
           if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) {
             ok = false;
             break;

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "tests/readme_integrators.h"
 
 namespace obscura::test {

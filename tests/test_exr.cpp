@@ -7,7 +7,7 @@
 
 #include <filesystem>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 #include "tests/support.h"
 

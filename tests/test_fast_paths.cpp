@@ -11,11 +11,11 @@
 #include <vector>
 
 #include "core/load/gltf_loader.h"
-#include "obscura/math.h"
-#include "obscura/sampler.h"
+#include <obscura/math.h>
+#include <obscura/sampler.h>
 #include "core/scene/surface.h"
 #include "core/image/texture.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 #include "tests/gltf_builder.h"
 #include "tests/support.h"
 
@@ -125,7 +125,7 @@ uint32_t bitsOf(float x) {
   return b;
 }
 
-void expectSameHits(const Scene& scene, std::vector<RTCRayHit> rays, bool albedo) {
+void expectSameHits(const Scene& scene, std::vector<RayHit> rays, bool albedo) {
   ASSERT_GE(rays.size(), 16u);
   // Edge cases on copies of the first hits.
   const size_t traced = rays.size();
@@ -133,7 +133,7 @@ void expectSameHits(const Scene& scene, std::vector<RTCRayHit> rays, bool albedo
   const float scale[] = {0.0f, 1e-20f, 3.0f, 1e20f, -2.0f};
   for (size_t i = 0; i < 5; ++i)
     for (size_t j = 0; j < 5; ++j) {
-      RTCRayHit r = rays[(i * 5 + j) % traced];
+      RayHit r = rays[(i * 5 + j) % traced];
       r.hit.u = uv[i][0], r.hit.v = uv[i][1];
       r.ray.dir_x *= scale[j], r.ray.dir_y *= scale[j], r.ray.dir_z *= scale[j];
       rays.push_back(r);
@@ -170,17 +170,17 @@ void expectSameHits(const Scene& scene, std::vector<RTCRayHit> rays, bool albedo
 
 // Closest hits of rays between points of the scene's bounds (enlarged),
 // from the sampler's points: a spread of primitives, instances and angles.
-std::vector<RTCRayHit> tracedHits(const Scene& scene, size_t want) {
+std::vector<RayHit> tracedHits(const Scene& scene, size_t want) {
   const Bounds3& b = scene.bounds();
   const Vec3 lo = b.lo - b.diagonal() * 0.25f, size = b.diagonal() * 1.5f;
   const uint32_t key = Sampler(3).pixelKey(1, 2);
-  std::vector<RTCRayHit> hits;
+  std::vector<RayHit> hits;
   for (uint32_t i = 0; hits.size() < want && i < 64 * want; ++i) {
     const Sample2 a = Sampler::get2D(key, i, kFirstIntegratorDim), c = Sampler::get2D(key, i, kFirstIntegratorDim + 2);
     const Sample2 d = Sampler::get2D(key, i, kFirstIntegratorDim + 4);
     const Vec3 from = lo + size * Vec3(a.u, a.v, c.u);
     const Vec3 to = b.lo + b.diagonal() * Vec3(c.v, d.u, d.v);
-    const RTCRayHit h = traceClosest(scene, from, (to - from) * (0.5f + 4.0f * d.u));
+    const RayHit h = traceClosest(scene, from, (to - from) * (0.5f + 4.0f * d.u));
     if (h.hit.geomID != RTC_INVALID_GEOMETRY_ID) hits.push_back(h);
   }
   return hits;
@@ -205,7 +205,7 @@ TEST(FastPaths, SurfaceHitLanesEqualTheScalarForm) {
   g.scene({0, 1, 2, 3});
   auto scene = loadGltf(g.writeGltf(dir, "lanes"));
   ASSERT_EQ(scene->instances().size(), 3u);
-  const std::vector<RTCRayHit> hits = tracedHits(*scene, 400);
+  const std::vector<RayHit> hits = tracedHits(*scene, 400);
   for (bool albedo : {false, true}) expectSameHits(*scene, hits, albedo);
 
   const std::string viking = sharedScene("viking_room/viking_room.glb");

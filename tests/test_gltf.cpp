@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "core/scene/camera.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/scene/scene.h"
 #include "core/scene/surface.h"
@@ -135,7 +135,7 @@ struct Hit {
 Hit traceRay(const Scene& scene, D3 org, D3 dir) {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
-  RTCRayHit rh;
+  RayHit rh;
   std::memset(&rh, 0, sizeof rh);
   rh.ray.org_x = float(org[0]), rh.ray.org_y = float(org[1]), rh.ray.org_z = float(org[2]);
   rh.ray.dir_x = float(dir[0]), rh.ray.dir_y = float(dir[1]), rh.ray.dir_z = float(dir[2]);
@@ -144,7 +144,7 @@ Hit traceRay(const Scene& scene, D3 org, D3 dir) {
   rh.ray.mask = 0xffffffffU;
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(scene.rtcScene(), &ctx, &rh);
+  rtcIntersect1(scene.rtcScene(), &ctx, Tracer::embree(&rh));
   Hit h;
   h.hit = rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
   h.t = rh.ray.tfar, h.u = rh.hit.u, h.v = rh.hit.v;

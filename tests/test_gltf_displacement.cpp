@@ -13,7 +13,7 @@
 #include <cmath>
 #include <set>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/load/obj_loader.h"
 #include "tests/gltf_builder.h"
@@ -357,7 +357,7 @@ TEST(GltfDisplacement, MirroredNodesDisplaceOutwards) {
     return g.writeGltf(dir, name);
   };
   const auto axisHit = [](const Scene& scene) {
-    const RTCRayHit rh = traceClosest(scene, Vec3(4, 0, 0), Vec3(-1, 0, 0));
+    const RayHit rh = traceClosest(scene, Vec3(4, 0, 0), Vec3(-1, 0, 0));
     EXPECT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
     return double(rh.ray.tfar);
   };

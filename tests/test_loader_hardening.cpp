@@ -7,11 +7,11 @@
 #include <sstream>
 
 #include "app/cli_common.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/image/image_io.h"
-#include "obscura/integrator.h"
-#include "obscura/params.h"
+#include <obscura/integrator.h>
+#include <obscura/params.h>
 #include "tests/fuzz_seeds.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"

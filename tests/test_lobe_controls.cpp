@@ -31,9 +31,9 @@
 #include <cstdio>
 #include <limits>
 
-#include "obscura/error.h"
-#include "obscura/lobe.h"
-#include "obscura/warp.h"
+#include <obscura/error.h>
+#include <obscura/lobe.h>
+#include <obscura/warp.h>
 #include "tests/support.h"
 
 namespace obscura::test {

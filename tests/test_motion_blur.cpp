@@ -19,9 +19,9 @@
 #include <filesystem>
 #include <cstring>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/scene/motion.h"
-#include "obscura/params.h"
+#include <obscura/params.h>
 #include "core/render/render.h"
 #include "core/scene/scene.h"
 #include "core/scene/surface.h"
@@ -158,13 +158,13 @@ TEST(MotionBlur, HitsOnARotatingInstanceLieOnTheRay) {
   scene->commit();
   for (const float u : {0.0f, 0.1f, 0.37f, 0.5f, 0.83f, 1.0f}) {
     const Vec3 d(std::cos(kPi / 2 * u), std::sin(kPi / 2 * u), 0.0f);
-    RTCRayHit rh = {};
+    RayHit rh = {};
     rh.ray.dir_x = d.x, rh.ray.dir_y = d.y, rh.ray.dir_z = d.z;
     rh.ray.tfar = kInfinity, rh.ray.mask = ~0u, rh.ray.time = u;
     rh.hit.geomID = rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    rtcIntersect1(scene->rtcScene(), &ctx, &rh);
+    rtcIntersect1(scene->rtcScene(), &ctx, Tracer::embree(&rh));
     ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID) << "u " << u;
     SurfaceHit h;
     computeSurfaceHit(*scene, rh, false, h);

@@ -8,7 +8,7 @@
 
 #include <cstring>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/render/render.h"
 #include "tests/support.h"

@@ -19,7 +19,7 @@
 #include <functional>
 
 #include "core/scene/alpha.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "tests/support.h"
 
 namespace obscura::test {

@@ -5,7 +5,7 @@
 
 #include <algorithm>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"

@@ -41,7 +41,7 @@
 #include <limits>
 #include <string>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "tests/support.h"
 

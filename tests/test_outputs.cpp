@@ -10,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 #include "core/util/large_vector.h"
 #include "tests/support.h"

@@ -20,7 +20,7 @@
 #include <cmath>
 #include <limits>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "tests/gltf_builder.h"
 #include "tests/support.h"

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 
 namespace obscura::test {
 namespace {

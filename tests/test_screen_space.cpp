@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/gbuffer.h"
 #include "integrators/screen_space/sample_sets.h"
 #include "tests/support.h"
@@ -287,7 +287,7 @@ TEST(ScreenSpaceCavity, SsatConvergesToObscurance) {
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const Vec3 d = rc.direction(float(x) + 0.5f, float(y) + 0.5f);
-      const RTCRayHit hit = traceClosest(scene, rc.org, d);
+      const RayHit hit = traceClosest(scene, rc.org, d);
       if (hit.hit.geomID != RTC_INVALID_GEOMETRY_ID && (rc.org + d * hit.ray.tfar).z < -0.92f)
         pixels.emplace_back(x, y);
     }
@@ -337,7 +337,7 @@ std::vector<std::pair<int, int>> haloRing(const Slab& sl, int w, int h, float ri
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const Vec3 d = rc.direction(float(x) + 0.5f, float(y) + 0.5f);
-      const RTCRayHit hit = traceClosest(sl.scene, rc.org, d);
+      const RayHit hit = traceClosest(sl.scene, rc.org, d);
       if (hit.hit.geomID != 0) continue;
       const Vec3 q = rc.org + d * ((2.0f - rc.org.z) / d.z);
       const float outside = std::max(std::abs(q.x), std::abs(q.y)) - 0.6f;
@@ -361,12 +361,12 @@ std::vector<double> wallW(const Slab& sl, const Film& f) {
   const RasterCamera rc(sl.cam, f.width(), f.height());
   for (int y = 0; y < f.height(); ++y)
     for (int x = 0; x < f.width(); ++x) {
-      const RTCRayHit hit = traceClosest(sl.scene, rc.org, rc.direction(float(x) + 0.5f, float(y) + 0.5f));
+      const RayHit hit = traceClosest(sl.scene, rc.org, rc.direction(float(x) + 0.5f, float(y) + 0.5f));
       // Pixels at the slab's edge mix slab and wall samples: skip them.
       bool mixed = false;
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
-          const RTCRayHit n = traceClosest(sl.scene, rc.org, rc.direction(float(x + dx) + 0.5f, float(y + dy) + 0.5f));
+          const RayHit n = traceClosest(sl.scene, rc.org, rc.direction(float(x + dx) + 0.5f, float(y + dy) + 0.5f));
           mixed |= n.hit.geomID != hit.hit.geomID;
         }
       if (hit.hit.geomID == 0 && !mixed && f.at(kA, x, y) == 1.0f) v.push_back(f.at(kR, x, y));

@@ -91,7 +91,7 @@ double emptyFractionDraw(const Scene& scene, Vec3 p, D3 n, double R, bool half, 
   w = t * w.x + b * w.y + n * w.z;  // the draw in n's frame
   if (dot(w, n) <= 0) return 0.0;
   const Vec3 nf(float(n.x), float(n.y), float(n.z));
-  const RTCRayHit hit = traceClosest(scene, p + nf * 1e-5f, Vec3(float(w.x), float(w.y), float(w.z)));
+  const RayHit hit = traceClosest(scene, p + nf * 1e-5f, Vec3(float(w.x), float(w.y), float(w.z)));
   const double d = hit.hit.geomID == RTC_INVALID_GEOMETRY_ID ? R : std::min<double>(hit.ray.tfar, R);
   return std::pow(d / R, 3.0);
 }
@@ -332,7 +332,7 @@ TEST(ScreenSpaceVoLines, EqualTracedObscuranceUpToPerspective) {
     const RasterCamera rc(cam, w, h);
     auto bottom = [&](float fx, float fy, Vec3& p, Vec3& ng) {
       const Vec3 d = rc.direction(fx, fy);
-      const RTCRayHit hit = traceClosest(scene, rc.org, d);
+      const RayHit hit = traceClosest(scene, rc.org, d);
       if (hit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
       p = rc.org + d * hit.ray.tfar;
       ng = normalize(Vec3(hit.hit.Ng_x, hit.hit.Ng_y, hit.hit.Ng_z));
@@ -399,7 +399,7 @@ TEST(ScreenSpaceVoLines, TwoSurfacesThinSlab) {
   const RasterCamera rc(cam, w, h);
   auto floorAt = [&](float fx, float fy, Vec3& p) {
     const Vec3 d = rc.direction(fx, fy);
-    const RTCRayHit hit = traceClosest(scene, rc.org, d);
+    const RayHit hit = traceClosest(scene, rc.org, d);
     p = rc.org + d * hit.ray.tfar;
     return hit.hit.geomID == 0;
   };
@@ -549,7 +549,7 @@ TEST(ScreenSpaceVoSlopes, LinesAndAreasAgainstPoints) {
     for (int y = border; y < h - border; ++y)
       for (int x = border; x < w - border; ++x) {
         const Vec3 d = rc.direction(float(x) + 0.5f, float(y) + 0.5f);
-        const RTCRayHit hit = traceClosest(sl.scene, rc.org, d);
+        const RayHit hit = traceClosest(sl.scene, rc.org, d);
         ASSERT_NE(hit.hit.geomID, RTC_INVALID_GEOMETRY_ID);
         const double inc = std::acos(std::min(1.0, std::abs(double(d.z))));
         thetaMax = std::max(thetaMax, inc);

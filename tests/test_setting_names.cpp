@@ -2,7 +2,7 @@
 // the library's field name by default, the flag the user typed on the CLI.
 #include <string>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/util/option_names.h"
 #include "tests/support.h"
 

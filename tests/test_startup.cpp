@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 #include "core/image/metrics.h"
 #include "tests/support.h"

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <map>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/obj_loader.h"
 #include "core/subd/subdivision.h"
 #include "core/load/gltf_loader.h"

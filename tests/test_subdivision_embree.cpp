@@ -11,7 +11,8 @@
 #include <map>
 
 #include "core/load/cage.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
+#include "core/scene/surface.h"
 #include "core/subd/subdivision.h"
 #include "tests/support.h"
 
@@ -47,10 +48,10 @@ SubdivisionCage mixedCage() {
 struct Hit {
   bool hit = false;
   float t = 0;
-  RTCRayHit rh;  // as traced
+  RayHit rh;  // as traced
 };
 Hit trace(const Scene& scene, Vec3 org, Vec3 dir) {
-  const RTCRayHit rh = traceClosest(scene, org, dir);
+  const RayHit rh = traceClosest(scene, org, dir);
   return {rh.hit.geomID != RTC_INVALID_GEOMETRY_ID, rh.ray.tfar, rh};
 }
 
@@ -378,7 +379,7 @@ TEST(EmbreeSubdivision, DisplacedShadingNormalsMatchTheSurface) {
     const auto scene = build(planeCage(4), b, 6, d);
     int checked = 0;
     for (double x = 0.3; x <= 0.7; x += 0.0137) {
-      const RTCRayHit rh = traceClosest(*scene, Vec3(float(x), 0.43f, 2.0f), Vec3(0, 0, -1));
+      const RayHit rh = traceClosest(*scene, Vec3(float(x), 0.43f, 2.0f), Vec3(0, 0, -1));
       ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
       SurfaceHit h{};
       computeSurfaceHit(*scene, rh, false, h);
@@ -406,7 +407,7 @@ TEST(EmbreeSubdivision, UvFrameOnAFlatGrid) {
   int checked = 0;
   for (double x = 0.3; x <= 0.7; x += 0.071)
     for (double y = 0.3; y <= 0.7; y += 0.083) {
-      const RTCRayHit rh = traceClosest(*scene, Vec3(float(x), float(y), 1), Vec3(0, 0, -1));
+      const RayHit rh = traceClosest(*scene, Vec3(float(x), float(y), 1), Vec3(0, 0, -1));
       ASSERT_NE(rh.hit.geomID, RTC_INVALID_GEOMETRY_ID);
       SurfaceHit h{};
       computeSurfaceHit(*scene, rh, false, h);

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/film.h"
 #include "core/util/large_vector.h"
 

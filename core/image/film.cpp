@@ -1,6 +1,6 @@
 #include "core/image/film.h"
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

@@ -27,7 +27,7 @@
 #include <ctime>
 #include <filesystem>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/oiio_module.h"
 #include "core/image/texture.h"
 

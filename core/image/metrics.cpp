@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/image_io.h"
 #include "core/image/oiio_module.h"
 

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <mutex>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

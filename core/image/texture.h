@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/math.h"
+#include <obscura/math.h>
 
 namespace obscura {
 

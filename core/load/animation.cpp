@@ -6,9 +6,9 @@
 #include <cmath>
 #include <set>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/load/gltf_document.h"
-#include "obscura/params.h"
+#include <obscura/params.h>
 #include "core/util/option_names.h"
 
 namespace obscura {

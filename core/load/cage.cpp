@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/util/option_names.h"
 
 namespace obscura {

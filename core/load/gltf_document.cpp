@@ -14,8 +14,8 @@
 #include <iterator>
 #include <set>
 
-#include "obscura/error.h"
-#include "obscura/params.h"
+#include <obscura/error.h>
+#include <obscura/params.h>
 #include "core/util/option_names.h"
 
 namespace obscura {

@@ -10,7 +10,7 @@
 #include <optional>
 
 #include "core/load/cage.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/scene/motion.h"
 #include "core/util/option_names.h"
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/load/cage.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/util/option_names.h"
 #include "core/subd/subdivision.h"
 

@@ -9,7 +9,7 @@
 #include <limits>
 #include <string>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/render.h"
 #include "core/util/option_names.h"
 

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 namespace {

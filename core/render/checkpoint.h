@@ -32,7 +32,7 @@
 #include <vector>
 
 #include "core/image/film.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 
 namespace obscura {
 

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <cstring>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/gbuffer.h"
 #include "core/render/render.h"
 #include "core/scene/scene.h"

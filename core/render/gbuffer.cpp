@@ -10,12 +10,28 @@
 #include <optional>
 
 #include "core/render/adaptive.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/pixel_sums.h"
+#include "core/scene/surface.h"
 #include "core/util/progress.h"
 #include "core/render/render.h"
 
 namespace obscura {
+
+ViewTransform viewTransform(const Camera& c, int w, int h) {
+  ViewTransform v;
+  v.toWorld = c.toWorld;
+  v.origin = c.position();
+  v.row0 = c.toWorld.vector(Vec3(1, 0, 0));
+  v.row1 = c.toWorld.vector(Vec3(0, 1, 0));
+  v.row2 = c.toWorld.vector(Vec3(0, 0, 1));
+  v.tanHalfY = std::tan(0.5f * c.yfov);
+  v.tanHalfX = v.tanHalfY * float(w) / float(h);
+  v.width = float(w), v.height = float(h);
+  v.filmScaleX = 0.5f * v.width / v.tanHalfX;
+  v.filmScaleY = 0.5f * v.height / v.tanHalfY;
+  return v;
+}
 namespace {
 
 // Camera rays per traced stream, as in the ray-traced loop.
@@ -63,7 +79,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   // The layer's replicate and index within it (include/obscura/sampler.h sampleStream):
   // the ray-traced loop's for the same sample.
   g.sampleIndex = sampleStream(0, sampleIndex).index;
-  g.view = ViewTransform(camera, s.width, s.height);
+  g.view = viewTransform(camera, s.width, s.height);
   g.depth.resize(n);
   g.position.resize(n);
   g.normal.resize(n);

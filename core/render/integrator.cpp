@@ -1,11 +1,42 @@
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 
 #include <algorithm>
 
-#include "obscura/error.h"
-#include "obscura/plugin.h"
+#include "core/render/plugin_loader.h"
+#include "core/scene/scene.h"
+#include "core/scene/surface.h"
+#include "core/scene/tracer.h"
+#include <obscura/error.h>
+#include <obscura/plugin.h>
 
 namespace obscura {
+
+// IntegratorContext: the SDK's calls into the scene, out of line.
+void IntegratorContext::trace(OcclusionBatch& b) {
+  tracer_.occluded(b);
+  counters.occlusion += b.size();
+}
+void IntegratorContext::trace(IntersectBatch& b) {
+  tracer_.intersect(b);
+  counters.closest += b.size();
+}
+void IntegratorContext::surfaceAt(const IntersectBatch& b, size_t i, bool albedo, uint32_t pixelKey,
+                                  uint32_t sampleIndex, SurfaceHit& out) const {
+  computeSurfaceHit(scene_, b.data()[i], albedo, out);
+  out.pixelKey = pixelKey;
+  out.sampleIndex = sampleIndex;
+}
+Vec3 IntegratorContext::albedoAt(const IntersectBatch& b, size_t i) const {
+  return surfaceAlbedo(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i));
+}
+float IntegratorContext::roughnessAt(const SurfaceHit& h) const { return surfaceRoughness(scene_, h); }
+bool IntegratorContext::uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
+std::string IntegratorContext::surfaceName(const SurfaceHit& h) const {
+  return scene_.surfaceName(h.geomID, h.instID);
+}
+Vec3 IntegratorContext::albedoAtUv(const SurfaceHit& h, float u, float v) const {
+  return surfaceAlbedoAtUv(scene_, h, u, v);
+}
 
 IntegratorRegistry& IntegratorRegistry::instance() {
   static IntegratorRegistry r;

@@ -1,11 +1,11 @@
-#include "obscura/lobe.h"
+#include <obscura/lobe.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

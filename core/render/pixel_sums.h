@@ -8,7 +8,7 @@
 
 #include "core/render/adaptive.h"
 #include "core/image/film.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 
 namespace obscura {
 

@@ -1,4 +1,5 @@
-#include "obscura/plugin.h"
+#include "core/render/plugin_loader.h"
+#include <obscura/plugin.h>
 
 #include <dlfcn.h>
 #include <elf.h>
@@ -11,7 +12,7 @@
 #include <fstream>
 #include <set>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 namespace {

@@ -14,11 +14,12 @@
 #include "core/render/adaptive.h"
 #include "core/image/denoise.h"
 #include "core/util/large_vector.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/gbuffer.h"
 #include "core/render/pixel_sums.h"
+#include "core/scene/surface.h"
 #include "core/util/progress.h"
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -397,7 +398,7 @@ class TileRenderer {
       p.N.add(h.ns);
       // Z is camera-plane depth: the hit's distance along the view axis,
       // t times the cosine between the (unit) ray and that axis.
-      const RTCRay& ray = ts.camera.data()[l].ray;
+      const Ray& ray = ts.camera.data()[l].ray;
       const Vec3 forward = shutter_.moves() ? normalize(shutter_.at(ray.time).axis) : forward_;
       p.Z += double(h.t) * double(dot(Vec3(ray.dir_x, ray.dir_y, ray.dir_z), forward));
     }

@@ -12,9 +12,9 @@
 #include "core/render/checkpoint.h"
 #include "core/render/cryptomatte.h"
 #include "core/image/film.h"
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 #include "core/scene/scene.h"
-#include "obscura/warp.h"
+#include <obscura/warp.h>
 
 namespace obscura {
 

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "obscura/math.h"
+#include <obscura/math.h>
 
 namespace obscura {
 

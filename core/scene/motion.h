@@ -16,7 +16,7 @@
 #include <span>
 #include <vector>
 
-#include "obscura/math.h"
+#include <obscura/math.h>
 
 namespace obscura {
 

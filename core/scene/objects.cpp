@@ -2,7 +2,7 @@
 
 #include <fnmatch.h>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

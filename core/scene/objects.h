@@ -25,14 +25,12 @@
 #include <string>
 #include <vector>
 
+#include <obscura/ray_batch.h>
+
 namespace obscura {
 
-// Ray masks (RTCRay::mask against rtcSetGeometryMask).
-inline constexpr uint32_t kRayMaskCamera = 1u;
-inline constexpr uint32_t kRayMaskSecondary = 2u;
-// The object of a ray that leaves from no surface (camera rays), or of a
-// surface that belongs to no object (geometry added without one).
-inline constexpr uint32_t kNoObject = 0xffffffffu;
+// Ray masks (kRayMaskCamera, kRayMaskSecondary: RTCRay::mask against
+// rtcSetGeometryMask) and kNoObject: obscura/ray_batch.h.
 
 // Which occluders count for rays leaving an object.
 enum class OcclusionScope : uint8_t {

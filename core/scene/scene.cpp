@@ -6,7 +6,7 @@
 #include <cstring>
 
 #include "core/scene/alpha.h"
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 namespace {

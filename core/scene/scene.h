@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "core/scene/camera.h"
-#include "obscura/math.h"
+#include <obscura/math.h>
 #include "core/scene/objects.h"
 #include "core/subd/subdivision.h"
 #include "core/image/texture.h"

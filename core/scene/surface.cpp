@@ -1,6 +1,6 @@
 #include "core/scene/surface.h"
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 #include <emmintrin.h>
 #include <xmmintrin.h>
@@ -90,7 +90,7 @@ bool subdivisionUvFrame(const Primitive& prim, const SurfaceHit& h, UvFrame& out
 // resolves. (Four patch
 // evaluations for the full difference cost 60 % of a render; the height
 // map lookups this takes instead are cheap.)
-void subdivisionHit(const Scene& scene, const Primitive& prim, const RTCRayHit& rh, bool albedo, SurfaceHit& out) {
+void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh, bool albedo, SurfaceHit& out) {
   const Vec3 org(rh.ray.org_x, rh.ray.org_y, rh.ray.org_z), dir(rh.ray.dir_x, rh.ray.dir_y, rh.ray.dir_z);
   const unsigned face = rh.hit.primID;
   const float u = rh.hit.u, v = rh.hit.v;
@@ -168,7 +168,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   Affine moved;
   const Affine* toWorld = nullptr;
   const Primitive& prim = scene.primitiveAt(geomID, instID, time, moved, &toWorld);
-  if (prim.subdivision)  // its hit point needs the ray's origin: the RTCRayHit form
+  if (prim.subdivision)  // its hit point needs the ray's origin: the RayHit form
     throw Error("internal: computeSurfaceHit from barycentrics on a subdivision surface");
   const uint32_t* tri = prim.indices + size_t(primID) * 3;
   const uint32_t i0 = tri[0], i1 = tri[1], i2 = tri[2];
@@ -219,7 +219,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   if (albedo) out.albedo = primitiveAlbedo(scene, prim, tri, u, v);
 }
 
-void computeSurfaceHit(const Scene& scene, const RTCRayHit& rh, bool albedo, SurfaceHit& out) {
+void computeSurfaceHit(const Scene& scene, const RayHit& rh, bool albedo, SurfaceHit& out) {
   const Affine* toWorld = nullptr;
   const Primitive& prim = scene.primitiveOf(rh.hit.geomID, rh.hit.instID[0], &toWorld);
   if (prim.subdivision) return subdivisionHit(scene, prim, rh, albedo, out);
@@ -357,7 +357,7 @@ void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, Surfa
 
 }  // namespace
 
-void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_t* lanes, size_t count, bool albedo,
+void computeSurfaceHits(const Scene& scene, const RayHit* rays, const uint32_t* lanes, size_t count, bool albedo,
                         SurfaceHit* out) {
   HitRows in;
   const Affine* toWorld[4];
@@ -365,7 +365,7 @@ void computeSurfaceHits(const Scene& scene, const RTCRayHit* rays, const uint32_
   Affine moved;  // a moving instance's transform (primitiveAt), only compared against
   int m = 0;
   for (size_t i = 0; i < count; ++i) {
-    const RTCRayHit& rh = rays[lanes[i]];
+    const RayHit& rh = rays[lanes[i]];
     SurfaceHit& h = out[i];
     const unsigned geomID = rh.hit.geomID, instID = rh.hit.instID[0];
     const Affine* xf = nullptr;

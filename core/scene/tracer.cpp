@@ -3,6 +3,23 @@
 #include <cstddef>
 
 namespace obscura {
+
+// obscura::Ray, Hit and RayHit (obscura/ray_batch.h) are Embree's structures
+// under other names: the batches are handed to Embree as they are.
+#define OBSCURA_SAME_FIELD(A, B, f) static_assert(offsetof(A, f) == offsetof(B, f));
+static_assert(sizeof(Ray) == sizeof(RTCRay) && alignof(Ray) == alignof(RTCRay));
+static_assert(sizeof(Hit) == sizeof(RTCHit) && alignof(Hit) == alignof(RTCHit));
+static_assert(sizeof(RayHit) == sizeof(RTCRayHit) && offsetof(RayHit, hit) == offsetof(RTCRayHit, hit));
+static_assert(RTC_MAX_INSTANCE_LEVEL_COUNT == 1 && kInvalidGeometryId == RTC_INVALID_GEOMETRY_ID);
+OBSCURA_SAME_FIELD(Ray, RTCRay, org_x) OBSCURA_SAME_FIELD(Ray, RTCRay, org_y) OBSCURA_SAME_FIELD(Ray, RTCRay, org_z)
+OBSCURA_SAME_FIELD(Ray, RTCRay, tnear) OBSCURA_SAME_FIELD(Ray, RTCRay, dir_x) OBSCURA_SAME_FIELD(Ray, RTCRay, dir_y)
+OBSCURA_SAME_FIELD(Ray, RTCRay, dir_z) OBSCURA_SAME_FIELD(Ray, RTCRay, time) OBSCURA_SAME_FIELD(Ray, RTCRay, tfar)
+OBSCURA_SAME_FIELD(Ray, RTCRay, mask) OBSCURA_SAME_FIELD(Ray, RTCRay, id) OBSCURA_SAME_FIELD(Ray, RTCRay, flags)
+OBSCURA_SAME_FIELD(Hit, RTCHit, Ng_x) OBSCURA_SAME_FIELD(Hit, RTCHit, Ng_y) OBSCURA_SAME_FIELD(Hit, RTCHit, Ng_z)
+OBSCURA_SAME_FIELD(Hit, RTCHit, u) OBSCURA_SAME_FIELD(Hit, RTCHit, v) OBSCURA_SAME_FIELD(Hit, RTCHit, primID)
+OBSCURA_SAME_FIELD(Hit, RTCHit, geomID) OBSCURA_SAME_FIELD(Hit, RTCHit, instID)
+#undef OBSCURA_SAME_FIELD
+
 namespace {
 inline void initContext(RTCIntersectContext& ctx, RayCoherence c) {
   rtcInitIntersectContext(&ctx);
@@ -46,8 +63,8 @@ void Tracer::occluded(OcclusionBatch& batch, RayCoherence c) const {
   initContext(ctx.embree, c);
   if (scopes_) ctx.embree.filter = scopeFilter, ctx.scopes = scopes_;
   if (recorder_) [[unlikely]]  // benchmark capture only (RayRecorder)
-    return recorder_->occluded(scene_, ctx.embree, batch.data(), unsigned(batch.size()));
-  rtcOccluded1M(scene_, &ctx.embree, batch.data(), unsigned(batch.size()), sizeof(RTCRay));
+    return recorder_->occluded(scene_, ctx.embree, embree(batch.data()), unsigned(batch.size()));
+  rtcOccluded1M(scene_, &ctx.embree, embree(batch.data()), unsigned(batch.size()), sizeof(RTCRay));
 }
 
 void Tracer::intersect(IntersectBatch& batch, RayCoherence c) const {
@@ -56,8 +73,8 @@ void Tracer::intersect(IntersectBatch& batch, RayCoherence c) const {
   initContext(ctx.embree, c);
   if (scopes_) ctx.embree.filter = scopeFilter, ctx.scopes = scopes_;
   if (recorder_) [[unlikely]]  // benchmark capture only (RayRecorder)
-    return recorder_->intersect(scene_, ctx.embree, batch.data(), unsigned(batch.size()));
-  rtcIntersect1M(scene_, &ctx.embree, batch.data(), unsigned(batch.size()), sizeof(RTCRayHit));
+    return recorder_->intersect(scene_, ctx.embree, embree(batch.data()), unsigned(batch.size()));
+  rtcIntersect1M(scene_, &ctx.embree, embree(batch.data()), unsigned(batch.size()), sizeof(RTCRayHit));
 }
 
 }  // namespace obscura

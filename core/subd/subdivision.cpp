@@ -18,7 +18,7 @@
 #include <mutex>
 #include <string>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/image/oiio_module.h"
 #include "core/util/option_names.h"
 

@@ -1,4 +1,4 @@
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 #include <cstdio>
 

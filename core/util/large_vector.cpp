@@ -1,5 +1,6 @@
 #include "core/util/large_vector.h"
 
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -7,11 +8,12 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <list>
 #include <mutex>
 #include <string>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura::detail {
 namespace {
@@ -164,6 +166,39 @@ size_t setKeptCapacity(size_t bytes) {
   }
   freeAll(evicted);
   return before;
+}
+
+}  // namespace obscura::detail
+
+namespace obscura::detail {
+
+namespace {
+constexpr size_t kHuge = size_t(2) << 20;
+size_t roundedBytes(size_t bytes) { return (bytes + kHuge - 1) / kHuge * kHuge; }
+}  // namespace
+
+void* largeAllocate(size_t bytes) {
+  void* p = nullptr;
+  if (bytes >= kHuge) {
+    const size_t rounded = roundedBytes(bytes);
+    p = takeKeptBlock(rounded);
+    if (!p) {
+      p = std::aligned_alloc(kHuge, rounded);
+      if (p) madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure is harmless
+    }
+#if !defined(NDEBUG) || defined(OBSCURA_SANITIZED_BUILD)
+    if (p) std::memset(p, 0xff, rounded);
+#endif
+  } else {
+    p = std::malloc(bytes ? bytes : 1);
+  }
+  if (!p) throw std::bad_alloc();
+  return p;
+}
+
+void largeDeallocate(void* p, size_t bytes) noexcept {
+  if (bytes >= kHuge && keepBlock(p, roundedBytes(bytes))) return;
+  std::free(p);
 }
 
 }  // namespace obscura::detail

@@ -37,16 +37,12 @@
 // arrays are filled, parallelFill, before use.)
 #pragma once
 
-#include <sys/mman.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdlib>
-#include <cstring>
-#include <new>
-#include <type_traits>
-#include <utility>
-#include <vector>
+#include <cstddef>
+
+#include <obscura/large_vector.h>
 
 namespace obscura {
 
@@ -68,57 +64,6 @@ size_t keptBytes();
 size_t keptCapacity();
 size_t setKeptCapacity(size_t bytes);
 }  // namespace detail
-
-template <class T>
-struct LargeAllocator {
-  using value_type = T;
-  static constexpr size_t kHuge = size_t(2) << 20;
-  LargeAllocator() = default;
-  template <class U>
-  LargeAllocator(const LargeAllocator<U>&) {}
-  T* allocate(size_t n) {
-    const size_t bytes = n * sizeof(T);
-    void* p = nullptr;
-    if (bytes >= kHuge) {
-      const size_t rounded = roundedBytes(bytes);
-      p = detail::takeKeptBlock(rounded);
-      if (!p) {
-        p = std::aligned_alloc(kHuge, rounded);
-        if (p) madvise(p, rounded, MADV_HUGEPAGE);  // advice only: failure is harmless
-      }
-#if !defined(NDEBUG) || defined(OBSCURA_SANITIZED_BUILD)
-      if (p) std::memset(p, 0xff, rounded);
-#endif
-    } else {
-      p = std::malloc(bytes ? bytes : 1);
-    }
-    if (!p) throw std::bad_alloc();
-    return static_cast<T*>(p);
-  }
-  void deallocate(T* p, size_t n) noexcept {
-    const size_t bytes = n * sizeof(T);
-    if (bytes >= kHuge && detail::keepBlock(p, roundedBytes(bytes))) return;
-    std::free(p);
-  }
-  static size_t roundedBytes(size_t bytes) { return (bytes + kHuge - 1) / kHuge * kHuge; }
-  // Value-initialization (no arguments) of trivially copyable types is
-  // skipped; everything else is constructed as usual.
-  template <class U, class... Args>
-  void construct(U* p, Args&&... args) {
-    if constexpr (sizeof...(Args) == 0 && std::is_trivially_copyable_v<U> && std::is_trivially_destructible_v<U>) {
-      // Nothing written: U (trivial copy and destruction) is an
-      // implicit-lifetime type, whose objects the allocation created.
-      (void)p;
-    } else {
-      ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-  }
-  template <class U>
-  bool operator==(const LargeAllocator<U>&) const { return true; }
-};
-
-template <class T>
-using LargeVector = std::vector<T, LargeAllocator<T>>;
 
 // v resized to n elements, every one set to `value`, by all threads: the
 // pages are first touched in parallel (see above) instead of by the thread

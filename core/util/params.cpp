@@ -1,4 +1,4 @@
-#include "obscura/params.h"
+#include <obscura/params.h>
 
 #include <cerrno>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <limits>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura {
 

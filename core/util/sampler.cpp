@@ -1,4 +1,4 @@
-#include "obscura/sampler.h"
+#include <obscura/sampler.h>
 
 namespace obscura {
 

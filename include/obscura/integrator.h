@@ -24,13 +24,12 @@
 #include <string>
 #include <vector>
 
-#include "obscura/lobe.h"
-#include "obscura/params.h"
-#include "core/scene/scene.h"
-#include "obscura/sampler.h"
-#include "core/scene/surface.h"
-#include "core/scene/tracer.h"
-#include "obscura/warp.h"
+#include <obscura/lobe.h>
+#include <obscura/math.h>
+#include <obscura/params.h>
+#include <obscura/ray_batch.h>
+#include <obscura/sampler.h>
+#include <obscura/surface_hit.h>
 
 namespace obscura {
 
@@ -69,8 +68,15 @@ struct RayCounters {
   uint64_t closest = 0;    // secondary closest-hit rays traced by integrators
 };
 
+class Scene;   // core/scene/scene.h: not part of the SDK
+class Tracer;  // core/scene/tracer.h
+
 // Per-thread services for an integrator: batches that keep their memory
-// between calls, and tracing that counts rays.
+// between calls, tracing that counts rays, and what a plugin may ask of the
+// scene at a hit. The scene and the tracer stay opaque: every call that
+// reaches them is out of line (one call per batch or per hit, never per
+// ray of a batch), so the core's types can change without a plugin's
+// noticing.
 class IntegratorContext {
  public:
   IntegratorContext(const Scene& scene, const Tracer& tracer) : scene_(scene), tracer_(tracer) {}
@@ -85,37 +91,27 @@ class IntegratorContext {
     intersect_.clear();
     return intersect_;
   }
-  void trace(OcclusionBatch& b) {
-    tracer_.occluded(b);
-    counters.occlusion += b.size();
-  }
-  void trace(IntersectBatch& b) {
-    tracer_.intersect(b);
-    counters.closest += b.size();
-  }
+  // Traces the batch (one Embree stream call) and counts its rays.
+  void trace(OcclusionBatch& b);
+  void trace(IntersectBatch& b);
   // The surface an intersect ray i of `batch` found (batch.hit(i) must be
   // true), keyed for sampling by (pixelKey, sampleIndex); `albedo` also
   // evaluates the material, which needs IntegratorNeeds::albedo.
   void surfaceAt(const IntersectBatch& b, size_t i, bool albedo, uint32_t pixelKey, uint32_t sampleIndex,
-                 SurfaceHit& out) const {
-    computeSurfaceHit(scene_, b.data()[i], albedo, out);
-    out.pixelKey = pixelKey;
-    out.sampleIndex = sampleIndex;
-  }
+                 SurfaceHit& out) const;
   // Only the albedo of that surface (cheaper than surfaceAt).
-  Vec3 albedoAt(const IntersectBatch& b, size_t i) const {
-    return surfaceAlbedo(scene_, b.geomID(i), b.primID(i), b.instID(i), b.u(i), b.v(i));
-  }
-  // The material roughness at h, in [0, 1] (surfaceRoughness; needs
-  // IntegratorNeeds::roughness).
-  float roughnessAt(const SurfaceHit& h) const { return surfaceRoughness(scene_, h); }
-  // The texture parametrization at a hit (see surfaceUvFrame).
-  bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const { return surfaceUvFrame(scene_, h, out); }
-  // What h's surface is called in messages (Scene::surfaceName).
-  std::string surfaceName(const SurfaceHit& h) const { return scene_.surfaceName(h.geomID, h.instID); }
+  Vec3 albedoAt(const IntersectBatch& b, size_t i) const;
+  // The material roughness at h, in [0, 1] (glTF roughnessFactor x the G
+  // channel of its metallicRoughnessTexture; needs IntegratorNeeds::roughness).
+  float roughnessAt(const SurfaceHit& h) const;
+  // The texture parametrization at a hit (UvFrame); false where the
+  // primitive has no texture coordinates or they are degenerate there.
+  bool uvFrameAt(const SurfaceHit& h, UvFrame& out) const;
+  // What h's surface is called in messages.
+  std::string surfaceName(const SurfaceHit& h) const;
   // The albedo of h's surface at texture coordinates (u, v) (needs
   // IntegratorNeeds::albedo).
-  Vec3 albedoAtUv(const SurfaceHit& h, float u, float v) const { return surfaceAlbedoAtUv(scene_, h, u, v); }
+  Vec3 albedoAtUv(const SurfaceHit& h, float u, float v) const;
   RayCounters counters;
 
  private:
@@ -137,58 +133,13 @@ inline Vec3 cosineDirection(const SurfaceHit& h, const Lobe& lobe, uint32_t rays
 // For each hit, `rays` any-hit rays along cosineDirection k = 0..rays-1,
 // over (controls.tnear, R]: the visibility rays of AO-style estimators, ray
 // i * rays + k belonging to hits[i].
-inline void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, const LobeControls& controls,
-                           OcclusionBatch& batch) {
-  // The rays go in blocks: each ray's scramble seeds and sample index, then
-  // the whole block's samples at once (Sampler::get2DLanes, SIMD), then the
-  // warp and the pushes. A pixel's hits come one after another (the render
-  // loop is pixel-major), keyed by one key or by two that alternate (a
-  // pixel's sample streams), so the seeds of the last two keys are kept and
-  // hashed once per key's run instead of once per ray.
-  if (rays == 0) return;
-  constexpr size_t kBlock = 256;
-  uint32_t seedIndex[kBlock], seedX[kBlock], seedY[kBlock], index[kBlock];
-  float u[kBlock], v[kBlock], x[kBlock], y[kBlock], z[kBlock];
-  uint32_t keys[2] = {0, 0};
-  Sampler::Seeds2 seeds[2] = {};
-  int held = 0, last = 0;  // keys held; the slot used last
-  size_t hit = 0;          // the hit of the block's first ray
-  uint32_t ray = 0;        // and that ray's k
-  while (hit < hits.size()) {
-    // Fill the block from (hit, ray) on.
-    size_t n = 0, i = hit;
-    uint32_t k = ray;
-    for (; i < hits.size() && n < kBlock; ++i, k = 0) {
-      const SurfaceHit& h = hits[i];
-      int slot = held > 0 && keys[0] == h.pixelKey ? 0 : held > 1 && keys[1] == h.pixelKey ? 1 : -1;
-      if (slot < 0) {
-        slot = held < 2 ? held++ : 1 - last;  // the slot not used last
-        keys[slot] = h.pixelKey;
-        seeds[slot] = Sampler::seeds2D(h.pixelKey, kFirstIntegratorDim);
-      }
-      last = slot;
-      for (; k < rays && n < kBlock; ++k, ++n) {
-        seedIndex[n] = seeds[slot].index, seedX[n] = seeds[slot].x, seedY[n] = seeds[slot].y;
-        index[n] = h.sampleIndex * rays + k;
-      }
-      if (k < rays) break;  // the block is full within this hit
-    }
-    Sampler::get2DLanes(seedIndex, seedX, seedY, index, n, u, v);
-    // Lobe::direction in two steps: the cone's local directions across the
-    // block's lanes (SIMD, the same bits), then each hit's frame.
-    squareToCosineConeLanes(u, v, controls.sinThetaMax, n, x, y, z);
-    // Push the block's rays, walking (hit, ray) again.
-    for (size_t j = 0; j < n; ++hit, ray = 0) {
-      const SurfaceHit& h = hits[hit];
-      const Lobe lobe = controls.at(h);
-      for (; ray < rays && j < n; ++ray, ++j) {
-        const Vec3 w = lobe.frame.toWorld(Vec3(x[j], y[j], z[j]));
-        batch.push(spawnOrigin(h, w), w, controls.tnear, R, h);
-      }
-      if (ray < rays) break;  // the hit goes on in the next block
-    }
-  }
-}
+//
+// The rays go in blocks of 256: their samples are drawn a block at a time
+// (Sampler::get2DLanes) and warped across the block's lanes (SIMD), then
+// pushed in each hit's frame. Out of line (core/render/cosine_rays.cpp), so
+// tuning it changes no plugin's binary.
+void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, const LobeControls& controls,
+                    OcclusionBatch& batch);
 
 // out[i].num = the fraction of hits[i]'s rays (rays i * rays + k of an
 // any-hit batch) whose direction is open (on the lobe's side of the
@@ -204,7 +155,7 @@ inline void writeMeanVisibility(std::span<const SurfaceHit> hits, const Occlusio
   }
 }
 
-class ScreenSpaceIntegrator;  // core/render/gbuffer.h
+class ScreenSpaceIntegrator;  // obscura/screen_space.h
 
 class Integrator {
  public:
@@ -224,14 +175,14 @@ class Integrator {
     return W;
   }
   // Non-null for an integrator that reads the camera's G-buffer instead of
-  // tracing from camera hits (core/render/gbuffer.h): render() then runs the layer
+  // tracing from camera hits (obscura/screen_space.h): render() then runs the layer
   // loop and never calls estimate().
   virtual const ScreenSpaceIntegrator* screenSpace() const { return nullptr; }
 };
 
 // How an integrator works, for listings and checks: from camera hits with
 // rays (Integrator::estimate), or from G-buffer layers
-// (ScreenSpaceIntegrator, core/render/gbuffer.h).
+// (ScreenSpaceIntegrator, obscura/screen_space.h).
 enum class IntegratorKind { RayTraced, ScreenSpace };
 
 struct IntegratorDescriptor {

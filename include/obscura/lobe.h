@@ -4,7 +4,7 @@
 // near), `multibounce` and the bent-normal plugin look for occluders.
 //
 //   inside  the lobe faces -ng, -ns: the hemisphere behind the surface
-//           (a hit's normals face the incoming ray, core/scene/surface.h), for
+//           (a hit's normals face the incoming ray, obscura/surface_hit.h), for
 //           interior occlusion and thickness passes;
 //   spread  the lobe is the cone of half-angle thetaMax = spread * pi/2
 //           about the (possibly inverted) shading normal, cosine-distributed
@@ -20,16 +20,16 @@
 #include <string>
 #include <vector>
 
-#include "obscura/math.h"
-#include "obscura/params.h"
-#include "obscura/sampler.h"
-#include "core/scene/surface.h"
-#include "obscura/warp.h"
+#include <obscura/math.h>
+#include <obscura/params.h>
+#include <obscura/sampler.h>
+#include <obscura/surface_hit.h>
+#include <obscura/warp.h>
 
 namespace obscura {
 
 // One hit's lobe: what its directions and its below-surface test use.
-// spawnOrigin (core/scene/surface.h) needs no sign: it offsets the origin to the
+// spawnOrigin (obscura/surface_hit.h) needs no sign: it offsets the origin to the
 // side the direction points to, whichever way ng faces.
 struct Lobe {
   Frame frame;        // about sign * ns

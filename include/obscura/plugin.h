@@ -20,15 +20,15 @@
 #include <string>
 #include <vector>
 
-#include "obscura/integrator.h"
+#include <obscura/integrator.h>
 
-// Bumped whenever a header a plugin compiles against changes in a way that
-// breaks binary compatibility (class layouts, virtual functions, inline code
-// that touches core data). 3: Primitive gained a name. 4: screen-space
-// integrators (Integrator::screenSpace, IntegratorDescriptor::kind, core/render/gbuffer.h).
-// 7: SurfaceHit::dir, IntegratorNeeds::roughness, Material's roughness.
-// 8: SurfaceHit::time, RayBatch::push(..., const SurfaceHit&), Instance::motion.
-#define OBSCURA_PLUGIN_ABI_VERSION 8u
+// The plugin ABI version: the one definition. Bumped whenever a header of
+// include/obscura/ changes in a way that breaks binary compatibility (class
+// layouts, virtual functions, inline code). The loader compares it, the
+// installed CMake package reads it from this line (obscura_PLUGIN_ABI_VERSION),
+// and docs/plugins.md "ABI history" lists every version (a test checks that
+// the history reaches this one).
+#define OBSCURA_PLUGIN_ABI_VERSION 9u
 
 namespace obscura {
 
@@ -43,26 +43,6 @@ __attribute__((visibility("hidden"))) inline std::vector<DescriptorFn>& moduleIn
   return list;
 }
 }  // namespace detail
-
-// Loads the plugin library at `path` and registers its integrators.
-// Throws obscura::Error naming the path on any failure.
-void loadPlugin(const std::string& path);
-// The value of obscura_plugin_abi_version as stored in the shared object
-// file at `path`, read without loading it (bounds-checked: a truncated or
-// malformed file gives an obscura::Error naming the path, "not an ELF shared
-// object (...)" or "no obscura_plugin_abi_version symbol").
-uint32_t readPluginAbiVersion(const std::string& path);
-// Loads every plugin named by OBSCURA_PLUGIN_PATH: a ':'-separated list of
-// plugin files or directories (every *.so in a directory, in name order).
-void loadPluginsFromEnvironment();
-// Registers the integrators compiled into the running program (through the
-// same entry point as a plugin). Called once by IntegratorRegistry.
-void loadBuiltinPlugins(IntegratorRegistry& registry);
-// For a front end that is itself a shared library with the built-ins linked
-// in (the Python module, loaded RTLD_LOCAL into python3, whose program has
-// no entry point): the built-ins are taken from the library holding
-// `addressInModule` instead. Call before the registry's first use.
-void setBuiltinModule(const void* addressInModule);
 
 }  // namespace obscura
 

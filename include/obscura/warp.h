@@ -8,7 +8,7 @@
 #include <emmintrin.h>
 #endif
 
-#include "obscura/math.h"
+#include <obscura/math.h>
 
 namespace obscura {
 

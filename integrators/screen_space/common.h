@@ -10,9 +10,9 @@
 #include <cmath>
 #include <vector>
 
-#include "core/render/gbuffer.h"
-#include "obscura/params.h"
-#include "obscura/sampler.h"
+#include <obscura/screen_space.h>
+#include <obscura/params.h>
+#include <obscura/sampler.h>
 
 namespace obscura::screen_space {
 

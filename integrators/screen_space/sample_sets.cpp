@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 
 namespace obscura::screen_space {
 namespace {

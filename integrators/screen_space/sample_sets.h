@@ -24,7 +24,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "obscura/math.h"
+#include <obscura/math.h>
 
 namespace obscura::screen_space {
 

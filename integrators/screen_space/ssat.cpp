@@ -31,9 +31,9 @@
 #include <string>
 #include <vector>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/gbuffer.h"
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 #include "integrators/falloff.h"
 #include "integrators/screen_space/common.h"
 #include "integrators/screen_space/sample_sets.h"

@@ -40,9 +40,9 @@
 #include <cmath>
 #include <string>
 
-#include "obscura/error.h"
+#include <obscura/error.h>
 #include "core/render/gbuffer.h"
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 #include "integrators/screen_space/common.h"
 #include "integrators/screen_space/sample_sets.h"
 

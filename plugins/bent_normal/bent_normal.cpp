@@ -16,8 +16,8 @@
 #include <cmath>
 #include <limits>
 
-#include "obscura/plugin.h"
-#include "obscura/warp.h"
+#include <obscura/plugin.h>
+#include <obscura/warp.h>
 
 namespace {
 
@@ -70,7 +70,7 @@ IntegratorDescriptor bentNormalDescriptor() {
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const double R = p.getFloat("distance");
-    const float r = R > double(std::numeric_limits<float>::max()) ? INFINITY : float(R);
+    const float r = toRayDistance(R);
     return std::make_unique<BentNormal>(r, uint32_t(p.getInt("rays")), lobeFromParams(p, R));
   };
   return d;

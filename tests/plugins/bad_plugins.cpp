@@ -22,7 +22,7 @@ struct Marker {
 #if defined(CTOR_BAD_ABI)
 extern "C" __attribute__((visibility("default"))) const uint32_t obscura_plugin_abi_version = 999;
 #else
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 extern "C" __attribute__((visibility("default"))) const uint32_t obscura_plugin_abi_version =
     OBSCURA_PLUGIN_ABI_VERSION;
 #endif
@@ -35,12 +35,12 @@ extern "C" __attribute__((visibility("default"))) void obscura_plugin_register(v
   __builtin_trap();  // must never run
 }
 #elif defined(NO_REGISTER)
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 extern "C" __attribute__((visibility("default"))) const uint32_t obscura_plugin_abi_version =
     OBSCURA_PLUGIN_ABI_VERSION;
 #elif defined(DUPLICATE)
 // Registers an integrator under a name the built-ins already use.
-#include "obscura/plugin.h"
+#include <obscura/plugin.h>
 namespace {
 obscura::IntegratorDescriptor duplicateAo() {
   obscura::IntegratorDescriptor d;

@@ -7,8 +7,8 @@
 // `radius` pixels (a square window, the pixel itself and pixels outside the
 // image left out) whose camera sample hit something in this layer. A value
 // the test can recompute from the image's coverage channel.
-#include "core/render/gbuffer.h"
-#include "obscura/plugin.h"
+#include <obscura/screen_space.h>
+#include <obscura/plugin.h>
 
 namespace {
 

@@ -1,0 +1,136 @@
+// The screen-space seam: G-buffer layers and the integrators that read them
+// instead of tracing rays (volumetric obscurance, z-buffer ambient transfer;
+// docs/math.md §8, §9).
+//
+// For each camera sample index s = 0..spp-1 the core renders layer s - every
+// pixel's camera sample s, through the same camera ray, pixel filter and
+// samples as the ray-traced loop - hands it to the integrator, which returns
+// W per pixel as a ratio (num, den) exactly like Integrator::estimate, and
+// accumulates the layer's estimates per pixel. A pixel's W is Sum num / Sum
+// den over the layers whose sample hit, so --spp, coverage, the AOVs,
+// resolvePixel and the EXR header mean what they mean for every integrator.
+// Only one layer exists at a time. The core's side (rendering a layer, the
+// depth moments, the interleave filter): core/render/gbuffer.h.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <obscura/integrator.h>
+#include <obscura/large_vector.h>
+#include <obscura/math.h>
+#include <obscura/pixel_rect.h>
+
+namespace obscura {
+
+// The camera's view space: camera at the origin looking down -z, +y up, +x
+// right (glTF); depth = -z. Maps world points there and view points onto the
+// film, the inverse of RasterCamera's rays.
+struct ViewTransform {
+  Affine toWorld;          // camera-to-world (rigid)
+  Vec3 origin;             // camera position (world)
+  Vec3 row0, row1, row2;   // rows of the world-to-view rotation
+  float tanHalfX, tanHalfY;
+  float width, height;
+  float filmScaleX, filmScaleY;  // film pixels per unit of x/-z and y/-z
+  // (Made by the core from the camera: viewTransform, core/render/gbuffer.h.)
+  Vec3 pointToView(Vec3 p) const {
+    const Vec3 d = p - origin;
+    return {dot(row0, d), dot(row1, d), dot(row2, d)};
+  }
+  Vec3 vectorToView(Vec3 v) const { return {dot(row0, v), dot(row1, v), dot(row2, v)}; }
+  Vec3 pointToWorld(Vec3 v) const { return toWorld.point(v); }
+  Vec3 vectorToWorld(Vec3 v) const { return toWorld.vector(v); }
+  // Film position of a view-space point in front of the camera (z < 0).
+  void project(Vec3 v, float& fx, float& fy) const {
+    const float inv = 1.0f / -v.z;
+    fx = 0.5f * width + v.x * inv * filmScaleX;
+    fy = 0.5f * height - v.y * inv * filmScaleY;
+  }
+};
+
+// One level of a layer's mip-mapped depth moments (VO §4.2): per texel, over
+// the covered pixels of the 2^level x 2^level block it spans, the mean view
+// depth, the depth variance, and the covered fraction of the block's pixels
+// (background pixels are no occluder, so they are kept apart as coverage
+// instead of entering the moments). Variances are merged with the parallel
+// formula (sum of the parts' variances and of their means' spread), never as
+// E[z^2] - E[z]^2, which cancels in float.
+struct DepthMoments {
+  int width = 0, height = 0;
+  LargeVector<float> mean, variance, coverage;
+};
+
+// One G-buffer layer: camera sample `sampleIndex` of every pixel, in view
+// space, structure of arrays (the screen-space loops read `depth` at
+// scattered pixels; keeping it alone keeps those reads in cache).
+struct GBufferLayer {
+  int width = 0, height = 0;
+  uint32_t sampleIndex = 0;
+  ViewTransform view;
+  LargeVector<float> depth;        // view depth -z of the visible point; +inf where nothing was hit
+  LargeVector<Vec3> position;      // view-space position of the visible point
+  LargeVector<Vec3> normal;        // view-space unit shading normal, facing the camera
+  // The visible triangle's plane, view space: (n, n.p) with n its unit
+  // geometric normal and p the visible point; all zero where nothing is an
+  // occluder (background, and objects whose `occluder` role is off). A depth-buffer read at film
+  // position (fx, fy) within the pixel intersects its camera ray with this
+  // plane (zBufferDepth) instead of returning the depth of the pixel's own,
+  // jittered, sample: exact for planar surfaces, first order for curved
+  // ones; the stored depth stays the fallback for rays along the plane.
+  LargeVector<std::array<float, 4>> plane;
+  // (depth, slack) per pixel, packed for the z-buffer read - the depth an
+  // occluder query reads: +inf (slack 0) where nothing occludes, over the
+  // background and over objects that occlude nothing. Slack bounds how
+  // far the plane's depth strays from `depth` over the pixel, so a point
+  // farther than that from `depth` is decided without reading `plane`
+  // (half the memory traffic of the screen-space loops). +inf slack where
+  // the plane is seen edge-on within the pixel.
+  LargeVector<std::array<float, 2>> depthSlack;
+  LargeVector<Vec3> albedo;        // diffuse albedo (only with IntegratorNeeds::albedo; else empty)
+  LargeVector<uint32_t> object;    // geomID ^ (instID << 20): which object (background: ~0u)
+  LargeVector<uint32_t> pixelKey;  // the pixel's Sampler key (as SurfaceHit::pixelKey)
+  // A Sampler key for randomness shared by the whole image (the same in
+  // every layer; index the draws by sampleIndex): hashed from the seed, so
+  // --seed changes it like every pixel's stream.
+  uint32_t imageKey = 0;
+  // Level 0 = the pixels; built only for integrators that ask
+  // (ScreenSpaceIntegrator::needsDepthMoments).
+  std::vector<DepthMoments> moments;
+  bool covered(size_t i) const { return depth[i] < kInfinity; }
+  size_t index(int x, int y) const { return size_t(y) * size_t(width) + size_t(x); }
+};
+
+// An integrator that reads G-buffer layers. The core never calls estimate()
+// on it; render() sees screenSpace() != nullptr and runs the layer loop.
+class ScreenSpaceIntegrator : public Integrator {
+ public:
+  void estimate(std::span<const SurfaceHit>, IntegratorContext&, SampleEstimate*) const final {}
+  const ScreenSpaceIntegrator* screenSpace() const final { return this; }
+  // Writes out[tile.offset(x, y)] for the pixels of `tile` in layer g: the
+  // estimate at each covered pixel (the core has set num = 0, den = 1;
+  // uncovered pixels are ignored). Called from many threads at once on
+  // disjoint tiles of at most kScreenSpaceTile^2 pixels: square tiles keep
+  // the scattered depth reads of a tile's pixels, all within the sample
+  // radius of the tile, in the core's cache (bands of full-width rows did
+  // not: the pass took 1.6x the CPU time on the generated scene of
+  // bench/bench_screen_space.cpp; 64 beat 32 and 16 there). Samples from Sampler keyed
+  // by g.pixelKey[i] and an index derived from g.sampleIndex, dimensions
+  // from kFirstIntegratorDim up; rays (the traced twins) through ctx.
+  virtual void estimateTile(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx,
+                            SampleEstimate* out) const = 0;
+  // > 0: after estimating a layer the core applies the depth-aware 4x4 box
+  // filter of interleaved sampling (AT §4.2) to its estimates, with this
+  // relative depth tolerance (depthAwareBoxFilter).
+  virtual float interleaveFilterTolerance() const { return 0.0f; }
+  // true: the core builds each layer's depth moments (GBufferLayer::moments).
+  virtual bool needsDepthMoments() const { return false; }
+};
+
+// The side of the core's screen-space tiles (pixels).
+constexpr int kScreenSpaceTile = 64;
+
+}  // namespace obscura
