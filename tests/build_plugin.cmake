@@ -4,6 +4,7 @@
 #   cmake -DBUILD_DIR=... -DSOURCE_DIR=... -DOUT_DIR=... -P build_plugin.cmake
 foreach(step install configure build)
   if(step STREQUAL install)
+    file(REMOVE_RECURSE ${OUT_DIR}/prefix)  # a fresh prefix: only what this build installs
     set(cmd ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${OUT_DIR}/prefix)
   elseif(step STREQUAL configure)
     file(REMOVE_RECURSE ${OUT_DIR}/build)
@@ -17,6 +18,11 @@ foreach(step install configure build)
     message(FATAL_ERROR "plugin ${step} failed (${rc}):\n${out}\n${err}")
   endif()
 endforeach()
+# The SDK is the only header set installed (docs/plugins.md "The SDK").
+file(GLOB _installed RELATIVE ${OUT_DIR}/prefix/include ${OUT_DIR}/prefix/include/*)
+if(NOT _installed STREQUAL "obscura")
+  message(FATAL_ERROR "the package installs include/${_installed}; only include/obscura/ is the SDK")
+endif()
 if(NOT EXISTS ${OUT_DIR}/build/obscura_bent_normal.so)
   message(FATAL_ERROR "plugin build produced no obscura_bent_normal.so")
 endif()
