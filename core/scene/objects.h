@@ -1,5 +1,5 @@
 // Objects and their roles: who is seen by the camera, who occludes whom
-// (README "Objects and roles").
+// (docs/production.md "Objects and roles").
 //
 // An object is a glTF node with a mesh (each placement its own object) or an
 // OBJ cage. Its roles come from `extras.obscura` on the node (inherited by

@@ -30,7 +30,7 @@ namespace obscura {
 
 // glTF's alphaMode: OPAQUE ignores alpha; MASK cuts out where alpha <
 // alphaCutoff; BLEND lets a ray through with probability 1 - alpha
-// (README "Objects and roles").
+// (docs/production.md "Objects and roles").
 enum class AlphaMode : uint8_t { Opaque, Mask, Blend };
 
 struct Material {
