@@ -8,7 +8,7 @@
 // - docs/cli.md names every option the CLI's help prints.
 // - Citations: every document under docs/ that a source or document
 //   mentions exists, every `docs/math.md §N` names a section docs/math.md has,
-//   every section cited by name (README or docs/FILE.md followed by the name
+//   every section cited by name (README or docs/<file>.md followed by the name
 //   in double quotes) is a heading of that file, and no file cites the design
 //   notes that lived outside the repository.
 // - README.md is a front door: at most 300 lines.
@@ -207,12 +207,12 @@ std::set<std::string> citableSections(const std::string& text) {
 }
 
 struct SectionCitation {
-  std::string document;  // "README.md" or "docs/F.md"
+  std::string document;  // "README.md" or a document under docs/
   std::string section;   // the quoted name, its line breaks and comment leaders folded into spaces
   int line = 0;
 };
 
-// Every citation of a section by name in a text: README or docs/F.md, a
+// Every citation of a section by name in a text: README or docs/<file>.md, a
 // space, then the name in double quotes (also escaped, as in a C++ string).
 // A name may run over a line break, where the next line's comment leader
 // (//, #, *) and indentation are dropped.
@@ -276,7 +276,7 @@ TEST(DocsConsistency, SectionCitationCheckReadsWhatItShould) {
   EXPECT_EQ(c[0].document, "README.md");
   EXPECT_EQ(c[0].section, "Depth and camera conventions");
   EXPECT_EQ(c[0].line, 1);
-  EXPECT_EQ(c[1].document, "docs/x.md");
+  EXPECT_EQ(c[1].document, std::string("docs/x") + ".md");
   EXPECT_EQ(c[1].section, "Adaptive sampling");
   EXPECT_EQ(c[2].section, "A B");
   const std::set<std::string> s =
@@ -309,11 +309,12 @@ std::set<std::string> helpOptions(const std::string& help) {
   return options;
 }
 
-// The subcommands the top-level help lists (CLI11: "SUBCOMMANDS:" then one
-// indented name a line).
+// The subcommands the top-level help lists (CLI11: "Subcommands:", or
+// "SUBCOMMANDS:" in other versions, then one indented name a line).
 std::vector<std::string> helpSubcommands(const std::string& help) {
   std::vector<std::string> subs;
-  const size_t at = help.find("SUBCOMMANDS:");
+  size_t at = help.find("Subcommands:");
+  if (at == std::string::npos) at = help.find("SUBCOMMANDS:");
   if (at == std::string::npos) return subs;
   std::istringstream in(help.substr(at + 12));
   const std::regex sub(R"(^\s+([a-z][a-z-]*)(\s|$).*)");
@@ -364,6 +365,8 @@ TEST(DocsConsistency, HelpOptionReadingSeesLongAndShortOptions) {
   EXPECT_FALSE(mentionsOption("--output", "-o"));
   EXPECT_EQ(helpSubcommands("X\nSUBCOMMANDS:\n  render   Render\n  info     Describe\n"),
             (std::vector<std::string>{"render", "info"}));
+  EXPECT_EQ(helpSubcommands("Options:\n  -h,--help  Help\n\nSubcommands:\n  merge  Merge\n"),
+            (std::vector<std::string>{"merge"}));
 }
 
 // --- The README stays a front door -------------------------------------------
