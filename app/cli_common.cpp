@@ -92,7 +92,7 @@ Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
 }
 
 // The camera in the OpenEXR standard attributes (ImfStandardAttributes.h),
-// README "Depth and camera conventions". EXR/OpenImageIO matrices are
+// docs/exr.md "Depth and camera conventions". EXR/OpenImageIO matrices are
 // row-vector form (p' = p M): the transpose of the column-vector matrices
 // used in the code.
 namespace {
@@ -391,7 +391,7 @@ ExrOptions passHeader(const PassInfo& i) {
   }
   str("obscura:params", all);
   if (!i.layers.empty()) {
-    // Each pass under its layer's name (README "Several passes in one
+    // Each pass under its layer's name (docs/production.md "Several passes in one
     // render"); the unprefixed integrator and params above are the primary's.
     std::string list;
     for (const LayerInfo& l : i.layers) {
@@ -413,7 +413,7 @@ ExrOptions passHeader(const PassInfo& i) {
   exr.floatChannelPrefixes.push_back(kSppPlane);
   exr.attributes.push_back({"obscura:spp", i.settings.spp});
   if (adaptiveSampling(i.settings)) {
-    // README "Adaptive sampling": the settings, and what they took.
+    // docs/sampling.md "Adaptive sampling": the settings, and what they took.
     exr.attributes.push_back({"obscura:targetError", i.settings.targetError});
     exr.attributes.push_back({"obscura:minSpp", firstRoundSpp(i.settings)});
     exr.attributes.push_back({"obscura:backgroundSpp", i.stats.backgroundSpp});
@@ -422,7 +422,7 @@ ExrOptions passHeader(const PassInfo& i) {
     exr.attributes.push_back({"obscura:rounds", i.stats.rounds});
   }
   if (i.settings.denoise) {
-    // README "Denoising": the filter and its defaults (core/image/denoise.h).
+    // docs/sampling.md "Denoising": the filter and its defaults (core/image/denoise.h).
     str("obscura:denoise", "atrous");
     exr.attributes.push_back({"obscura:denoiseTime", float(i.stats.denoiseSeconds)});
   }
@@ -452,7 +452,7 @@ ExrOptions passHeader(const PassInfo& i) {
     }
   }
   if (const SceneArgs* a = i.sceneArgs; a && !a->frame.empty()) {
-    // The frame and what it plays (README "Animation and frames").
+    // The frame and what it plays (docs/production.md "Animation and frames").
     const double frame = parseFrame(a->frame);
     str("obscura:frame", formatFloat(frame));
     str("obscura:fps", formatFloat(a->fps));
@@ -473,7 +473,7 @@ ExrOptions passHeader(const PassInfo& i) {
     str("obscura:objectOverrides", all);
   }
   // Every object whose roles differ from the default, whoever set them (the
-  // file's extras or --object): README "Objects and roles".
+  // file's extras or --object): docs/production.md "Objects and roles".
   if (i.scene) str("obscura:objectRoles", nonDefaultRoles(i.scene->objects));
   str("obscura:sky", formatFloat(i.settings.sky.x) + "," + formatFloat(i.settings.sky.y) + "," + formatFloat(i.settings.sky.z));
   exr.attributes.push_back({"obscura:threads", i.settings.threads > 0 ? i.settings.threads : int(tbb::this_task_arena::max_concurrency())});

@@ -38,13 +38,13 @@ struct SceneArgs {
   std::string displace;  // height map
   double displaceScale = 0.1, displaceMidlevel = 0.5;
   std::vector<std::string> objects;  // --object GLOB:role=value,... (core/scene/objects.h)
-  // Animation (README "Animation and frames"): --frame as typed (empty: the
+  // Animation (docs/production.md "Animation and frames"): --frame as typed (empty: the
   // static pose), --fps, --animation's names or indices (empty: all).
   std::string frame;
   double fps = 24;
   std::vector<std::string> animations;
   // --shutter OPEN,CLOSE: motion blur over [frame + OPEN, frame + CLOSE]
-  // (frames); empty = none (README "Motion blur").
+  // (frames); empty = none (docs/production.md "Motion blur").
   std::string shutter;
 };
 // Checks them; throws obscura::Error naming the option.
@@ -102,7 +102,7 @@ struct LayerInfo {
   const ParamSet* params = nullptr;
 };
 
-// Everything the header of a pass records (README "The EXR pass").
+// Everything the header of a pass records (docs/exr.md "The EXR pass").
 struct PassInfo {
   std::string scenePath;
   const Camera& camera;

@@ -234,7 +234,7 @@ CompareConfig parseCompareConfig(const std::string& text) {
       seen.push_back(key);
       char* end = nullptr;
       if (key == "target") {
-        // A standard error of W, absolute (README "Adaptive sampling"); the
+        // A standard error of W, absolute (docs/sampling.md "Adaptive sampling"); the
         // renderer keeps it as a float.
         c.targetError = std::strtod(value.c_str(), &end);
         if (value.empty() || *end != '\0' || !(c.targetError > 0) || !(c.targetError <= 1e30))

@@ -1,5 +1,5 @@
 // `obscura compare`: the speed/accuracy trade of integrator configurations
-// against a full-GI reference, on the user's scene (README "Compare").
+// against a full-GI reference, on the user's scene (docs/compare.md "Compare").
 #pragma once
 
 #include <atomic>
@@ -44,7 +44,7 @@ struct CompareConfig {
   // cache key, so a plain config keeps the key it had before these existed.
   std::string canonical;
   double targetError = 0;  // 0: fixed spp
-  int minSpp = 0;          // 0: the renderer's default (README "Adaptive sampling")
+  int minSpp = 0;          // 0: the renderer's default (docs/sampling.md "Adaptive sampling")
   bool denoise = false;
 };
 CompareConfig parseCompareConfig(const std::string& text);

@@ -256,7 +256,7 @@ int runInfo(const InfoArgs& a) {
   }
   if (const GltfDocument* doc = source.document()) {
     // Every animation of the file, whichever --animation selects; the time
-    // range in seconds and in frames at --fps (README "Animation and frames").
+    // range in seconds and in frames at --fps (docs/production.md "Animation and frames").
     const auto& anims = doc->animations();
     std::printf("animations %zu%s\n", anims.size(),
                 a.frame.empty() ? "" : ("  (posed at frame " + a.frame + ", " + formatFloat(parseFrame(a.frame) / a.fps) + " s)").c_str());
@@ -319,11 +319,11 @@ int main(int argc, char** argv) {
   render->add_option("--spp", r.spp, "Camera samples per pixel (with --target-error or --time-limit: the most a pixel takes)");
   render->add_option("--target-error", r.targetError,
                      "Adaptive sampling: a pixel stops once the standard error of its composited pass (absolute; its own "
-                     "and pooled over its 3x3 neighbours) is at most E, or at --spp samples (README \"Adaptive sampling\")")
+                     "and pooled over its 3x3 neighbours) is at most E, or at --spp samples (docs/sampling.md \"Adaptive sampling\")")
       ->type_name("E")
       ->default_str("off");
   render->add_flag("--denoise", r.denoise,
-                   "Edge-aware denoise of the pass, guided by N, Z, W.error and the objects (README \"Denoising\"); the raw "
+                   "Edge-aware denoise of the pass, guided by N, Z, W.error and the objects (docs/sampling.md \"Denoising\"); the raw "
                    "pass is kept as noisy.R/G/B");
   render->add_option("--min-spp", r.minSpp, "Adaptive sampling: the samples every pixel takes before any may stop (but the background, see --background-spp)")
       ->default_str("min(16, --spp)");

@@ -1,5 +1,5 @@
 // `obscura merge OUT.exr TILES...`: region renders (`render --region`)
-// assembled into the full frame (README "Regions and merging").
+// assembled into the full frame (docs/production.md "Regions and merging").
 #pragma once
 
 #include <string>

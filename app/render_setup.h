@@ -86,14 +86,14 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, bool screenSp
 // --checkpoint SECONDS (a.checkpoint) and the passes it allows, for the
 // checkpoint file `file`; throws naming --checkpoint.
 void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSpace, const std::string& file);
-// What a --checkpoint file must match to be resumed (README "Checkpoints"):
+// What a --checkpoint file must match to be resumed (docs/production.md "Checkpoints"):
 // the header's record of the render but for what differs between runs
 // (threads, times, ray counts), the tile size and AOV switch, and the
 // files the render reads (the scene hashed; the files a .gltf names, the
 // height map and plugins by size and time).
 Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header);
 
-// The EXR header of a finished render (README "The EXR pass").
+// The EXR header of a finished render (docs/exr.md "The EXR pass").
 ExrOptions renderHeader(const RenderArgs& a, const std::vector<PassSetup>& setups, const Camera& camera,
                         const RenderSettings& s, const RenderStats& stats, const Scene& scene);
 

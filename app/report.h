@@ -21,7 +21,7 @@ struct ReportCell {
   std::string key;  // hash of everything that determines the cell's images (results.csv; resumption)
   std::string config, integrator, params;
   int spp = 0, seeds = 0;  // spp: the most a pixel takes when targetError > 0
-  // The config's render settings (README "Compare"): adaptive sampling to
+  // The config's render settings (docs/compare.md "Compare"): adaptive sampling to
   // targetError (0: fixed spp) and the denoiser; meanSpp is the samples a
   // pixel took on average (mean over seeds), denoiseSeconds the filter's
   // time (median over seeds), already inside `seconds`.

@@ -1,5 +1,5 @@
 // obscura_bench_denoise: the denoiser's cost against the render it cleans
-// (README "Denoising", docs/denoise.md).
+// (docs/sampling.md "Denoising", docs/denoise.md).
 //
 // Renders the pass as two independent halves of spp/2 samples (seeds s and
 // s + 1) with the AOVs on, combines them into the spp pass and its

@@ -1,5 +1,5 @@
 // obscura_bench_passes: several passes from one render against one render
-// per pass (README "Several passes in one render", "Speed").
+// per pass (docs/production.md "Several passes in one render", "Speed").
 //
 // ao + obscurance (falloff=sqrt) + transfer + the bent-normal plugin, at
 // 1920x1080 on the viking room by default, with the AOVs on (what

@@ -1,5 +1,5 @@
 // obscura_bench_roles: what objects' roles and alpha cut-outs cost
-// (README "Objects and roles", "Speed").
+// (docs/production.md "Objects and roles", "Speed").
 //
 // A foliage-like scene: a ground square and N leaf cards (quads of random
 // position, orientation and size over it) in G groups, each group one world

@@ -44,7 +44,8 @@
 // The bound: a background sample costs next to nothing and a surface
 // sample the same in every mode, so fixed's surface samples over adaptive +
 // denoise's (surfaceSamples()) bound the speed-up that sampling alone can
-// give; the line after the goal prints it (README "Speed").
+// give; the line after the goal prints it (docs/performance.md "How far
+// sampling alone can take the viking room").
 //
 // Run:   build/bench/obscura_bench_time_to_error --scene viking --integrator ao --res 480x270
 //        build/bench/obscura_bench_time_to_error --scene viking --save-reference /tmp/ref-viking-ao.exr
@@ -606,7 +607,8 @@ int main(int argc, char** argv) {
         // What the speed-up could be if everything but the surface samples
         // (the background's, the survey, the filter's gain pass, the
         // decisions, the final filter) cost nothing, and a surface sample
-        // cost the same in both (it does: README "Speed").
+        // cost the same in both (it does: docs/performance.md "How far
+        // sampling alone can take the viking room").
         if (fixed->hits > 0 && r.hits > 0)
           std::printf("bound: surface samples (camera samples that hit) fixed %.1f M, adaptive+denoise %.1f M: "
                       "%.2fx at most from sampling alone at equal cost a surface sample; the rest of the gap is its other costs\n",

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Notebook-style sweep with the Python module (README "Python"): how far
+"""Notebook-style sweep with the Python module (docs/python.md "Python"): how far
 should ambient rays reach? For ao, obscurance and transfer, render the scene
 at several `distance` values and plot each one's error against a gi
 reference versus its render time. The scene is loaded (and its BVH built)
@@ -8,7 +8,7 @@ once; every render reuses it, and no file is written but the plot.
     PYTHONPATH=build/python python3 docs/python_sweep.py -o sweep.png
     PYTHONPATH=build/python python3 docs/python_sweep.py --res 160x90 --spp 16 --reference-spp 256 -o sweep.png
 
-The error is `obscura compare`'s RMSE (README "Compare"): W = RGB / A over
+The error is `obscura compare`'s RMSE (docs/compare.md "Compare"): W = RGB / A over
 the pixels the reference covers fully and the pass covers at all.
 """
 import argparse

@@ -1,4 +1,4 @@
-// `import obscura`: the Python module (README "Python"). It mirrors the
+// `import obscura`: the Python module (docs/python.md "Python"). It mirrors the
 // command line: a Scene loaded with the CLI's scene options, render() with
 // the CLI's render options, compare(), merge(), integrators(), load_plugin(). Every
 // render goes through the same functions `obscura render` calls
@@ -452,7 +452,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   checkFilmMemory(a, s, screenSpace, a.passes.size());
   Camera camera;
   if (sc.args.subdivEdge > 0) {
-    // Refined for the load's camera and resolution (README "Subdivision").
+    // Refined for the load's camera and resolution (docs/scenes.md "Subdivision").
     if (s.width != sc.width || s.height != sc.height || a.camera != sc.camera)
       throw Error("--subdiv-edge: the scene was refined for camera '" + sc.camera + "' at " + std::to_string(sc.width) + "x" +
                   std::to_string(sc.height) + "; render with those, or load the scene with Scene(..., res=, camera=)");
@@ -464,7 +464,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   auto result = std::make_shared<PyResult>();
   std::vector<RenderPass> passes;
   for (const PassSetup& p : setups) passes.push_back({p.integrator.get(), p.needs, p.layer});
-  // README "Checkpoints": as the CLI, a damaged file is refused before the
+  // docs/production.md "Checkpoints": as the CLI, a damaged file is refused before the
   // render, one of another render once its header is known.
   std::optional<Checkpoint> checkpoint;
   if (a.checkpointGiven) {
@@ -555,7 +555,7 @@ py::list integratorList() {
   return out;
 }
 
-// results.csv as a list of dicts, numbers as numbers (README "Compare").
+// results.csv as a list of dicts, numbers as numbers (docs/compare.md "Compare").
 py::list readResults(const std::string& dir) {
   py::module_ csv = py::module_::import("csv");
   py::object file = py::module_::import("builtins").attr("open")(dir + "/results.csv", "r", py::arg("newline") = "");
@@ -622,7 +622,7 @@ py::list compare(const py::object& scene, const std::string& output, const py::o
 }  // namespace
 
 PYBIND11_MODULE(obscura, m) {
-  m.doc() = "Obscura: film-style ambient passes (AO, obscurance, ambient transfer, GI) from glTF scenes (README \"Python\")";
+  m.doc() = "Obscura: film-style ambient passes (AO, obscurance, ambient transfer, GI) from glTF scenes (docs/python.md \"Python\")";
   m.attr("__version__") = OBSCURA_VERSION;
   // The built-in integrators are linked into this library, not into python3.
   static const int anchor = 0;
@@ -749,7 +749,7 @@ PYBIND11_MODULE(obscura, m) {
            py::arg("preview") = py::none(), "Writes the EXR `obscura render -o PATH` writes (and a --preview PNG)");
 
   m.def("render", &renderScene, py::arg("scene"), py::arg("integrator") = py::none(), py::arg("params") = py::none(),
-        "render(scene, integrator='ao', params={...}, **options): options as `obscura render`'s (README \"Python\")");
+        "render(scene, integrator='ao', params={...}, **options): options as `obscura render`'s (docs/python.md \"Python\")");
   m.def("read_exr", &readExr, py::arg("path"), "Every channel and the header of an EXR (an Image)");
   m.def("integrators", &integratorList, "The registered integrators with their parameters");
   m.def("load_plugin",

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fuzzing (README "Fuzzing"): builds the libFuzzer targets with clang
+# Fuzzing (docs/testing.md "Fuzzing"): builds the libFuzzer targets with clang
 # (CMake OBSCURA_FUZZ, ASan + UBSan) in their own build directory, writes the
 # seed corpus, and runs each target for SECONDS (default 60). Fails on any
 # finding: the crashing input is left in $BUILD_DIR/findings/<target>/.

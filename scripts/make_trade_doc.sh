@@ -48,7 +48,7 @@ fi
 
 # The ray-traced configs every scene is measured with: the approximations from
 # the cheapest up, then one-bounce GI and full GI at the same spp.
-# Then the time-to-error axis (README "Compare"): adaptive sampling to a
+# Then the time-to-error axis (docs/compare.md "Compare"): adaptive sampling to a
 # standard error of 0.02 per pixel (spp = the most a pixel takes), the
 # denoiser on the fixed-spp pass, and both; their time includes the denoiser.
 configs=(-c ao -c transfer -c transfer:depth=1 -c transfer:depth=2 -c multibounce
@@ -241,8 +241,8 @@ $(nproc) threads on a machine other jobs share. Errors are deterministic
 (fixed seeds); times are not - on a loaded machine they move by up to 2× between runs, so cells whose times are
 that close can swap places on the Pareto front.
 Ray-traced configs at spp $spp; screen-space configs (\`vo\`, \`ssat\`: spp = G-buffer layers of
-16 samples each, README "Screen-space passes") and their ray-traced targets at the same R at spp $ss_spp.
-Errors are of W against the reference (README "Compare"); bias² and variance split the MSE of one render.
+16 samples each, docs/integrators.md "Screen-space passes") and their ray-traced targets at the same R at spp $ss_spp.
+Errors are of W against the reference (docs/compare.md "Compare"); bias² and variance split the MSE of one render.
 \`target=0.02\` configs sample adaptively to a standard error of 0.02 per pixel (spp is then the most a pixel
 takes, "mean spp" what they took); \`denoise=on\` configs are denoised, and their time includes the denoiser.
 

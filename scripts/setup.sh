@@ -27,7 +27,7 @@ install_missing build-essential cmake ninja-build pkg-config libembree-dev libop
   python3-matplotlib python3-pytest
 
 # --- 2. Build ------------------------------------------------------------------
-# The Python module (README "Python") is built for Debian's interpreter,
+# The Python module (docs/python.md "Python") is built for Debian's interpreter,
 # whose NumPy, Matplotlib and pytest the packages above installed (a python3
 # earlier in PATH, such as pyenv's, would lack them).
 python=(-DOBSCURA_PYTHON=ON -DPython_EXECUTABLE=/usr/bin/python3)

@@ -1,4 +1,4 @@
-// The seed corpus of the libFuzzer targets (fuzz/, README "Fuzzing"):
+// The seed corpus of the libFuzzer targets (fuzz/, docs/testing.md "Fuzzing"):
 // representative valid inputs, written by obscura_fuzz_corpus for
 // scripts/fuzz.sh and checked to load by tests/test_loader_hardening.cpp.
 #pragma once

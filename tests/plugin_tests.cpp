@@ -15,7 +15,7 @@
 #include "core/render/plugin_loader.h"
 #include <obscura/plugin.h>
 #include "core/render/render.h"
-#include "tests/readme_integrators.h"
+#include "tests/integrator_table.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -171,19 +171,19 @@ TEST(Plugin, MalformedPluginFilesGiveOneErrorLine) {
     variant("byte " + std::to_string(i) + " flipped", [i](std::string& b) { b[i] = char(~b[i]); });
 }
 
-// README.md's rows marked "(plugin)" against the loaded plugin's descriptor
+// docs/integrators.md's rows marked "(plugin)" against the loaded plugin's descriptor
 // (the built-in rows are checked in test_docs_consistency.cpp).
-TEST(Plugin, ReadmeRowMatchesThePlugin) {
+TEST(Plugin, IntegratorTableRowMatchesThePlugin) {
   loadPlugin(OBSCURA_BENT_PLUGIN);
-  const auto rows = readmeIntegratorRows(readBytes(std::string(OBSCURA_SOURCE_DIR) + "/README.md"));
+  const auto rows = integratorTableRows(readBytes(std::string(OBSCURA_SOURCE_DIR) + "/" + kIntegratorTableDoc));
   int pluginRows = 0;
-  for (const ReadmeIntegratorRow& row : rows) {
+  for (const IntegratorTableRow& row : rows) {
     if (!row.plugin) continue;
     ++pluginRows;
     const IntegratorDescriptor& d = IntegratorRegistry::instance().find(row.name);
-    for (const std::string& p : readmeRowProblems(row, d, IntegratorRegistry::instance().all())) ADD_FAILURE() << p;
+    for (const std::string& p : integratorRowProblems(row, d, IntegratorRegistry::instance().all())) ADD_FAILURE() << p;
   }
-  EXPECT_EQ(pluginRows, 1) << "README.md documents the bent-normal plugin in one row";
+  EXPECT_EQ(pluginRows, 1) << kIntegratorTableDoc << " documents the bent-normal plugin in one row";
 }
 
 // Unoccluded plane: B = E[w] under cos/pi about n = (0,0,2/3) in the normal's

@@ -188,8 +188,8 @@ void writeText(const std::string& path, const std::string& text);
 
 // An image read back with OpenImageIO: the header, and every channel as a
 // float plane looked up by name (OpenEXR stores channels sorted by name and
-// OIIO may reorder them: DEPENDENCIES.md). Failing to open or read the file
-// is a test failure; `ok` says both worked.
+// OIIO may reorder them: docs/testing.md "Reading EXRs in tests"). Failing to
+// open or read the file is a test failure; `ok` says both worked.
 struct ReadBack {
   bool ok = false;
   OIIO::ImageSpec spec;

@@ -820,7 +820,7 @@ TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
 }
 
 // Adaptive + denoise (the marginal rule on the error scaled by the filter's
-// gain, README "Adaptive sampling"): the image does not depend on threads or
+// gain, docs/sampling.md "Adaptive sampling"): the image does not depend on threads or
 // tile size, and every pixel's raw pass and AOVs (all but the denoised
 // R,G,B and what follows them) equal the fixed render's at the count it took.
 TEST(Adaptive, DenoisedRoundsAreDeterministicAndTheFixedRendersSamples) {

@@ -1,4 +1,4 @@
-// glTF animation (README "Animation and frames"; core/load/animation.h): the
+// glTF animation (docs/production.md "Animation and frames"; core/load/animation.h): the
 // samplers against closed forms computed here (lerp, the rotation angle a
 // slerp must reach, the Hermite polynomial in its power form), held values
 // before and after the keys, poses (which nodes move, the static pose), a

@@ -1,4 +1,4 @@
-// Resumable renders (README "Checkpoints"): `render --checkpoint SECONDS`
+// Resumable renders (docs/production.md "Checkpoints"): `render --checkpoint SECONDS`
 // saves finished tiles to OUT.exr.checkpoint; a render stopped by SIGKILL or
 // Ctrl-C and run again with the same command ends bit for bit equal, on
 // every channel, to the render that was never stopped. A checkpoint of

@@ -336,7 +336,7 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
   EXPECT_EQ(std::stod(t.at("target")), 0.1);
   const double meanSpp = std::stod(t.at("mean_spp"));
   EXPECT_LT(meanSpp, 64.0);
-  EXPECT_GE(meanSpp, 16.0);  // the first round: min(16, spp) samples (README "Adaptive sampling")
+  EXPECT_GE(meanSpp, 16.0);  // the first round: min(16, spp) samples (docs/sampling.md "Adaptive sampling")
   {
     const ReadBack b = readExr(dir + "/out/" + t.at("pass"));
     ASSERT_TRUE(b.ok);

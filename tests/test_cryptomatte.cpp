@@ -1,4 +1,4 @@
-// Cryptomatte (core/render/cryptomatte.h, README "Cryptomatte"): the hash and id
+// Cryptomatte (core/render/cryptomatte.h, docs/exr.md "Cryptomatte"): the hash and id
 // conversion against published values, the manifest, and rendered files
 // decoded pixel by pixel back to the objects and materials the test placed.
 #include <gtest/gtest.h>
@@ -355,7 +355,7 @@ TEST(Cryptomatte, RenderedLayersDecodeToTheScene) {
   for (const char* c : {"CryptoObject00.R", "CryptoObject00.G", "CryptoObject01.B", "CryptoObject02.A"})
     EXPECT_EQ(half.planes.at(c), full.planes.at(c)) << c;
   EXPECT_EQ(half.planes.count("CryptoMaterial00.R"), 0u);
-  // 32-bit: the 12 Cryptomatte channels, Z and N.X/Y/Z (README "Depth
+  // 32-bit: the 12 Cryptomatte channels, Z and N.X/Y/Z (docs/exr.md "Depth
   // and camera conventions") and spp (integer counts); the rest is half.
   int formats = 0;
   for (size_t c = 0; c < half.spec.channelformats.size(); ++c) {

@@ -1,15 +1,23 @@
 // The documentation against the code it describes:
-// - README.md's integrator table against the registry (`obscura integrators`
-//   prints the registry, so this keeps the two in step): every built-in has
-//   a row naming exactly its parameters, with the defaults it states equal to
-//   the declared ones, and every row names a registered integrator (rows
-//   marked "(plugin)" are checked in plugin_tests.cpp against the plugin).
+// - docs/integrators.md's integrator table against the registry (`obscura
+//   integrators` prints the registry, so this keeps the two in step): every
+//   built-in has a row naming exactly its parameters, with the defaults it
+//   states equal to the declared ones, and every row names a registered
+//   integrator (rows marked "(plugin)" are checked in plugin_tests.cpp
+//   against the plugin).
+// - docs/cli.md names every option the CLI's help prints.
 // - Citations: every document under docs/ that a source or document
-//   mentions exists, every `docs/math.md §N` names a section docs/math.md has, and no
-//   file cites the design notes that lived outside the repository.
+//   mentions exists, every `docs/math.md §N` names a section docs/math.md has,
+//   every section cited by name (README or docs/<file>.md followed by the name
+//   in double quotes) is a heading of that file, and no file cites the design
+//   notes that lived outside the repository.
+// - README.md is a front door: at most 300 lines.
 #include <gtest/gtest.h>
 
 #include <cctype>
+#include <cstdio>
+#include <map>
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -19,7 +27,7 @@
 #include <vector>
 
 #include <obscura/integrator.h>
-#include "tests/readme_integrators.h"
+#include "tests/integrator_table.h"
 
 namespace obscura::test {
 namespace {
@@ -33,29 +41,29 @@ std::string readFile(const fs::path& p) {
   return s.str();
 }
 
-TEST(DocsConsistency, ReadmeIntegratorTableMatchesTheRegistry) {
-  const std::string readme = readFile(fs::path(OBSCURA_SOURCE_DIR) / "README.md");
-  const std::vector<ReadmeIntegratorRow> rows = readmeIntegratorRows(readme);
-  ASSERT_FALSE(rows.empty()) << "no rows under \"## Integrators\" in README.md";
+TEST(DocsConsistency, IntegratorTableMatchesTheRegistry) {
+  const std::string doc = kIntegratorTableDoc;
+  const std::vector<IntegratorTableRow> rows = integratorTableRows(readFile(fs::path(OBSCURA_SOURCE_DIR) / doc));
+  ASSERT_FALSE(rows.empty()) << "no rows under the heading \"Integrators\" in " << doc;
   const std::vector<IntegratorDescriptor>& all = IntegratorRegistry::instance().all();
   std::set<std::string> documented;
-  for (const ReadmeIntegratorRow& row : rows) {
-    EXPECT_TRUE(documented.insert(row.name).second) << "README.md:" << row.line << ": second row for " << row.name;
+  for (const IntegratorTableRow& row : rows) {
+    EXPECT_TRUE(documented.insert(row.name).second) << doc << ":" << row.line << ": second row for " << row.name;
     const IntegratorDescriptor* d = nullptr;
     for (const IntegratorDescriptor& x : all)
       if (x.name == row.name) d = &x;
     if (row.plugin) {
-      EXPECT_EQ(d, nullptr) << "README.md:" << row.line << ": " << row.name << " is marked (plugin) but built in";
+      EXPECT_EQ(d, nullptr) << doc << ":" << row.line << ": " << row.name << " is marked (plugin) but built in";
       continue;
     }
     if (!d) {
-      ADD_FAILURE() << "README.md:" << row.line << ": `" << row.name << "` is not a registered integrator";
+      ADD_FAILURE() << doc << ":" << row.line << ": `" << row.name << "` is not a registered integrator";
       continue;
     }
-    for (const std::string& p : readmeRowProblems(row, *d, all)) ADD_FAILURE() << p;
+    for (const std::string& p : integratorRowProblems(row, *d, all)) ADD_FAILURE() << p;
   }
   for (const IntegratorDescriptor& d : all)
-    EXPECT_TRUE(documented.count(d.name)) << "README.md's integrator table has no row for `" << d.name << "`";
+    EXPECT_TRUE(documented.count(d.name)) << doc << "'s integrator table has no row for `" << d.name << "`";
 }
 
 // The check itself, on a made-up table: it must see a wrong default, a
@@ -72,9 +80,9 @@ TEST(DocsConsistency, TableCheckSeesEveryKindOfDisagreement) {
   const auto problems = [&](const std::string& paramsCell) {
     const std::string text = "## Integrators\n\n| name | what | parameters |\n|---|---|---|\n| `ao` | x (a\\|b) | " +
                              paramsCell + " |\n\n## Next\n| `ao` | not | read |\n";
-    const auto rows = readmeIntegratorRows(text);
+    const auto rows = integratorTableRows(text);
     EXPECT_EQ(rows.size(), 1u);
-    return rows.empty() ? std::vector<std::string>{"no row"} : readmeRowProblems(rows[0], ao, all);
+    return rows.empty() ? std::vector<std::string>{"no row"} : integratorRowProblems(rows[0], ao, all);
   };
   EXPECT_TRUE(problems("`distance` (R, `inf` or a number, default `inf`), `rays` (default 1)").empty());
   EXPECT_TRUE(problems("`distance` (default inf; see `--sky`), `rays` as for `obscurance`").empty());
@@ -167,6 +175,199 @@ TEST(DocsConsistency, NoCitationOfTheOldDesignNotes) {
                         << " (use docs/math.md §N or docs/architecture.md)";
     }
   }
+}
+
+// --- Citations of sections by name ------------------------------------------
+
+// The names a document's sections can be cited by: its headings ("#" to
+// "######", outside fenced code blocks), and the bold run-in titles of its
+// paragraphs and list items ("**Depth.**", "**Symmetric taps**"), without a
+// final period.
+std::set<std::string> citableSections(const std::string& text) {
+  std::set<std::string> names;
+  std::istringstream in(text);
+  bool fenced = false;
+  const std::regex bold(R"(\*\*([^*]+?)\.?\*\*)");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("```", 0) == 0) {
+      fenced = !fenced;
+      continue;
+    }
+    if (fenced) continue;
+    const size_t hashes = line.find_first_not_of('#');
+    if (hashes > 0 && hashes <= 6 && hashes != std::string::npos && line[hashes] == ' ') {
+      std::string name = line.substr(hashes + 1);
+      while (!name.empty() && (name.back() == ' ' || name.back() == '\r')) name.pop_back();
+      names.insert(name);
+    }
+    for (auto m = std::sregex_iterator(line.begin(), line.end(), bold); m != std::sregex_iterator(); ++m)
+      names.insert((*m)[1].str());
+  }
+  return names;
+}
+
+struct SectionCitation {
+  std::string document;  // "README.md" or a document under docs/
+  std::string section;   // the quoted name, its line breaks and comment leaders folded into spaces
+  int line = 0;
+};
+
+// Every citation of a section by name in a text: README or docs/<file>.md, a
+// space, then the name in double quotes (also escaped, as in a C++ string).
+// A name may run over a line break, where the next line's comment leader
+// (//, #, *) and indentation are dropped.
+std::vector<SectionCitation> sectionCitations(const std::string& text) {
+  std::vector<SectionCitation> out;
+  // Built from pieces so this file does not cite anything itself.
+  const std::regex cite(std::string("(README|docs/[A-Za-z0-9_./-]+\\.md) \\\\?") + "\"([^\"\\\\]{1,200})\\\\?\"");
+  const std::regex fold(R"(\s*\n\s*(//+|#+|\*+)?\s*)");
+  for (auto m = std::sregex_iterator(text.begin(), text.end(), cite); m != std::sregex_iterator(); ++m) {
+    SectionCitation c;
+    c.document = (*m)[1].str() == "README" ? "README.md" : (*m)[1].str();
+    c.section = std::regex_replace((*m)[2].str(), fold, " ");
+    c.line = 1 + int(std::count(text.begin(), text.begin() + m->position(0), '\n'));
+    out.push_back(c);
+  }
+  return out;
+}
+
+TEST(DocsConsistency, CitedSectionsAreHeadingsOfTheirDocument) {
+  const fs::path root(OBSCURA_SOURCE_DIR);
+  std::map<std::string, std::set<std::string>> sections;  // by document
+  int checked = 0;
+  for (const fs::path& file : sourceFiles()) {
+    const std::string rel = fs::relative(file, root).string();
+    for (const SectionCitation& c : sectionCitations(readFile(file))) {
+      if (!sections.count(c.document)) {
+        if (!fs::exists(root / c.document)) {
+          ADD_FAILURE() << rel << ":" << c.line << " cites " << c.document << " \"" << c.section
+                        << "\", but " << c.document << " does not exist";
+          continue;
+        }
+        sections[c.document] = citableSections(readFile(root / c.document));
+      }
+      ++checked;
+      EXPECT_TRUE(sections[c.document].count(c.section))
+          << rel << ":" << c.line << " cites " << c.document << " \"" << c.section << "\", which is not a heading of "
+          << c.document;
+    }
+  }
+  EXPECT_GT(checked, 50) << "found too few section citations: is the pattern still right?";
+}
+
+// The check itself, on made-up text: names over line breaks, escaped quotes,
+// headings of every level, bold titles, fenced code left out.
+TEST(DocsConsistency, SectionCitationCheckReadsWhatItShould) {
+  const std::string q = "\"";
+  const std::string text = std::string("// see ") + "READ" + "ME " + q + "Depth\n// and camera conventions" + q +
+                           "\nhelp(\"(docs/x" + ".md \\" + q + "Adaptive sampling\\" + q + ")\")\n# docs/y" + ".md " + q +
+                           "A\n# B" + q;
+  const std::vector<SectionCitation> c = sectionCitations(text);
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(c[0].document, "README.md");
+  EXPECT_EQ(c[0].section, "Depth and camera conventions");
+  EXPECT_EQ(c[0].line, 1);
+  EXPECT_EQ(c[1].document, std::string("docs/x") + ".md");
+  EXPECT_EQ(c[1].section, "Adaptive sampling");
+  EXPECT_EQ(c[2].section, "A B");
+  const std::set<std::string> s =
+      citableSections("# Title\n## Two words\n### Deep one\n```sh\n# not a heading\n```\n- **Depth.** d = 1/Z\n**Bold** x\n");
+  EXPECT_TRUE(s.count("Title") && s.count("Two words") && s.count("Deep one") && s.count("Depth") && s.count("Bold"));
+  EXPECT_FALSE(s.count("not a heading"));
+}
+
+// --- docs/cli.md against the CLI's help --------------------------------------
+
+// stdout and stderr of `obscura ARGS`.
+std::string runObscura(const std::string& args) {
+  const std::string cmd = std::string("'") + OBSCURA_BINARY + "' " + args + " 2>&1";
+  std::string out;
+  if (FILE* p = ::popen(cmd.c_str(), "r")) {
+    char buf[4096];
+    for (size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+    ::pclose(p);
+  }
+  return out;
+}
+
+// Every option a CLI11 help text shows: `--long` words anywhere, and `-x`
+// short flags where a word starts with one.
+std::set<std::string> helpOptions(const std::string& help) {
+  std::set<std::string> options;
+  const std::regex opt(R"((^|[\s,\[(])(--[A-Za-z][A-Za-z0-9-]*|-[A-Za-z])(?=[\s,=\])]|$))");
+  for (auto m = std::sregex_iterator(help.begin(), help.end(), opt); m != std::sregex_iterator(); ++m)
+    options.insert((*m)[2].str());
+  return options;
+}
+
+// The subcommands the top-level help lists (CLI11: "Subcommands:", or
+// "SUBCOMMANDS:" in other versions, then one indented name a line).
+std::vector<std::string> helpSubcommands(const std::string& help) {
+  std::vector<std::string> subs;
+  size_t at = help.find("Subcommands:");
+  if (at == std::string::npos) at = help.find("SUBCOMMANDS:");
+  if (at == std::string::npos) return subs;
+  std::istringstream in(help.substr(at + 12));
+  const std::regex sub(R"(^\s+([a-z][a-z-]*)(\s|$).*)");
+  for (std::string line; std::getline(in, line);) {
+    std::smatch m;
+    if (std::regex_match(line, m, sub)) subs.push_back(m[1].str());
+    else if (!line.empty() && line.find_first_not_of(' ') != std::string::npos && line[0] != ' ') break;
+  }
+  return subs;
+}
+
+// The option as a word of the text: not part of a longer option.
+bool mentionsOption(const std::string& text, const std::string& option) {
+  const std::regex word("(^|[^A-Za-z0-9-])" + option + "([^A-Za-z0-9-]|$)");
+  return std::regex_search(text, word);
+}
+
+TEST(DocsConsistency, CliDocNamesEveryOptionTheHelpPrints) {
+  const std::string doc = readFile(fs::path(OBSCURA_SOURCE_DIR) / "docs" / "cli.md");
+  ASSERT_FALSE(doc.empty()) << "docs/cli.md is missing";
+  const std::string top = runObscura("--help");
+  const std::vector<std::string> subs = helpSubcommands(top);
+  ASSERT_GE(subs.size(), 5u) << "obscura --help lists too few subcommands:\n" << top;
+  std::vector<std::pair<std::string, std::string>> helps = {{"", top}};
+  for (const std::string& s : subs) {
+    EXPECT_TRUE(mentionsOption(doc, "obscura " + s)) << "docs/cli.md has no synopsis of `obscura " << s << "`";
+    helps.emplace_back(s, runObscura(s + " --help"));
+  }
+  for (const auto& [sub, help] : helps) {
+    const std::set<std::string> options = helpOptions(help);
+    EXPECT_FALSE(options.empty()) << "obscura " << sub << " --help printed no options:\n" << help;
+    for (const std::string& o : options)
+      EXPECT_TRUE(mentionsOption(doc, o)) << "docs/cli.md does not mention `" << o << "`, which `obscura "
+                                           << (sub.empty() ? "" : sub + " ") << "--help` prints";
+  }
+}
+
+// The check itself: what it reads from a help text and what counts as a
+// mention.
+TEST(DocsConsistency, HelpOptionReadingSeesLongAndShortOptions) {
+  const std::set<std::string> o = helpOptions(
+      "OPTIONS:\n  -h,--help   Print this\n  -o,--output TEXT REQUIRED  out\n  --min-spp INT  (but see --background-spp)\n"
+      "  --shutter TEXT  e.g. -0.25,0.25; non-EXR\n");
+  EXPECT_EQ(o, (std::set<std::string>{"-h", "--help", "-o", "--output", "--min-spp", "--background-spp", "--shutter"}));
+  EXPECT_TRUE(mentionsOption("`--spp` and `-o OUT`", "--spp"));
+  EXPECT_FALSE(mentionsOption("`--spp-max`", "--spp"));
+  EXPECT_TRUE(mentionsOption("`-o OUT`", "-o"));
+  EXPECT_FALSE(mentionsOption("--output", "-o"));
+  EXPECT_EQ(helpSubcommands("X\nSUBCOMMANDS:\n  render   Render\n  info     Describe\n"),
+            (std::vector<std::string>{"render", "info"}));
+  EXPECT_EQ(helpSubcommands("Options:\n  -h,--help  Help\n\nSubcommands:\n  merge  Merge\n"),
+            (std::vector<std::string>{"merge"}));
+}
+
+// --- The README stays a front door -------------------------------------------
+
+TEST(DocsConsistency, ReadmeIsAtMost300Lines) {
+  const std::string readme = readFile(fs::path(OBSCURA_SOURCE_DIR) / "README.md");
+  ASSERT_FALSE(readme.empty());
+  const long lines = std::count(readme.begin(), readme.end(), '\n') + (readme.back() == '\n' ? 0 : 1);
+  EXPECT_LE(lines, 300) << "README.md has " << lines
+                        << " lines: it is the front door; move reference material into docs/ (README \"Documentation\")";
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-// The EXR as compositors read it (README "Depth and camera conventions"):
+// The EXR as compositors read it (docs/exr.md "Depth and camera conventions"):
 // the OpenEXR standard camera matrices rebuild the render's projection from
 // the header alone, Z is camera-plane depth with a finite background, depth
 // and normals stay 32-bit under --half, the chromaticities are Rec.709, and

@@ -1,5 +1,6 @@
 // The hot-loop arithmetic made cheaper for speed (bench/bench_bare.cpp,
-// README "Speed") against straightforward references computed here: the bit
+// docs/performance.md "The render loop against a bare Embree loop") against
+// straightforward references computed here: the bit
 // reversals of the sampler against a bit-by-bit loop, and the concentric
 // map's octant sin/cos against the C library's std::sin/std::cos of the
 // same angle; the lane (SIMD) forms against the scalar ones.

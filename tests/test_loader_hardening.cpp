@@ -1,5 +1,5 @@
 // Regression tests for what fuzzing the loaders and the parameter parser
-// found (fuzz/, README "Fuzzing"), the parse-once scene source, and the
+// found (fuzz/, docs/testing.md "Fuzzing"), the parse-once scene source, and the
 // fuzz seed corpus. In process: each test builds its file with GltfBuilder.
 #include <filesystem>
 #include <fstream>

@@ -1,4 +1,4 @@
-// Several passes from one render (core/render/render.h, README "Several passes in
+// Several passes from one render (core/render/render.h, docs/production.md "Several passes in
 // one render"): each pass in a combined render equals the same pass rendered
 // alone, bit for bit - the ray-traced passes share one walk over the camera
 // samples, a screen-space pass runs its own G-buffer loop - and the CLI's

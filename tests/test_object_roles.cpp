@@ -1,6 +1,6 @@
 // Objects' roles (occluder, camera, matte, occlusion scope) and alpha
 // cut-outs (MASK, BLEND) against the closed form of a square slab over a
-// floor (README "Objects and roles").
+// floor (docs/production.md "Objects and roles").
 //
 // The scene: an open floor z = 0 (object "floor") and a square slab of
 // half-size a at height h (object "slab"). At the floor point under the

@@ -34,8 +34,8 @@ Film rampFilm(int w, int h, bool aovs) {
 }
 
 // A new film's planes are zero wherever its memory comes from (a guard for
-// any cheaper zeroing of the film's huge-page planes, README "Speed"). Films
-// are built where films just as large were filled with non-zero values and
+// any cheaper zeroing of the film's huge-page planes, docs/performance.md
+// "Where the render loop's time goes"). Films are built where films just as large were filled with non-zero values and
 // freed, so the allocator hands back dirty memory; every pixel of every
 // plane, the fixed channels and added ones, must read 0, at sizes above and
 // below the 2 MiB of a huge page.

@@ -1,4 +1,4 @@
-// Regions and merging (README "Regions and merging"): `render --region`
+// Regions and merging (docs/production.md "Regions and merging"): `render --region`
 // writes the pixels of a window of the frame - the EXR's data window, its
 // display window the frame - bit for bit as the full render writes them
 // (every sample is keyed by its pixel's image coordinates); `merge`

@@ -1,4 +1,4 @@
-// Start-up and the EXR writer (README "Start-up and file speed"): the
+// Start-up and the EXR writer (docs/performance.md "Start-up and file speed"): the
 // program does not load OpenImageIO (its module is dlopen'ed when a format
 // needs it, and its absence is one error line), and every --compression
 // writes the same pixels, named in the header's standard attribute.

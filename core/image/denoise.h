@@ -1,4 +1,4 @@
-// The edge-aware denoiser of a pass W (README "Denoising", docs/denoise.md):
+// The edge-aware denoiser of a pass W (docs/sampling.md "Denoising", docs/denoise.md):
 // an a-trous wavelet filter (3 x 3 binomial or 5 x 5 B3-spline taps, the
 // step doubling each iteration) whose taps are weighted by the AOVs (normal, depth, object,
 // albedo) and by W's own differences measured against its per-pixel
@@ -99,7 +99,7 @@ void denoise(const DenoiseInput& in, const DenoiseSettings& s, float* out[3]);
 // linear filter's own factor (in a flat region the iterations reuse the same
 // pixels, and the product of their factors falls below what any weights
 // achieve); 1 where the pixel holds no W or its variance is 0. Adaptive sampling for a denoised pass reads it
-// (README "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
+// (docs/sampling.md "Adaptive sampling", docs/denoise.md "Adaptive sampling for the
 // filter"). With a gain, out may be nullptr: the gain alone is wanted (the
 // adaptive rounds' gain pass), and the pass is not written.
 // The working planes (guides, two iterations' states: 18-21 floats a pixel)

@@ -1,6 +1,6 @@
 // The film: one float plane per output channel.
 //
-// Channel layout (README "Channels"): R,G,B = the pass W, premultiplied by
+// Channel layout (docs/exr.md "Channels"): R,G,B = the pass W, premultiplied by
 // coverage; A = coverage; albedo.R/G/B (premultiplied); N.X/Y/Z = world
 // normal (mean over the pixel's hits, renormalized; 0 where nothing was hit);
 // Z = camera distance (mean over hits; +inf where nothing was hit);
@@ -32,11 +32,11 @@ enum Channel : int {
 // Z where nothing was hit: large and finite, so a compositor's filters
 // (negative lobes times +inf give NaN) and range nodes stay finite. 1e10 is
 // what Cycles writes for its Depth pass's background, and above the range
-// Blender's Normalize node takes into account (|v| <= 10000). README "Depth
+// Blender's Normalize node takes into account (|v| <= 10000). docs/exr.md "Depth
 // and camera conventions".
 constexpr float kBackgroundDepth = 1e10f;
 
-// The planes the render loops add with the AOVs (README "Adaptive
+// The planes the render loops add with the AOVs (docs/sampling.md "Adaptive
 // sampling"): the standard error of the pass W per pixel (un-premultiplied)
 // and the camera samples the pixel took.
 inline constexpr const char* kErrorPlane = "W.error";
@@ -45,7 +45,7 @@ inline constexpr const char* kSppPlane = "spp";
 // The name of a fixed channel (Channel); extra planes are named by the Film.
 const char* channelName(int c);
 
-// A film holds the planes of a window of the image (README "Regions and
+// A film holds the planes of a window of the image (docs/production.md "Regions and
 // merging"): the whole frame, or a region [x0, x1) x [y0, y1) of a
 // fullWidth x fullHeight frame. Pixels are addressed by their image
 // coordinates (at(c, x, y) with x in [x0, x1)), so the render loops write a

@@ -66,7 +66,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   checkWritable(path);
   const std::vector<int>& chans = film.channels();
   // The data window is the film's window, the display window the frame
-  // (equal but for a --region render; README "Regions and merging").
+  // (equal but for a --region render; docs/production.md "Regions and merging").
   const Imath::Box2i data({film.originX(), film.originY()},
                           {film.originX() + film.width() - 1, film.originY() + film.height() - 1});
   const Imath::Box2i display({0, 0}, {film.fullWidth() - 1, film.fullHeight() - 1});

@@ -24,7 +24,7 @@ struct HeaderAttribute {
 };
 
 // EXR compressions offered (all lossless). Sizes and write times at 1080p
-// are in README "Start-up and file speed" (bench/bench_exr_write.cpp).
+// are in docs/performance.md "Start-up and file speed" (bench/bench_exr_write.cpp).
 enum class ExrCompression { None, Rle, Zips, Zip, Piz };
 // "none", "rle", "zips", "zip", "piz": the names of the EXR `compression`
 // attribute as OpenImageIO and Nuke show them.
@@ -37,7 +37,7 @@ struct ExrOptions {
   // shaded and the extra planes; N.X/Y/Z and Z stay 32-bit (exrKeepsFloat).
   bool half = false;
   // Extra planes whose name starts with one of these stay 32-bit floats with
-  // `half` (Cryptomatte ids are float bit patterns: README "Cryptomatte").
+  // `half` (Cryptomatte ids are float bit patterns: docs/exr.md "Cryptomatte").
   std::vector<std::string> floatChannelPrefixes;
   std::vector<HeaderAttribute> attributes;
   // Recorded in the file's standard `compression` attribute.

@@ -1,5 +1,5 @@
 // Error of a pass against a reference pass: the numbers `obscura compare`
-// reports (README "Compare"). Pure functions on plain images, so tests can
+// reports (docs/compare.md "Compare"). Pure functions on plain images, so tests can
 // check them on tiny synthetic images with known answers.
 #pragma once
 

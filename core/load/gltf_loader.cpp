@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 
 // Builds a Scene from a decoded document (core/load/gltf_document.h) as the load
 // options say, adding what is Obscura's own: the mesh and node extras
-// (extras.obscura.subdivision, .displacement; README "Scenes") turned into
+// (extras.obscura.subdivision, .displacement; docs/scenes.md "Scenes") turned into
 // subdivision cages, refined and displaced per use.
 class Builder {
  public:
@@ -98,7 +98,7 @@ class Builder {
   }
 
   // meshes[i].extras.obscura.subdivision = {"scheme": "catmull-clark"|"loop",
-  // "level": N} (README "Scenes"); none if absent.
+  // "level": N} (docs/scenes.md "Scenes"); none if absent.
   std::optional<SubdivisionRequest> subdivisionOf(int meshIndex) {
     const std::string owner = "meshes[" + std::to_string(meshIndex) + "]";
     const tinygltf::Value* ob = obscuraExtras(doc_.model().meshes[size_t(meshIndex)].extras, owner);
@@ -123,7 +123,7 @@ class Builder {
 
   // A height map displacing a subdivided mesh: from the using node's
   // extras.obscura.displacement, else the mesh's, else the CLI's --displace
-  // (README "Scenes"). `field` names where it came from, for errors.
+  // (docs/scenes.md "Scenes"). `field` names where it came from, for errors.
   struct DisplacementRequest {
     std::string map;  // path as written (relative to the .gltf) or as given to --displace
     std::string path;  // the file to read
@@ -283,7 +283,7 @@ class Builder {
     addCage(*scene_, c, o, d, p.material, doc_.path() + ": " + p.field);
   }
 
-  // The roles node `index` sets in its extras.obscura (README "Objects and
+  // The roles node `index` sets in its extras.obscura (docs/production.md "Objects and
   // roles"): booleans occluder, camera, matte and the string occlusion.
   RoleSettings nodeRoles(int index) const {
     const std::string owner = "nodes[" + std::to_string(index) + "]";

@@ -5,7 +5,7 @@
 // NORMAL, TEXCOORD_0, perspective cameras, and the diffuse albedo
 // baseColorFactor x baseColorTexture (sRGB decoded, sampler wrap modes),
 // and Obscura's mesh/node extras: subdivision (with uvs) and displacement
-// (README "Scenes").
+// (docs/scenes.md "Scenes").
 // Everything else in the file is reported once as a warning and ignored.
 // Malformed data (bad indices, out-of-range accessors, NaN, coordinates
 // beyond what Embree traces, fields of the wrong JSON type, missing files)

@@ -113,7 +113,7 @@ std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& optio
   scene->setRobust(options.robust);
   scene->sourceMeshes = 1;
   scene->flattenedMeshes = 1;
-  // The cage is one object, named by its file (README "Objects and roles").
+  // The cage is one object, named by its file (docs/production.md "Objects and roles").
   scene->objects.push_back({std::filesystem::path(path).filename().string(), {}});
   scene->setCurrentObject(0);
   applyObjectOverrides(scene->objects, options.objectOverrides);

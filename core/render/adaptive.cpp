@@ -126,7 +126,7 @@ uint64_t SampleSchedule::next(const float* error) {
   const int w = window_.width(), h = window_.height();
   if (phase_ == Phase::Survey) {
     // The survey's decision: background where no sample of the 5 x 5
-    // neighbourhood hit a surface (README "Adaptive sampling": a thin
+    // neighbourhood hit a surface (docs/sampling.md "Adaptive sampling": a thin
     // feature all 25 m samples missed - 100 at the default m = 4 - is missed
     // by this render); every other pixel takes the rest of its first round.
     phase_ = Phase::FirstRound;

@@ -1,5 +1,5 @@
 // Adaptive sampling: how many camera samples each pixel takes, decided in
-// rounds from the pixels' error estimates (README "Adaptive sampling",
+// rounds from the pixels' error estimates (docs/sampling.md "Adaptive sampling",
 // docs/math.md §13).
 //
 // Every pixel takes the first --min-spp samples (but a background pixel,
@@ -91,7 +91,7 @@ class SampleSchedule {
   Phase phase() const { return phase_; }
   // The survey's samples a pixel; 0 when this schedule takes none.
   uint32_t backgroundSpp() const { return surveySpp_; }
-  // The marginal rule (a denoised pass; README "Adaptive sampling"): a
+  // The marginal rule (a denoised pass; docs/sampling.md "Adaptive sampling"): a
   // pixel stops when error <= E sqrt(n / n0), n its samples, n0 the first
   // round's, and plans n proportional to its per-sample deviation
   // error sqrt(n): the allocation that minimizes the image's mean squared

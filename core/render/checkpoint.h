@@ -1,4 +1,4 @@
-// Resumable renders (README "Checkpoints"): the finished tiles of a
+// Resumable renders (docs/production.md "Checkpoints"): the finished tiles of a
 // ray-traced render saved to a file between tiles, and skipped when the same
 // render runs again.
 //

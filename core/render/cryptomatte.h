@@ -1,4 +1,4 @@
-// Cryptomatte ID mattes (README "Cryptomatte"): object and material layers
+// Cryptomatte ID mattes (docs/exr.md "Cryptomatte"): object and material layers
 // after the public Cryptomatte specification (Psyop, v1.2).
 //
 // - A name is hashed with MurmurHash3_x86_32 (seed 0) over its UTF-8 bytes;

@@ -124,7 +124,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
       rays.local() += n;
       for (size_t l = 0; l < n; ++l) {
         const size_t i = order[l];
-        // A matte object holds out: its pixels are background (README "Objects and roles").
+        // A matte object holds out: its pixels are background (docs/production.md "Objects and roles").
         if (!cam.hit(l) || (mattes && scene.isMatte(scene.objectOf(cam.geomID(l), cam.instID(l))))) {
           g.depth[i] = kInfinity;
           g.position[i] = Vec3(0, 0, 0);
@@ -160,7 +160,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
           slack = z > 0.0f ? std::max(slack, std::abs(z - g.depth[i])) : kInfinity;
         }
         g.depthSlack[i] = {g.depth[i], slack};
-        // An object that occludes nothing (README "Objects and roles") is
+        // An object that occludes nothing (docs/production.md "Objects and roles") is
         // shaded where the camera sees it but is no occluder in the depth
         // buffer its neighbours read: there it reads as background.
         if (nonOccluders && !scene.objectOccludes(h.object)) g.depthSlack[i] = {kInfinity, 0.0f}, g.plane[i] = {0, 0, 0, 0};

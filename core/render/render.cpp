@@ -306,7 +306,7 @@ class TileRenderer {
   // Rays -> surface hits: one SurfaceHit per lane that hit (ts.hits, in
   // lane order), ts.laneHit its index or -1. A hit on a matte object is a
   // holdout: it hides what is behind it and counts as a miss (alpha 0,
-  // pass 0; README "Objects and roles").
+  // pass 0; docs/production.md "Objects and roles").
   void surfaceHits(size_t n, ThreadScratch& ts) const {
     const IntersectBatch& cam = ts.camera;
     // The lanes that hit first, then their SurfaceHits four at a time
@@ -736,7 +736,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     SampleSchedule schedule(renderWindow(s), s);
     TileRenderer::WindowSums sums;
     LargeVector<float> error(window);  // every pixel takes samples in the first round: all written
-    // --denoise with a target (README "Adaptive sampling"): the marginal
+    // --denoise with a target (docs/sampling.md "Adaptive sampling"): the marginal
     // rule on each pixel's error times the square root of the filter's
     // variance reduction there (docs/math.md §13), the gain measured once,
     // on the first round's film. Not when the first round already takes

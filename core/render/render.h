@@ -29,14 +29,14 @@ struct RenderSettings {
   bool aovs = true;        // write albedo/N/Z/shaded channels
   // With aovs: the albedo.* and shaded.* channels too. false (--no-albedo)
   // drops them and, unless a pass reads albedo, the texture lookup at every
-  // camera hit that they cost (README "Speed").
+  // camera hit that they cost (docs/performance.md "Where the render loop's time goes").
   bool albedoAov = true;
   bool progress = false;   // progress bar on stderr
   CryptomatteSettings cryptomatte;  // ID matte layers (core/render/cryptomatte.h); off by default
   // --region: the window of the frame rendered, [x0, x1) x [y0, y1) in
   // pixels; empty (the default) = the whole frame. Its pixels equal the same
   // pixels of the full render bit for bit (samples are keyed by the pixel's
-  // image coordinates). Ray-traced passes only (README "Regions and merging").
+  // image coordinates). Ray-traced passes only (docs/production.md "Regions and merging").
   PixelRect region;
   // Motion blur (--shutter): each camera sample gets a time in [0, 1)
   // across the shutter from its own sample dimension, which every ray of the
@@ -44,7 +44,7 @@ struct RenderSettings {
   // (Camera::motion) are placed at it. Off: every ray at time 0. A still
   // scene renders bit-identically either way. Ray-traced passes only.
   bool motionBlur = false;
-  // Adaptive sampling (core/render/adaptive.h; README "Adaptive sampling"): with
+  // Adaptive sampling (core/render/adaptive.h; docs/sampling.md "Adaptive sampling"): with
   // a target error or a time limit, pixels are sampled in rounds and each
   // stops once the standard error of its composited pass (its own and
   // pooled over its 3 x 3 neighbours) is at most targetError, or at spp
@@ -56,14 +56,14 @@ struct RenderSettings {
   // pixel takes the first round's.
   int backgroundSpp = 4;
   double timeLimit = 0;   // seconds; 0: none. No round starts that is predicted to end past it
-  // --denoise (core/image/denoise.h; README "Denoising"): the primary pass's R,G,B
+  // --denoise (core/image/denoise.h; docs/sampling.md "Denoising"): the primary pass's R,G,B
   // (and its layer, shaded.*) replaced by the edge-aware filter's output,
   // guided by N, Z, W.error, the pixels' objects and (for passes that read
   // it) albedo; the raw pass kept as noisy.R/G/B. Needs the AOVs.
   bool denoise = false;
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/scene/tracer.h)
   // --checkpoint: finished tiles saved to a file between tiles, and saved
-  // tiles skipped (core/render/checkpoint.h; README "Checkpoints"). Ray-traced
+  // tiles skipped (core/render/checkpoint.h; docs/production.md "Checkpoints"). Ray-traced
   // passes only. When set, stats.rays count the rays of every finished
   // tile, saved ones included, and stats.seconds adds the earlier runs'.
   Checkpoint* checkpoint = nullptr;
@@ -117,7 +117,7 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
             const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
             const std::atomic<bool>* cancel = nullptr);
 
-// Several passes from one render (README "Several passes in one render").
+// Several passes from one render (docs/production.md "Several passes in one render").
 // passes[0] is the primary pass: R,G,B and shaded.* are its W. Every pass
 // with a layer name also writes `<layer>.R/G/B` (premultiplied like R,G,B).
 // The ray-traced passes share one walk over the camera samples - camera

@@ -1,12 +1,12 @@
 // Objects and their roles: who is seen by the camera, who occludes whom
-// (README "Objects and roles").
+// (docs/production.md "Objects and roles").
 //
 // An object is a glTF node with a mesh (each placement its own object) or an
 // OBJ cage. Its roles come from `extras.obscura` on the node (inherited by
 // the node's children unless they set their own) and from `--object`
 // overrides matched against object names with shell globs.
 //
-// How they are traced (docs/architecture.md "Objects and roles"):
+// How they are traced (docs/architecture.md "Roles as masks, scopes as an opt-in filter, alpha on the geometries that have it"):
 // - `camera` and `occluder` are Embree geometry masks on the object's
 //   top-level geometry: camera rays carry kRayMaskCamera, every other ray
 //   kRayMaskSecondary, and Embree skips a geometry whose mask shares no bit

@@ -30,7 +30,7 @@ namespace obscura {
 
 // glTF's alphaMode: OPAQUE ignores alpha; MASK cuts out where alpha <
 // alphaCutoff; BLEND lets a ray through with probability 1 - alpha
-// (README "Objects and roles").
+// (docs/production.md "Objects and roles").
 enum class AlphaMode : uint8_t { Opaque, Mask, Blend };
 
 struct Material {
@@ -106,8 +106,8 @@ struct Instance {
   int mesh = -1;  // index into Scene::instancedMeshes
   Affine toWorld;  // a moving instance: its transform at shutter open
   std::string node;
-  // A moving instance (motion blur, docs/architecture.md "Motion blur"):
-  // its transform at steps k = 0..n-1, at times k / (n - 1) across the
+  // A moving instance (docs/architecture.md "Motion blur through Embree's
+  // own motion, keyed by a measured rule"): its transform at steps k = 0..n-1, at times k / (n - 1) across the
   // shutter; empty for a still one.
   std::vector<Affine> motion;
   // The transform at ray time `time` in [0, 1]: as Embree places the

@@ -44,7 +44,7 @@ struct alignas(16) RayHit {
 // No geometry (RTC_INVALID_GEOMETRY_ID): Hit::geomID of a ray that hit nothing.
 inline constexpr uint32_t kInvalidGeometryId = 0xffffffffu;
 // Ray masks: camera rays see the objects whose `camera` role is on, every
-// other ray the objects whose `occluder` role is on (README "Objects and roles").
+// other ray the objects whose `occluder` role is on (docs/production.md "Objects and roles").
 inline constexpr uint32_t kRayMaskCamera = 1u;
 inline constexpr uint32_t kRayMaskSecondary = 2u;
 // The object of a ray that leaves from no surface (camera rays), or of a

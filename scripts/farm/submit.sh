@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Submits a shot to Slurm: a job array of the (frame, tile) tasks still missing,
 # and a merge job that runs once they all succeeded. Run it again after a
-# failure: it submits only what is missing (README "Rendering a shot on a cluster").
+# failure: it submits only what is missing (docs/production.md "Rendering a shot on a cluster").
 #
 #   scripts/farm/submit.sh -o OUT.####.exr --frames A-B[:STEP] [--tiles COLSxROWS] [--res WxH]
 #       [--scene SCENE] [--obscura BIN] [--work DIR] [--cpus N] [--max-running N]

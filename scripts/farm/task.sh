@@ -5,7 +5,7 @@
 #
 # renders task TASK (through LAST, in turn, for schedulers that hand out chunks
 # of indices): frame FIRST + (TASK / tiles) * STEP, tile TASK % tiles (index
-# scheme: scripts/farm/lib.sh, README "Rendering a shot on a cluster"), to its
+# scheme: scripts/farm/lib.sh, docs/production.md "Rendering a shot on a cluster"), to its
 # tile in WORK/tiles (or straight to the frame for a 1x1 grid). A task whose
 # output is already complete, or whose frame is already merged, is skipped, so
 # a requeued or resubmitted task never renders twice. Threads: $FARM_THREADS,

@@ -1,4 +1,4 @@
-"""The Python module against the CLI (README "Python"): a render from Python
+"""The Python module against the CLI (docs/python.md "Python"): a render from Python
 equals `obscura render` with the same settings channel for channel, bit for
 bit; errors raise obscura.Error with the CLI's message; a scene loaded once
 renders many times; Ctrl-C stops a render; the GIL is released while one runs.
@@ -307,13 +307,11 @@ def test_compare_returns_the_table(tmp_path):
 
 
 @pytest.mark.parametrize("call", ["render", "Scene", "compare"])
-def test_readme_documents_every_keyword(scene, call):
-    """README "Python" names every keyword each function takes (the list the
+def test_docs_document_every_keyword(scene, call):
+    """docs/python.md "Python" names every keyword each function takes (the list the
     unknown-keyword error gives), so the reference stays complete."""
-    with open(os.path.join(SOURCE, "README.md")) as f:
-        readme = f.read()
-    section = readme[readme.index("\n## Python\n"):]
-    section = section[:section.index("\n## ", 1)]
+    with open(os.path.join(SOURCE, "docs", "python.md")) as f:
+        section = f.read()
     fn = {"render": lambda: obscura.render(scene, no_such_keyword=1),
           "Scene": lambda: obscura.Scene(SCENE, no_such_keyword=1),
           "compare": lambda: obscura.compare(SCENE, "/nonexistent", ["ao"], no_such_keyword=1)}[call]
@@ -322,13 +320,13 @@ def test_readme_documents_every_keyword(scene, call):
     known = str(e.value).split("(known: ")[1].rstrip(")").split(", ")
     assert len(known) > 3
     for name in known:
-        assert f"`{name}`" in section, f"README \"Python\" does not name {call}'s keyword `{name}`"
+        assert f"`{name}`" in section, f"docs/python.md \"Python\" does not name {call}'s keyword `{name}`"
 
 
 def test_checkpoint_resumes_in_the_cli(scene, tmp_path, monkeypatch):
     """A render from Python interrupted with checkpoint= leaves the CLI's
     checkpoint file: `obscura render --checkpoint` resumes it, and the image
-    equals an uninterrupted render (README "Checkpoints")."""
+    equals an uninterrupted render (docs/production.md "Checkpoints")."""
     out = str(tmp_path / "shot.exr")
     settings = dict(spp=256, res=(64, 48), seed=2, threads=1)  # 12 tiles, each tens of ms
     flags = ["-i", "gi", "--spp", "256", "--res", "64x48", "--seed", "2", "--threads", "1"]
@@ -349,7 +347,7 @@ def test_checkpoint_resumes_in_the_cli(scene, tmp_path, monkeypatch):
 
 
 def shared_scene(rel):
-    """A third-party scene (README "Two commands"): skipped when absent,
+    """A third-party scene (README "Test scenes"): skipped when absent,
     unless OBSCURA_REQUIRE_SCENES is set (CI), as the C++ tests do."""
     root = os.environ.get("OBSCURA_SCENES") or os.environ.get("OBSCURA_DEFAULT_SCENES",
                                                                os.path.join(SOURCE, "..", "shared", "scenes"))

@@ -1,5 +1,6 @@
-// The README's "## Integrators" table, read back so tests can hold it to the
-// registry (what `obscura integrators` prints). Header-only: used by
+// The integrator table of docs/integrators.md (the rows under its heading
+// "Integrators"), read back so tests can hold it to the registry (what
+// `obscura integrators` prints). Header-only: used by
 // test_docs_consistency.cpp (built-ins) and plugin_tests.cpp (the bent-normal
 // plugin's row).
 //
@@ -21,21 +22,21 @@
 
 namespace obscura::test {
 
-struct ReadmeParam {
+struct IntegratorTableParam {
   std::string name;
   std::string stated;  // the default the row states ("" when it states none)
 };
 
-struct ReadmeIntegratorRow {
-  int line = 0;  // 1-based line in README.md
+struct IntegratorTableRow {
+  int line = 0;  // 1-based line in the document
   std::string name;
   bool plugin = false;
-  std::vector<ReadmeParam> params;    // backticked words outside parentheses, in order
+  std::vector<IntegratorTableParam> params;    // backticked words outside parentheses, in order
   std::vector<std::string> inherits;  // X of "every `X` parameter"
 };
 
 // Splits a table line on '|' that are not escaped as "\|".
-inline std::vector<std::string> readmeTableCells(const std::string& line) {
+inline std::vector<std::string> tableCells(const std::string& line) {
   std::vector<std::string> cells;
   std::string cell;
   for (size_t i = 0; i < line.size(); ++i) {
@@ -55,7 +56,7 @@ inline std::vector<std::string> readmeTableCells(const std::string& line) {
 
 // The value after "default " in a parenthetical: a backticked word, or the
 // text up to a space, comma, semicolon or ')'. U+2212 (minus) reads as '-'.
-inline std::string readmeStatedDefault(const std::string& paren) {
+inline std::string statedDefault(const std::string& paren) {
   const size_t at = paren.find("default ");
   if (at == std::string::npos) return "";
   size_t i = at + 8;
@@ -70,8 +71,13 @@ inline std::string readmeStatedDefault(const std::string& paren) {
   return v;
 }
 
-inline std::vector<ReadmeIntegratorRow> readmeIntegratorRows(const std::string& readme) {
-  std::vector<ReadmeIntegratorRow> rows;
+// The path the table lives at, relative to the source tree (for messages).
+inline constexpr const char* kIntegratorTableDoc = "docs/integrators.md";
+
+// The rows of the table under the heading "Integrators" (any level: "#",
+// "##", ...), up to the next heading.
+inline std::vector<IntegratorTableRow> integratorTableRows(const std::string& readme) {
+  std::vector<IntegratorTableRow> rows;
   bool inSection = false;
   int lineNo = 0;
   size_t start = 0;
@@ -81,14 +87,15 @@ inline std::vector<ReadmeIntegratorRow> readmeIntegratorRows(const std::string& 
     const std::string line = readme.substr(start, end - start);
     start = end + 1;
     ++lineNo;
-    if (line.rfind("## ", 0) == 0) {
-      inSection = line == "## Integrators";
+    if (!line.empty() && line[0] == '#') {
+      const size_t text = line.find_first_not_of('#');
+      inSection = text != std::string::npos && line.compare(text, std::string::npos, " Integrators") == 0;
       continue;
     }
     if (!inSection || line.rfind("| `", 0) != 0) continue;
-    const std::vector<std::string> cells = readmeTableCells(line);
+    const std::vector<std::string> cells = tableCells(line);
     if (cells.size() != 3) continue;
-    ReadmeIntegratorRow row;
+    IntegratorTableRow row;
     row.line = lineNo;
     const std::string& nameCell = cells[0];
     const size_t a = nameCell.find('`'), b = nameCell.find('`', a + 1);
@@ -110,7 +117,7 @@ inline std::vector<ReadmeIntegratorRow> readmeIntegratorRows(const std::string& 
         row.inherits.push_back(word);
         continue;
       }
-      ReadmeParam param{word, ""};
+      IntegratorTableParam param{word, ""};
       size_t j = close + 1;
       while (j < p.size() && p[j] == ' ') ++j;
       if (j < p.size() && p[j] == '(') {  // its parenthetical, to the matching ')'
@@ -120,7 +127,7 @@ inline std::vector<ReadmeIntegratorRow> readmeIntegratorRows(const std::string& 
           if (p[k] == '(') ++d;
           if (p[k] == ')' && --d == 0) break;
         }
-        param.stated = readmeStatedDefault(p.substr(j + 1, k - j - 1));
+        param.stated = statedDefault(p.substr(j + 1, k - j - 1));
       }
       row.params.push_back(param);
     }
@@ -130,7 +137,7 @@ inline std::vector<ReadmeIntegratorRow> readmeIntegratorRows(const std::string& 
 }
 
 // Two defaults agree when equal as text or as numbers ("1" and "1.0").
-inline bool readmeDefaultsAgree(const std::string& stated, const std::string& declared) {
+inline bool defaultsAgree(const std::string& stated, const std::string& declared) {
   if (stated == declared) return true;
   char *e1 = nullptr, *e2 = nullptr;
   const double x = std::strtod(stated.c_str(), &e1), y = std::strtod(declared.c_str(), &e2);
@@ -138,12 +145,12 @@ inline bool readmeDefaultsAgree(const std::string& stated, const std::string& de
 }
 
 // Every disagreement between a row and the descriptor it documents, one line
-// each ("README.md:LINE: ..."). `known` resolves "every `X` parameter" and
+// each ("docs/integrators.md:LINE: ..."). `known` resolves "every `X` parameter" and
 // tells references to other integrators from parameter names.
-inline std::vector<std::string> readmeRowProblems(const ReadmeIntegratorRow& row, const IntegratorDescriptor& d,
+inline std::vector<std::string> integratorRowProblems(const IntegratorTableRow& row, const IntegratorDescriptor& d,
                                                   const std::vector<IntegratorDescriptor>& known) {
   std::vector<std::string> problems;
-  const std::string where = "README.md:" + std::to_string(row.line) + ": `" + row.name + "`: ";
+  const std::string where = std::string(kIntegratorTableDoc) + ":" + std::to_string(row.line) + ": `" + row.name + "`: ";
   const auto findKnown = [&](const std::string& name) -> const IntegratorDescriptor* {
     for (const IntegratorDescriptor& k : known)
       if (k.name == name) return &k;
@@ -171,7 +178,7 @@ inline std::vector<std::string> readmeRowProblems(const ReadmeIntegratorRow& row
                            mine->defaultValue + ", not " + s.defaultValue);
     }
   }
-  for (const ReadmeParam& p : row.params) {
+  for (const IntegratorTableParam& p : row.params) {
     const ParamSpec* s = declared(p.name);
     if (!s) {
       if (p.name != row.name && findKnown(p.name)) continue;  // a reference ("as for `obscurance`")
@@ -179,7 +186,7 @@ inline std::vector<std::string> readmeRowProblems(const ReadmeIntegratorRow& row
       continue;
     }
     named.insert(p.name);
-    if (!p.stated.empty() && !readmeDefaultsAgree(p.stated, s->defaultValue))
+    if (!p.stated.empty() && !defaultsAgree(p.stated, s->defaultValue))
       problems.push_back(where + "states `" + p.name + "` default " + p.stated + ", the registry says " +
                          s->defaultValue);
   }
