@@ -25,7 +25,8 @@
 #include <optional>
 #include <sstream>
 
-#include "app/cli_common.h"
+#include "app/exr_header.h"
+#include "app/options.h"
 #include "app/interrupt.h"
 #include "app/report.h"
 #include <obscura/error.h>

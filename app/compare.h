@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "app/cli_common.h"
+#include "app/options.h"
 
 namespace obscura {
 

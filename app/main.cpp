@@ -25,7 +25,7 @@
 #include "core/util/progress.h"
 #include "core/render/pixel_sums.h"
 #include "core/render/render.h"
-#include "app/cli_common.h"
+#include "app/options.h"
 #include "app/compare.h"
 #include "app/interrupt.h"
 #include "app/merge.h"

@@ -7,18 +7,8 @@
 
 namespace obscura {
 
-// Header attributes a tile of a render may carry with its own value: its
-// region, its timings, its ray counts, its thread count and the time the
-// file was written (DateTime). Every other
-// attribute must be the same in every tile.
-inline bool isPerTileAttribute(const std::string& name) {
-  // DateTime: OpenImageIO stamps each file with the time it was written.
-  return name == "DateTime" || name == "obscura:region" || name == "obscura:renderTime" || name == "obscura:bvhBuildTime" ||
-         name == "obscura:threads" || name == "obscura:checkpointRuns" || name.rfind("obscura:rays:", 0) == 0;
-}
-
 // Checks that `tiles` belong to one render - the same header but for the
-// per-tile attributes, the same display window and channels (names and
+// per-tile attributes (isPerTileAttribute, app/exr_header.h), the same display window and channels (names and
 // pixel types) - and cover its frame exactly once, then writes their pixels
 // as one EXR whose data window is the frame: bit for bit the single full
 // render. Its header is the tiles' with obscura:region the frame, the ray

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <variant>
 
+#include "app/exr_header.h"
 #include "core/render/adaptive.h"
 #include "core/render/gbuffer.h"
 #include "core/render/pixel_sums.h"
@@ -228,9 +229,7 @@ Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, cons
   Fingerprint fp = {{"tile size", std::to_string(s.tileSize)}, {"AOVs", !s.aovs ? "off" : s.albedoAov ? "on" : "on, no albedo"}};
   for (const HeaderAttribute& h : header.attributes) {
     const std::string& n = h.name;
-    if (n == "obscura:threads" || n == "obscura:renderTime" || n == "obscura:bvhBuildTime" || n == "obscura:denoiseTime" ||
-        n.rfind("obscura:rays:", 0) == 0)
-      continue;
+    if (isRunAttribute(n)) continue;
     fp.emplace_back(n, attributeText(h));
   }
   fp.emplace_back("scene file", fileHash(a.scene));

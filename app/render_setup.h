@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "app/cli_common.h"
+#include "app/options.h"
 #include "core/render/checkpoint.h"
 #include <obscura/params.h>
 

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "app/cli_common.h"
+#include "app/options.h"
 #include <obscura/error.h>
 
 namespace obscura::fuzz {

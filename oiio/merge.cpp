@@ -1,5 +1,7 @@
 #include "app/merge.h"
 
+#include "app/exr_header.h"
+
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>

@@ -29,7 +29,7 @@
 #include <set>
 #include <thread>
 
-#include "app/cli_common.h"
+#include "app/options.h"
 #include "app/compare.h"
 #include "app/merge.h"
 #include "app/render_setup.h"

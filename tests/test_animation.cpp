@@ -15,7 +15,7 @@
 #include <cstring>
 #include <filesystem>
 
-#include "app/cli_common.h"
+#include "app/options.h"
 #include <obscura/error.h>
 #include "core/load/gltf_document.h"
 #include "tests/gltf_builder.h"

@@ -6,7 +6,7 @@
 #include <functional>
 #include <sstream>
 
-#include "app/cli_common.h"
+#include "app/options.h"
 #include <obscura/error.h>
 #include "core/load/gltf_loader.h"
 #include "core/image/image_io.h"

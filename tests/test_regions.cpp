@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "app/exr_header.h"
 #include "app/merge.h"
 #include "tests/support.h"
 

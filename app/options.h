@@ -1,5 +1,6 @@
-// What the `render` and `compare` commands share: parsing of the scene
-// options, camera selection, plugin loading and the EXR header of a pass.
+// The options `render` and `compare` share: parsing them, loading the scene
+// and selecting its camera, loading plugins, integrator specs. (The EXR
+// header a pass carries: app/exr_header.h.)
 #pragma once
 
 #include <memory>
@@ -94,31 +95,5 @@ struct IntegratorSpec {
   std::string canonical;                 // integrator and every parameter's value (":key=value" each)
 };
 IntegratorSpec parseIntegratorSpec(const std::string& option, const std::string& text);
-
-// A pass of a multi-pass render as the header records it.
-struct LayerInfo {
-  std::string layer;
-  const IntegratorDescriptor* integrator = nullptr;
-  const ParamSet* params = nullptr;
-};
-
-// Everything the header of a pass records (docs/exr.md "The EXR pass").
-struct PassInfo {
-  std::string scenePath;
-  const Camera& camera;
-  const IntegratorDescriptor& integrator;
-  const ParamSet& params;
-  const RenderSettings& settings;
-  const RenderStats& stats;
-  std::string filterName;
-  bool robust = false;
-  const SceneArgs* sceneArgs = nullptr;  // subdivision and displacement options, when given
-  const Scene* scene = nullptr;          // its objects' roles, when given
-  double bvhSeconds = 0;
-  // A multi-pass render's passes, the primary first (integrator and params
-  // above are the primary's); empty for a single pass.
-  std::vector<LayerInfo> layers;
-};
-ExrOptions passHeader(const PassInfo& info);
 
 }  // namespace obscura
