@@ -26,10 +26,12 @@ jobs="${JOBS:-$(nproc)}"
 source scripts/install_missing.sh
 install_missing build-essential cmake ninja-build pkg-config clang libclang-rt-14-dev libembree-dev \
   libopenimageio-dev libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev libstb-dev \
-  libgtest-dev libcli11-dev libtinyobjloader-dev
+  libgtest-dev libcli11-dev libtinyobjloader-dev ccache
 
 # --- 2. Build -------------------------------------------------------------------
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+compiler_cache_args "$root" >/dev/null  # exports the cache's environment
+read -r -a cache <<< "$(compiler_cache_args "$root")"
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${cache[@]}" -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_C_COMPILER=clang -DOBSCURA_FUZZ=ON -DOBSCURA_BUILD_TESTS=OFF -DOBSCURA_BUILD_BENCH=OFF >/dev/null
 cmake --build "$build" -j "$jobs" --target obscura_fuzz_corpus $(printf 'obscura_fuzz_%s ' "${targets[@]}")
 

@@ -24,17 +24,25 @@ source scripts/install_missing.sh
 install_missing build-essential cmake ninja-build pkg-config libembree-dev libopenimageio-dev \
   openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev \
   libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev pybind11-dev python3-dev python3-numpy \
-  python3-matplotlib python3-pytest
+  python3-matplotlib python3-pytest ccache
 
 # --- 2. Build ------------------------------------------------------------------
 # The Python module (docs/python.md "Python") is built for Debian's interpreter,
 # whose NumPy, Matplotlib and pytest the packages above installed (a python3
 # earlier in PATH, such as pyenv's, would lack them).
 python=(-DOBSCURA_PYTHON=ON -DPython_EXECUTABLE=/usr/bin/python3)
+compiler_cache_args "$root" >/dev/null  # exports the cache's environment here, not in a subshell
+read -r -a cache <<< "$(compiler_cache_args "$root")"
 configure() {  # dir, extra cmake args...
   local dir="$1"; shift
-  cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "$@" >/dev/null
+  cmake -S . -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=Release "${cache[@]}" "$@" >/dev/null
 }
+stage() {  # name: a timed stage of `test` (the split CI's closing lines show)
+  local now; now=$(date +%s)
+  if [[ -n "${stage_name:-}" ]]; then timings+=("$(printf '%-34s %5d s' "$stage_name" $((now - stage_start)))"); fi
+  stage_name="$1" stage_start=$now
+}
+timings=()
 
 if [[ "$mode" == demo ]]; then
   configure "$build" -DOBSCURA_BUILD_TESTS=OFF -DOBSCURA_BUILD_BENCH=OFF "${python[@]}"
@@ -47,16 +55,24 @@ if [[ "$mode" == demo ]]; then
   exit 0
 fi
 
+stage "build (Release)"
 configure "$build" -DOBSCURA_BUILD_TESTS=ON -DOBSCURA_BUILD_BENCH=ON "${python[@]}"
 cmake --build "$build" -j "$jobs"
 echo "== tests (Release)"
+stage "tests (Release)"
 ctest --test-dir "$build" --output-on-failure -j "$jobs"
 
 if [[ "${OBSCURA_SKIP_SANITIZE:-0}" != 1 ]]; then
   echo "== tests under AddressSanitizer + UndefinedBehaviorSanitizer"
   # Without the Python module: python3 is not ASan-instrumented (CMakeLists.txt).
+  stage "build (ASan + UBSan)"
   configure "$build-asan" -DOBSCURA_SANITIZE=ON -DOBSCURA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBSCURA_PYTHON=OFF
   cmake --build "$build-asan" -j "$jobs"
+  stage "tests (ASan + UBSan)"
   ASAN_OPTIONS=abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir "$build-asan" --output-on-failure -j "$jobs"
 fi
+stage ""
+echo "== time by stage"
+printf '%s\n' "${timings[@]}"
+if command -v ccache >/dev/null && [[ "${OBSCURA_NO_CCACHE:-0}" != 1 ]]; then ccache --show-stats 2>/dev/null | grep -E "Hits|Misses" | head -4 || true; fi
