@@ -11,22 +11,12 @@
 //    same thread count. Mrays/s = (camera + secondary rays) / median wall s;
 //    ratio = renderer / raw.
 //
-//    The raw side replays the renderer's camera rays exactly (same
-//    RasterCamera, Sampler key, dimension, box filter, sample order) and
-//    builds the secondary rays the way integrators/obscurance.cpp does -
-//    direction k of camera sample s from Sampler::get2D(key, s*rays + k,
-//    kFirstIntegratorDim) warped to the cosine hemisphere, the occlusion
-//    estimator's xi from Sampler::get1D(key, s*rays + k, kFirstIntegratorDim
-//    + 1) and r ~ mu'(r) from the falloff's table, tfar = R (inf for the
-//    exponential, which has no cut-off here) for the distance estimator -
-//    with nothing read back from the scene: the frame is Embree's geometric
-//    normal (normalized, facing the camera ray) instead of the interpolated
-//    shading normal, the hit point is o + t*d, and the offset is 2^-16 of
-//    max|p|. So ray counts are identical to the renderer's (one secondary ray
-//    per camera hit and `rays`, empty segments r = 0 included as inactive
-//    rays, as the integrator does) and directions are statistically
-//    equivalent. The raw side only counts what the rays return (escaped /
-//    unoccluded); it evaluates no membership.
+//    The raw side is the capture and replay of bench/replay.h: one render
+//    of each configuration is captured through RayRecorder and its very
+//    batches (camera rays, the distance estimator's closest-hit rays, the
+//    occlusion estimator's any-hit rays) are replayed through raw Embree
+//    with the same call, batch sizes and context flags; hits are checked
+//    bit-equal and every timed render's image equal to the capture's.
 //
 // 2. Variance at equal time. Each configuration is also rendered with seeds
 //    1..K (default K = 8) at the same spp. For every pixel covered in all K
@@ -73,6 +63,7 @@
 #include <vector>
 
 #include "bench/common.h"
+#include "bench/replay.h"
 #include "core/scene/camera.h"
 #include <obscura/error.h>
 #include "core/image/film.h"
@@ -107,131 +98,17 @@ struct Options : CommonOptions {
   int seeds = 8;
   int rays = 1;
   double radiusFraction = 0.1;
+  double maxCaptureGiB = 6.0;
 };
 
-// ---------------------------------------------------------------------------
-// Raw Embree replay of the integrator's rays (streams only).
+// The raw side: the renderer's own rays, captured and replayed (bench/replay.h).
 
-struct RawTally {
+constexpr int kTile = 16;  // the renderer's default tile size
+
+struct RawTally {  // what the capture holds
   uint64_t camera = 0;     // camera rays
-  uint64_t secondary = 0;  // obscurance rays (active or not), = camera hits x rays
-  uint64_t open = 0;       // distance: escaped within tfar; occlusion: unoccluded
-};
-
-constexpr size_t kChunk = 256;  // the renderer's camera samples per chunk
-constexpr int kTile = 16;       // the renderer's default tile size
-constexpr unsigned kInvalid = RTC_INVALID_GEOMETRY_ID;
-
-struct RawBuffers {
-  explicit RawBuffers(size_t rays) : cam(kChunk), hitRays(kChunk * rays), occRays(kChunk * rays), key(kChunk),
-                                     sample(kChunk) {}
-  AlignedArray<RTCRayHit> cam;
-  AlignedArray<RTCRayHit> hitRays;  // distance estimator
-  AlignedArray<RTCRay> occRays;     // occlusion estimator
-  AlignedArray<uint32_t> key, sample;
-  RawTally tally;
-};
-
-class RawObscurance {
- public:
-  RawObscurance(const Scene& scene, const Camera& cam, int w, int h, int spp, uint32_t seed, int threads, int rays)
-      : scene_(scene.rtcScene()), raster_(cam, w, h), sampler_(seed), tnear_(cam.znear), tfar_(cam.zfar), w_(w),
-        h_(h), spp_(spp), threads_(threads), rays_(uint32_t(rays)) {}
-
-  // One frame; returns wall seconds of the parallel loop (arena creation
-  // included, as in obscura::render).
-  double run(const Config& c, RawTally& tally) {
-    for (auto& b : buffers_)
-      if (b) b->tally = {};
-    const int tilesX = (w_ + kTile - 1) / kTile, tilesY = (h_ + kTile - 1) / kTile;
-    const auto t0 = std::chrono::steady_clock::now();
-    tbb::task_arena arena(threads_);
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int>(0, tilesX * tilesY, 1), [&](const tbb::blocked_range<int>& r) {
-        std::unique_ptr<RawBuffers>& slot = buffers_.local();
-        if (!slot) slot = std::make_unique<RawBuffers>(rays_);
-        for (int t = r.begin(); t != r.end(); ++t) {
-          const int x0 = (t % tilesX) * kTile, y0 = (t / tilesX) * kTile;
-          tile(*slot, c, x0, y0, std::min(kTile, w_ - x0), std::min(kTile, h_ - y0));
-        }
-      });
-    });
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    tally = {};
-    for (const auto& b : buffers_) {
-      if (!b) continue;
-      tally.camera += b->tally.camera;
-      tally.secondary += b->tally.secondary;
-      tally.open += b->tally.open;
-    }
-    return seconds;
-  }
-
- private:
-  void tile(RawBuffers& b, const Config& c, int x0, int y0, int tw, int th) const {
-    RTCIntersectContext cc, sc;
-    rtcInitIntersectContext(&cc);
-    cc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    rtcInitIntersectContext(&sc);
-    sc.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    const uint64_t total = uint64_t(tw) * uint64_t(th) * uint64_t(spp_);
-    const Membership mu(c.falloff, c.R, c.sigma);
-    SampleWalk w(sampler_, x0, y0, tw, spp_);
-    uint64_t secondary = 0, open = 0;
-    for (uint64_t begin = 0; begin < total; begin += kChunk) {
-      const size_t n = size_t(std::min<uint64_t>(kChunk, total - begin));
-      RTCRayHit* cam = b.cam.p;
-      for (size_t i = 0; i < n; ++i, w.next()) {
-        setRayHit(cam[i], raster_.org, w.direction(raster_), tnear_, tfar_, unsigned(i));
-        b.key.p[i] = w.key;
-        b.sample.p[i] = w.index;
-      }
-      rtcIntersect1M(scene_, &cc, cam, unsigned(n), sizeof(RTCRayHit));
-
-      // Secondary rays of every camera hit, as the integrator builds them.
-      size_t m = 0;
-      for (size_t i = 0; i < n; ++i) {
-        const RTCRayHit& r = cam[i];
-        if (r.hit.geomID == kInvalid) continue;
-        const RawHitFrame hf = rawHitFrame(Vec3(r.ray.org_x, r.ray.org_y, r.ray.org_z),
-                                           Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.tfar,
-                                           Vec3(r.hit.Ng_x, r.hit.Ng_y, r.hit.Ng_z));
-        const uint32_t k0 = b.sample.p[i] * rays_;
-        for (uint32_t k = 0; k < rays_; ++k, ++m) {
-          const Sample2 s = Sampler::get2D(b.key.p[i], k0 + k, kFirstIntegratorDim);
-          const Vec3 dir = hf.frame.toWorld(squareToCosineHemisphere(s.u, s.v));
-          if (c.estimator == Estimator::Distance) {
-            setRayHit(b.hitRays.p[m], hf.org, dir, 0.0f, mu.tfar(), unsigned(m));
-          } else {
-            const double xi = Sampler::get1D(b.key.p[i], k0 + k, kFirstIntegratorDim + 1);
-            float tnear = 0.0f, tfar = mu.segment(xi);
-            if (!(tfar > 0.0f)) tnear = INFINITY, tfar = 0.0f;  // empty segment: inactive, reads unoccluded
-            setRay(b.occRays.p[m], hf.org, dir, tnear, tfar, unsigned(m));
-          }
-        }
-      }
-      if (m == 0) continue;
-      if (c.estimator == Estimator::Distance) {
-        rtcIntersect1M(scene_, &sc, b.hitRays.p, unsigned(m), sizeof(RTCRayHit));
-        for (size_t j = 0; j < m; ++j) open += b.hitRays.p[j].hit.geomID == kInvalid ? 1 : 0;
-      } else {
-        rtcOccluded1M(scene_, &sc, b.occRays.p, unsigned(m), sizeof(RTCRay));
-        for (size_t j = 0; j < m; ++j) open += b.occRays.p[j].tfar >= 0.0f ? 1 : 0;
-      }
-      secondary += m;
-    }
-    b.tally.camera += total;
-    b.tally.secondary += secondary;
-    b.tally.open += open;
-  }
-
-  RTCScene scene_;
-  RasterCamera raster_;
-  Sampler sampler_;
-  float tnear_, tfar_;
-  int w_, h_, spp_, threads_;
-  uint32_t rays_;
-  tbb::enumerable_thread_specific<std::unique_ptr<RawBuffers>> buffers_;
+  uint64_t secondary = 0;  // obscurance rays (active or not)
+  uint64_t mismatches = 0; // replayed hits not bit-equal, malformed rays, or a ray count off
 };
 
 // ---------------------------------------------------------------------------
@@ -307,10 +184,19 @@ RenderSettings benchSettings(const Options& o, int w, int h, int threads, uint32
 // Times renderer and raw replay of both estimators of one falloff: each run
 // does the four (estimator x side) jobs, order rotated from run to run, so a
 // change of the machine's load hits all four alike.
-void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads, RawObscurance& raw,
-              std::array<Result*, 2> pair) {
+void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads, std::array<Result*, 2> pair) {
   const std::array<RendererRun, 2> rr{RendererRun(pair[0]->config), RendererRun(pair[1]->config)};
   const RenderSettings s = benchSettings(o, w, h, threads, 0);
+  std::array<Capture, 2> cap;
+  for (size_t i = 0; i < 2; ++i) {
+    cap[i] = captureRender(*bs.scene, s, o.spp, threads, o.maxCaptureGiB,
+                           [&](const RenderSettings& cs, RenderStats& st) { return rr[i].run(bs, cs, st); });
+    if (cap[i].overflowed) throw Error("capture over --max-capture-gib (lower --res or --spp)");
+    Result& res = *pair[i];
+    res.raw.camera = cap[i].stats.rays.camera;
+    res.raw.secondary = cap[i].stats.rays.occlusion + cap[i].stats.rays.closest;
+    res.raw.mismatches = cap[i].ok() ? 0 : 1 + cap[i].mismatches;
+  }
   for (int r = 0; r < o.runs; ++r) {
     for (int j = 0; j < 4; ++j) {
       const int job = (j + r) % 4;  // 0: rend d, 1: raw d, 2: rend o, 3: raw o
@@ -318,7 +204,8 @@ void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads,
       const double c0 = processCpuSeconds();
       if (job % 2 == 0) {
         RenderStats st;
-        rr[size_t(job / 2)].run(bs, s, st);
+        const Film film = rr[size_t(job / 2)].run(bs, s, st);
+        if (!sameFilm(film, cap[size_t(job / 2)].film)) ++res.raw.mismatches;
         res.rendRuns.push_back(st.seconds);
         const double cpuT = (processCpuSeconds() - c0) / threads;
         res.rendCpu.push_back(cpuT / st.seconds);
@@ -328,15 +215,12 @@ void timePair(const BenchScene& bs, const Options& o, int w, int h, int threads,
           std::printf(" [renderer ray count changed between runs!]");
         res.rendRays = st.rays;
       } else {
-        RawTally t;
-        const double sec = raw.run(res.config, t);
+        ReplayTally t;
+        const double sec = cap[size_t(job / 2)].replayer->run(ReplayMode::Raw, t);
         res.rawRuns.push_back(sec);
         const double cpuT = (processCpuSeconds() - c0) / threads;
         res.rawCpu.push_back(cpuT / sec);
         res.rawCpuT.push_back(cpuT);
-        if (r > 0 && (t.camera != res.raw.camera || t.secondary != res.raw.secondary))
-          std::printf(" [raw ray count changed between runs!]");
-        res.raw = t;
       }
     }
   }
@@ -506,10 +390,8 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
       rep.results.push_back(r);
     }
 
-  RawObscurance raw(*bs.scene, bs.camera, w, h, o.spp, 0, threads, o.rays);
   // Warm-up (untimed): worker threads, per-thread buffers, first touches.
   {
-    RawObscurance warm(*bs.scene, bs.camera, std::min(w, 128), std::min(h, 128), 1, 0, threads, o.rays);
     RenderSettings ws;
     ws.width = std::min(w, 128);
     ws.height = std::min(h, 128);
@@ -517,8 +399,6 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
     ws.threads = threads;
     ws.aovs = false;
     for (const Result& r : rep.results) {
-      RawTally t;
-      warm.run(r.config, t);
       RenderStats st;
       RendererRun(r.config).run(bs, ws, st);
     }
@@ -530,7 +410,7 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
               "seeds 1..K (wall s)");
   for (size_t i = 0; i + 1 < rep.results.size(); i += 2) {
     const std::array<Result*, 2> pair{&rep.results[i], &rep.results[i + 1]};
-    timePair(bs, o, w, h, threads, raw, pair);
+    timePair(bs, o, w, h, threads, pair);
     variancePair(bs, o, w, h, threads, pair);
     for (const Result* r : pair) {
       std::string runs, seeds;
@@ -550,7 +430,7 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
     std::fflush(stdout);
   }
 
-  std::printf("\n   speed (Mrays/s = (camera + secondary rays) / median wall s; ratio = renderer / raw stream1M)\n");
+  std::printf("\n   speed (Mrays/s = (camera + secondary rays) / median wall s; ratio = renderer / raw replay)\n");
   std::printf("   %-12s %-9s %9s %9s %7s %7s %7s %8s %8s %5s %5s | %7s %7s %7s  %-s\n", "falloff", "estimator",
               "rend s", "raw s", "rend", "raw", "ratio", "paired", "rays/cs", "CPU", "CPUr", "rend/c", "raw/c",
               "ratio/c", "params");
@@ -566,20 +446,18 @@ SceneReport benchScene(const std::string& which, const Options& o, int w, int h,
               threads, threads);
 
   std::printf("\n   ray counts            %12s %12s %12s | %12s %12s | %s\n", "rend camera", "rend occl.",
-              "rend closest", "raw camera", "raw second.", "check          raw open fraction");
+              "rend closest", "raw camera", "raw second.", "check");
   for (const Result& r : rep.results) {
     const uint64_t rendSec = r.rendRays.occlusion + r.rendRays.closest;
     const long long diff = (long long)rendSec - (long long)r.raw.secondary;
-    std::printf("   %-12s %-9s %12llu %12llu %12llu | %12llu %12llu | camera %s, secondary diff %lld (%.4f%%)  %.4f\n",
+    std::printf("   %-12s %-9s %12llu %12llu %12llu | %12llu %12llu | camera %s, secondary diff %lld (%.4f%%), replay %s\n",
                 falloffName(r.config.falloff), estimatorName(r.config.estimator),
                 (unsigned long long)r.rendRays.camera, (unsigned long long)r.rendRays.occlusion,
                 (unsigned long long)r.rendRays.closest, (unsigned long long)r.raw.camera,
                 (unsigned long long)r.raw.secondary, r.rendRays.camera == r.raw.camera ? "identical" : "DIFFER", diff,
                 r.raw.secondary ? 100.0 * double(diff) / double(r.raw.secondary) : 0.0,
-                r.raw.secondary ? double(r.raw.open) / double(r.raw.secondary) : 0.0);
+                r.raw.mismatches ? "DIFFERS (hits, rays or images)" : "bit-equal hits, equal images");
   }
-  std::printf("   (raw open fraction: distance = rays that found nothing within tfar, occlusion = unoccluded rays;\n"
-              "   with the geometric-normal frame of the raw replay, for information only)\n");
 
   std::printf("\n   variance at equal time (K = %d seeds; Var over the pixels covered in every render of the falloff;\n"
               "   T = median wall s over all %d renders of the configuration (timed runs and seeds); CPU = their\n"
@@ -674,8 +552,8 @@ int main(int argc, char** argv) {
         printMarkdown(r, width, height, o.spp, threads, o.seeds, true);
       }
     }
-    std::printf("\nMrays/s = (camera + obscurance rays) / median wall s of the timed renders (seed 0); raw = the same rays through "
-                "rtcIntersect1M/rtcOccluded1M with no shading; ratio = renderer / raw; Var = mean over covered "
+    std::printf("\nMrays/s = (camera + obscurance rays) / median wall s of the timed renders (seed 0); raw = the captured rays replayed "
+                "through rtcIntersect1M/rtcOccluded1M, nothing else; ratio = renderer / raw; Var = mean over covered "
                 "pixels of the per-pixel variance across %d seeds; time = median wall s of all renders of the "
                 "configuration; relative efficiency = (Var·T)_distance / "
                 "(Var·T)_occlusion (> 1: occlusion wins at equal time).\n",

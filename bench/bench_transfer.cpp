@@ -87,6 +87,7 @@
 #include <vector>
 
 #include "bench/common.h"
+#include "bench/replay.h"
 #include <obscura/error.h>
 #include <obscura/integrator.h>
 #include "core/render/render.h"
@@ -98,8 +99,6 @@ using namespace obscura;
 using namespace obscura::bench;
 
 namespace {
-
-constexpr unsigned kInvalid = RTC_INVALID_GEOMETRY_ID;
 
 // ---------------------------------------------------------------------------
 // Configurations.
@@ -137,277 +136,6 @@ std::string paramString(const Config& c) {
 }
 
 // ---------------------------------------------------------------------------
-// Capture.
-
-struct RayIn {  // what the renderer put in a ray (mask ~0, time 0, flags 0, id = lane: checked)
-  float org[3], tnear, dir[3], tfar;
-};
-struct HitOut {  // what Embree gave back; t = tfar after tracing (-inf: occluded)
-  unsigned geomID, primID, instID;
-  float t;
-};
-struct BatchRec {
-  RayIn* rays;
-  HitOut* hits;
-  uint32_t n;
-  uint32_t flags;  // RTCIntersectContext::flags the renderer traced it with
-  bool occlusion;  // rtcOccluded1M (else rtcIntersect1M)
-};
-
-struct ThreadCapture {
-  static constexpr size_t kBlock = size_t(1) << 16;  // rays per storage block
-  struct Block {
-    std::unique_ptr<RayIn[]> rays;
-    std::unique_ptr<HitOut[]> hits;
-    size_t used = 0, cap = 0;
-  };
-  std::vector<Block> blocks;
-  std::vector<BatchRec> batches;
-  uint64_t rays = 0;
-  uint64_t malformed = 0;  // rays with mask/time/flags/id other than the renderer's
-
-  std::pair<RayIn*, HitOut*> allocate(size_t n) {
-    if (blocks.empty() || blocks.back().cap - blocks.back().used < n) {
-      Block b;
-      b.cap = std::max(kBlock, n);
-      b.rays.reset(new RayIn[b.cap]);
-      b.hits.reset(new HitOut[b.cap]);
-      blocks.push_back(std::move(b));
-    }
-    Block& b = blocks.back();
-    const size_t at = b.used;
-    b.used += n;
-    return {b.rays.get() + at, b.hits.get() + at};
-  }
-};
-
-class CaptureRecorder final : public RayRecorder {
- public:
-  explicit CaptureRecorder(size_t maxBytes) : maxBytes_(maxBytes) {}
-
-  void intersect(RTCScene scene, RTCIntersectContext& ctx, RTCRayHit* rays, unsigned n) override {
-    BatchRec* b = store(n, ctx, false);
-    if (b)
-      for (unsigned i = 0; i < n; ++i) copyIn(rays[i].ray, i, b->rays[i]);
-    rtcIntersect1M(scene, &ctx, rays, n, sizeof(RTCRayHit));
-    if (b)
-      for (unsigned i = 0; i < n; ++i)
-        b->hits[i] = {rays[i].hit.geomID, rays[i].hit.primID, rays[i].hit.instID[0], rays[i].ray.tfar};
-  }
-
-  void occluded(RTCScene scene, RTCIntersectContext& ctx, RTCRay* rays, unsigned n) override {
-    BatchRec* b = store(n, ctx, true);
-    if (b)
-      for (unsigned i = 0; i < n; ++i) copyIn(rays[i], i, b->rays[i]);
-    rtcOccluded1M(scene, &ctx, rays, n, sizeof(RTCRay));
-    if (b)
-      for (unsigned i = 0; i < n; ++i) b->hits[i] = {kInvalid, kInvalid, kInvalid, rays[i].tfar};
-  }
-
-  bool overflowed() const { return overflow_.load(); }
-  size_t bytes() const { return bytes_.load(); }
-  std::vector<const ThreadCapture*> threads() const {
-    std::vector<const ThreadCapture*> v;
-    for (const ThreadCapture& t : logs_) v.push_back(&t);
-    return v;
-  }
-  uint64_t rays() const {
-    uint64_t n = 0;
-    for (const ThreadCapture& t : logs_) n += t.rays;
-    return n;
-  }
-  uint64_t malformed() const {
-    uint64_t n = 0;
-    for (const ThreadCapture& t : logs_) n += t.malformed;
-    return n;
-  }
-
- private:
-  ThreadCapture& local() { return logs_.local(); }
-
-  // A new batch record with room for n rays, or null once over the cap (the
-  // render goes on; the capture is then unusable and reported as such).
-  BatchRec* store(unsigned n, const RTCIntersectContext& ctx, bool occlusion) {
-    if (overflow_.load(std::memory_order_relaxed)) return nullptr;
-    const size_t add = size_t(n) * (sizeof(RayIn) + sizeof(HitOut));
-    if (bytes_.fetch_add(add) + add > maxBytes_) {
-      overflow_ = true;
-      return nullptr;
-    }
-    ThreadCapture& t = local();
-    const auto [in, out] = t.allocate(n);
-    t.rays += n;
-    return &t.batches.emplace_back(BatchRec{in, out, n, uint32_t(ctx.flags), occlusion});
-  }
-
-  void copyIn(const RTCRay& r, unsigned lane, RayIn& in) {
-    in = {{r.org_x, r.org_y, r.org_z}, r.tnear, {r.dir_x, r.dir_y, r.dir_z}, r.tfar};
-    if (r.mask != 0xffffffffU || r.time != 0.0f || r.flags != 0 || r.id != lane) ++local().malformed;
-  }
-
-  tbb::enumerable_thread_specific<ThreadCapture> logs_;
-  std::atomic<size_t> bytes_{0};
-  std::atomic<bool> overflow_{false};
-  size_t maxBytes_;
-};
-
-// Only traces: the hook's cost when set (virtual call + branch), an upper
-// bound for its cost when unset (the branch alone).
-class PassThroughRecorder final : public RayRecorder {
- public:
-  void intersect(RTCScene scene, RTCIntersectContext& ctx, RTCRayHit* rays, unsigned n) override {
-    rtcIntersect1M(scene, &ctx, rays, n, sizeof(RTCRayHit));
-  }
-  void occluded(RTCScene scene, RTCIntersectContext& ctx, RTCRay* rays, unsigned n) override {
-    rtcOccluded1M(scene, &ctx, rays, n, sizeof(RTCRay));
-  }
-};
-
-// ---------------------------------------------------------------------------
-// Replay.
-
-enum class ReplayMode { Raw, Check, Surface, SurfaceSample };
-
-struct ReplayTally {
-  uint64_t rays = 0;
-  uint64_t batches = 0;
-  uint64_t mismatches = 0;  // Check: hits not bit-equal to the capture's
-  uint64_t surfaces = 0;    // Surface: hits rebuilt
-  double sink = 0;          // Surface: keeps the rebuilt hits observable
-};
-
-class Replayer {
- public:
-  // Groups of `group` consecutive chunks of one thread's capture are the
-  // parallel tasks.
-  Replayer(const Scene& scene, const CaptureRecorder& cap, size_t group, int threads)
-      : scene_(scene), threads_(threads) {
-    for (const ThreadCapture* t : cap.threads()) {
-      size_t chunks = 0, begin = 0;
-      for (size_t i = 0; i < t->batches.size(); ++i) {
-        const BatchRec& b = t->batches[i];
-        maxBatch_ = std::max<size_t>(maxBatch_, b.n);
-        const bool camera = !b.occlusion && (b.flags & RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
-        if (camera && chunks++ == group) {  // a group is full: it ends before this camera batch
-          tasks_.push_back({t, begin, i});
-          begin = i;
-          chunks = 1;
-        }
-      }
-      if (begin < t->batches.size()) tasks_.push_back({t, begin, t->batches.size()});
-    }
-  }
-
-  size_t tasks() const { return tasks_.size(); }
-
-  // One replay of every captured batch; returns wall seconds of the
-  // parallel loop (arena creation included, as in obscura::render).
-  double run(ReplayMode mode, ReplayTally& tally) {
-    for (auto& s : scratch_)
-      if (s) s->tally = {};
-    const auto t0 = std::chrono::steady_clock::now();
-    tbb::task_arena arena(threads_);
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<size_t>(0, tasks_.size(), 1), [&](const tbb::blocked_range<size_t>& r) {
-        std::unique_ptr<Scratch>& slot = scratch_.local();
-        if (!slot) slot = std::make_unique<Scratch>(maxBatch_);
-        for (size_t t = r.begin(); t != r.end(); ++t) replayTask(tasks_[t], mode, *slot);
-      });
-    });
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    tally = {};
-    for (const auto& s : scratch_) {
-      if (!s) continue;
-      tally.rays += s->tally.rays;
-      tally.batches += s->tally.batches;
-      tally.mismatches += s->tally.mismatches;
-      tally.surfaces += s->tally.surfaces;
-      tally.sink += s->tally.sink;
-    }
-    return seconds;
-  }
-
- private:
-  struct Task {
-    const ThreadCapture* capture;
-    size_t begin, end;  // batch indices
-  };
-  struct Scratch {
-    explicit Scratch(size_t n) : hit(std::max<size_t>(n, 1)), occ(std::max<size_t>(n, 1)) {}
-    AlignedArray<RTCRayHit> hit;
-    AlignedArray<RTCRay> occ;
-    ReplayTally tally;
-  };
-
-  static void fill(const RayIn& in, unsigned lane, RTCRay& r) {
-    r.org_x = in.org[0]; r.org_y = in.org[1]; r.org_z = in.org[2]; r.tnear = in.tnear;
-    r.dir_x = in.dir[0]; r.dir_y = in.dir[1]; r.dir_z = in.dir[2]; r.time = 0.0f;
-    r.tfar = in.tfar; r.mask = 0xffffffffU; r.id = lane; r.flags = 0;
-  }
-
-  static bool sameBits(float a, float b) { return std::bit_cast<uint32_t>(a) == std::bit_cast<uint32_t>(b); }
-
-  void replayTask(const Task& task, ReplayMode mode, Scratch& s) const {
-    const RTCScene scene = scene_.rtcScene();
-    for (size_t bi = task.begin; bi < task.end; ++bi) {
-      const BatchRec& b = task.capture->batches[bi];
-      RTCIntersectContext ctx;
-      rtcInitIntersectContext(&ctx);
-      ctx.flags = RTCIntersectContextFlags(b.flags);
-      if (b.occlusion) {
-        RTCRay* rays = s.occ.p;
-        for (unsigned i = 0; i < b.n; ++i) fill(b.rays[i], i, rays[i]);
-        rtcOccluded1M(scene, &ctx, rays, b.n, sizeof(RTCRay));
-        if (mode == ReplayMode::Check)
-          for (unsigned i = 0; i < b.n; ++i) s.tally.mismatches += sameBits(rays[i].tfar, b.hits[i].t) ? 0 : 1;
-      } else {
-        RTCRayHit* rays = s.hit.p;
-        for (unsigned i = 0; i < b.n; ++i) {
-          fill(b.rays[i], i, rays[i].ray);
-          rays[i].hit.geomID = kInvalid;
-          rays[i].hit.instID[0] = kInvalid;
-        }
-        rtcIntersect1M(scene, &ctx, rays, b.n, sizeof(RTCRayHit));
-        if (mode == ReplayMode::Check) {
-          for (unsigned i = 0; i < b.n; ++i) {
-            const RTCHit& h = rays[i].hit;
-            const HitOut& c = b.hits[i];
-            const bool same = h.geomID == c.geomID && sameBits(rays[i].ray.tfar, c.t) &&
-                              (h.geomID == kInvalid || (h.primID == c.primID && h.instID[0] == c.instID));
-            s.tally.mismatches += same ? 0 : 1;
-          }
-        } else if (mode != ReplayMode::Raw) {
-          SurfaceHit sh;
-          for (unsigned i = 0; i < b.n; ++i) {
-            const RTCRayHit& r = rays[i];
-            if (r.hit.geomID == kInvalid) continue;
-            computeSurfaceHit(scene_, r.hit.geomID, r.hit.primID, r.hit.instID[0], r.hit.u, r.hit.v, r.ray.tfar,
-                              Vec3(r.ray.dir_x, r.ray.dir_y, r.ray.dir_z), r.ray.time, true, sh);
-            s.tally.sink += double(sh.albedo.x) + double(sh.eps);
-            ++s.tally.surfaces;
-            if (mode != ReplayMode::SurfaceSample) continue;
-            // The next direction as the path estimator draws it (key and
-            // index stand in for the pixel's: the cost is the same).
-            const Sample2 u = Sampler::get2D(uint32_t(bi), i, kFirstIntegratorDim);
-            const Vec3 w = Frame::fromNormal(sh.ns).toWorld(squareToCosineHemisphere(u.u, u.v));
-            const Vec3 o = spawnOrigin(sh, w);
-            s.tally.sink += intoSurface(sh, w) ? 0.0 : double(o.x + w.y);
-          }
-        }
-      }
-      s.tally.rays += b.n;
-      ++s.tally.batches;
-    }
-  }
-
-  const Scene& scene_;
-  int threads_;
-  size_t maxBatch_ = 0;
-  std::vector<Task> tasks_;
-  tbb::enumerable_thread_specific<std::unique_ptr<Scratch>> scratch_;
-};
-
-// ---------------------------------------------------------------------------
 // The renderer side.
 
 struct RendererRun {
@@ -417,8 +145,6 @@ struct RendererRun {
     return integ.render(*bs.scene, bs.camera, s, st);
   }
 };
-
-uint64_t totalRays(const RayCounters& c) { return c.camera + c.occlusion + c.closest; }
 
 // ---------------------------------------------------------------------------
 // One scene.
@@ -444,21 +170,14 @@ struct Result {
   bool skipped = false;
   std::string why;  // when skipped
   RayCounters rays;
-  uint64_t captured = 0, malformed = 0, mismatches = 0, batches = 0;
+  uint64_t captured = 0, malformed = 0, mismatches = 0;
   bool filmsEqual = true;
   double captureMiB = 0, captureSeconds = 0;
-  std::array<std::vector<double>, kVariants> wall, cpu;
+  std::array<Timings, kVariants> t;
   std::array<double, kVariants> medWall{}, medCpu{}, mrays{}, mraysCpu{};
   double minUse = 1;  // lowest CPU s / (wall s x threads) over all timed runs
   bool busy() const { return minUse < 0.9; }  // other processes took cores in some run
 };
-
-bool sameFilm(const Film& a, const Film& b) {
-  const size_t n = size_t(a.width()) * size_t(a.height());
-  for (int c : {kR, kG, kB, kA})
-    if (std::memcmp(a.plane(c), b.plane(c), n * sizeof(float)) != 0) return false;
-  return true;
-}
 
 Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int w, int h, int threads) {
   Result res;
@@ -474,69 +193,54 @@ Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int 
     rr.run(bs, ws, st);
   }
 
-  // 1. Capture.
-  CaptureRecorder cap(size_t(o.maxCaptureGiB * 1024.0 * 1024.0 * 1024.0));
-  RenderSettings cs = s;
-  cs.recorder = &cap;
-  RenderStats cst;
-  const Film captureFilm = rr.run(bs, cs, cst);
-  res.captureSeconds = cst.seconds;
-  res.captureMiB = double(cap.bytes()) / (1024.0 * 1024.0);
-  if (cap.overflowed()) {
+  // 1-2. Capture and check (bench/replay.h).
+  Capture cap = captureRender(*bs.scene, s, o.spp, threads, o.maxCaptureGiB,
+                              [&](const RenderSettings& cs, RenderStats& st) { return rr.run(bs, cs, st); });
+  res.captureSeconds = cap.stats.seconds;
+  res.captureMiB = cap.mib();
+  if (cap.overflowed) {
     res.skipped = true;
     res.why = "capture over --max-capture-gib " + number(o.maxCaptureGiB) + " (lower --res or --spp)";
     std::printf("   %-14s skipped: %s\n", c.name.c_str(), res.why.c_str());
     return res;
   }
-  res.rays = cst.rays;
-  res.captured = cap.rays();
-  res.malformed = cap.malformed();
-
-  // 2. Check: the replay finds the captured hits, bit for bit.
-  Replayer replay(*bs.scene, cap, size_t(o.spp), threads);
-  ReplayTally check;
-  replay.run(ReplayMode::Check, check);
-  res.mismatches = check.mismatches;
-  res.batches = check.batches;
-  if (check.rays != res.captured) throw Error("internal: replay traced a different number of rays");
+  res.rays = cap.stats.rays;
+  res.captured = cap.recorder->rays();
+  res.malformed = cap.recorder->malformed();
+  res.mismatches = cap.mismatches;
+  Replayer& replay = *cap.replayer;
 
   // 3. Timed runs.
   std::vector<int> variants = {kRenderer, kRaw, kRawHit, kRawHitSample};
   if (o.hookCheck) variants.push_back(kHooked);
   PassThroughRecorder pass;
-  const int nv = int(variants.size());
-  for (int r = 0; r < o.runs; ++r) {
-    for (int k = 0; k < nv; ++k) {
-      const int v = variants[size_t((k + r) % nv)];
-      const double c0 = processCpuSeconds();
-      double sec = 0;
+  interleaved(o.runs, int(variants.size()), [&](int, int k) {
+    const int v = variants[size_t(k)];
+    timeRun(res.t[size_t(v)], threads, [&] {
       if (v == kRenderer || v == kHooked) {
         RenderSettings rs = s;
         if (v == kHooked) rs.recorder = &pass;
         RenderStats st;
         const Film film = rr.run(bs, rs, st);
-        sec = st.seconds;
         if (totalRays(st.rays) != totalRays(res.rays)) std::printf(" [renderer ray count changed between runs!]");
-        if (!sameFilm(film, captureFilm)) res.filmsEqual = false;
-      } else {
-        ReplayTally t;
-        sec = replay.run(v == kRaw      ? ReplayMode::Raw
-                         : v == kRawHit ? ReplayMode::Surface
-                                        : ReplayMode::SurfaceSample,
-                         t);
+        if (!sameFilm(film, cap.film)) res.filmsEqual = false;
+        return st.seconds;
       }
-      res.wall[size_t(v)].push_back(sec);
-      res.cpu[size_t(v)].push_back((processCpuSeconds() - c0) / threads);
-    }
-  }
+      ReplayTally t;
+      return replay.run(v == kRaw      ? ReplayMode::Raw
+                        : v == kRawHit ? ReplayMode::Surface
+                                       : ReplayMode::SurfaceSample,
+                        t);
+    });
+  });
   const double rays = double(totalRays(res.rays));
   for (int v : variants) {
-    res.medWall[size_t(v)] = median(res.wall[size_t(v)]);
-    res.medCpu[size_t(v)] = median(res.cpu[size_t(v)]);
-    res.mrays[size_t(v)] = rays / res.medWall[size_t(v)] * 1e-6;
-    res.mraysCpu[size_t(v)] = rays / res.medCpu[size_t(v)] * 1e-6;
-    for (size_t i = 0; i < res.wall[size_t(v)].size(); ++i)
-      res.minUse = std::min(res.minUse, res.cpu[size_t(v)][i] / res.wall[size_t(v)][i]);
+    const Timings& t = res.t[size_t(v)];
+    res.medWall[size_t(v)] = t.medWall();
+    res.medCpu[size_t(v)] = t.medCpu();
+    res.mrays[size_t(v)] = mraysPerSecond(rays, res.medWall[size_t(v)]);
+    res.mraysCpu[size_t(v)] = mraysPerSecond(rays, res.medCpu[size_t(v)]);
+    res.minUse = std::min(res.minUse, t.minUse());
   }
 
   std::printf("   %-14s %11llu rays (%5.2f / camera ray), capture %7.1f MiB, %5zu tasks, hits %s, films %s;", c.name.c_str(),
@@ -545,7 +249,7 @@ Result benchConfig(const BenchScene& bs, const Config& c, const Options& o, int 
               res.mismatches == 0 ? "bit-equal" : "DIFFER", res.filmsEqual ? "equal" : "DIFFER");
   for (int v : variants) {
     std::printf(" %s", kVariantNames[v]);
-    for (double x : res.wall[size_t(v)]) std::printf(" %.3f", x);
+    for (double x : res.t[size_t(v)].wall) std::printf(" %.3f", x);
     std::printf(";");
   }
   std::printf("\n");

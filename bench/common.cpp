@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdarg>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -140,6 +141,35 @@ void printMachine(int threads) {
 RenderSettings benchRenderSettings(int width, int height, int spp, int threads, uint32_t seed) {
   return {.width = width, .height = height, .spp = spp, .seed = seed, .threads = threads, .tileSize = 16,
           .filter = PixelFilter::Box, .aovs = false, .progress = false};
+}
+
+double Timings::minUse() const {
+  double m = 1;
+  for (size_t i = 0; i < wall.size() && i < cpu.size(); ++i)
+    if (wall[i] > 0) m = std::min(m, cpu[i] / wall[i]);
+  return m;
+}
+
+std::string fmt(const char* format, ...) {
+  char buf[512];
+  va_list ap;
+  va_start(ap, format);
+  std::vsnprintf(buf, sizeof buf, format, ap);
+  va_end(ap);
+  return buf;
+}
+
+void MarkdownTable::print() const {
+  auto line = [](const std::vector<std::string>& cells) {
+    std::string s = "|";
+    for (const std::string& c : cells) s += " " + c + " |";
+    std::printf("%s\n", s.c_str());
+  };
+  line(header);
+  std::string sep = "|";
+  for (size_t i = 0; i < header.size(); ++i) sep += i < align.size() && align[i] == 'r' ? "---:|" : "---|";
+  std::printf("%s\n", sep.c_str());
+  for (const auto& r : rows) line(r);
 }
 
 BenchIntegrator::BenchIntegrator(const std::string& name,

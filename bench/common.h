@@ -189,4 +189,53 @@ void printMachine(int threads);
 // progress bar.
 RenderSettings benchRenderSettings(int width, int height, int spp, int threads, uint32_t seed = 0);
 
+// --- timing and output formatters ----------------------------------------
+
+// The timed runs of one variant: wall s and process CPU s / threads of each.
+struct Timings {
+  std::vector<double> wall, cpu;
+  double medWall() const { return median(wall); }
+  double medCpu() const { return median(cpu); }
+  double med(bool useCpu) const { return useCpu ? medCpu() : medWall(); }
+  // Lowest CPU s / wall s over the runs (1 = every thread busy in every run).
+  double minUse() const;
+  // Other processes took cores in some run (CPU use < 90 %): the wall-clock
+  // figures measure the machine's load too.
+  bool busy() const { return minUse() < 0.9; }
+};
+
+// Runs f(), which returns the wall s it timed, and records them with the
+// process CPU s the call took / threads.
+template <class F>
+double timeRun(Timings& t, int threads, F&& f) {
+  const double c0 = processCpuSeconds();
+  const double wall = f();
+  t.wall.push_back(wall);
+  t.cpu.push_back((processCpuSeconds() - c0) / threads);
+  return wall;
+}
+
+// `runs` rounds of variants 0..n-1, interleaved with the order rotated each
+// round (the machine is shared and noisy): f(round, variant).
+template <class F>
+void interleaved(int runs, int n, F&& f) {
+  for (int r = 0; r < runs; ++r)
+    for (int k = 0; k < n; ++k) f(r, (k + r) % n);
+}
+
+inline double mraysPerSecond(double rays, double seconds) { return seconds > 0 ? rays / seconds * 1e-6 : 0.0; }
+
+// printf into a std::string.
+std::string fmt(const char* format, ...) __attribute__((format(printf, 1, 2)));
+
+// A Markdown table: header cells, then rows; `align` holds 'l' or 'r' per
+// column (r: numbers, written `---:`).
+struct MarkdownTable {
+  std::vector<std::string> header;
+  std::string align;
+  std::vector<std::vector<std::string>> rows;
+  void row(std::vector<std::string> cells) { rows.push_back(std::move(cells)); }
+  void print() const;
+};
+
 }  // namespace obscura::bench
