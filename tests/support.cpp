@@ -30,7 +30,7 @@ std::string tempDir(const std::string& name) {
 
 std::string sharedScenesDir() {
   const char* env = std::getenv("OBSCURA_SCENES");
-  return env && *env ? std::string(env) : std::string(OBSCURA_DEFAULT_SCENES);
+  return env && *env ? std::string(env) : std::string(defaultScenesDir());
 }
 
 std::string sharedScene(const std::string& rel) { return sharedScenesDir() + "/" + rel; }
@@ -409,7 +409,7 @@ std::string WarningCapture::all() const {
 
 // Starts the binary; returns its pid, or -1 with the reason in r.stderrText.
 pid_t startCli(const std::vector<std::string>& args, const std::string& stderrPath, CliResult& r) {
-  std::vector<std::string> all = {OBSCURA_BINARY};
+  std::vector<std::string> all = {obscuraBinary()};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : all) argv.push_back(a.data());
@@ -419,7 +419,7 @@ pid_t startCli(const std::vector<std::string>& args, const std::string& stderrPa
   posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
   posix_spawn_file_actions_addopen(&fa, 2, stderrPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   pid_t pid = -1;
-  const int rc = posix_spawn(&pid, OBSCURA_BINARY, &fa, nullptr, argv.data(), environ);
+  const int rc = posix_spawn(&pid, obscuraBinary(), &fa, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&fa);
   if (rc != 0) {
     r.stderrText = "posix_spawn failed: " + std::string(std::strerror(rc));

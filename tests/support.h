@@ -24,12 +24,21 @@
 
 namespace obscura::test {
 
+// This build's paths, compiled into tests/paths.cpp alone: every other test
+// file then compiles to the same object in every clone, which a compiler
+// cache keyed without the clone's path reuses (docs/testing.md "Build times").
+const char* sourceDir();         // the checkout
+const char* obscuraBinary();     // the obscura program of this build
+const char* defaultScenesDir();  // ../shared/scenes beside the checkout
+// sourceDir() + "/" + rel.
+std::string sourcePath(const std::string& rel);
+
 // A fresh, empty directory under the build tree's temp area for one test.
 std::string tempDir(const std::string& name);
 
 // --- the third-party scenes (not in the repository) -------------------------
 // They live in one folder: $OBSCURA_SCENES if set, else ../shared/scenes beside
-// the checkout (OBSCURA_DEFAULT_SCENES, set by tests/CMakeLists.txt). A test
+// the checkout (defaultScenesDir()). A test
 // that needs them calls OBSCURA_NEED_SHARED_SCENE(path): when the file is
 // absent the test is skipped with one line naming it and why, unless
 // OBSCURA_REQUIRE_SCENES=1 (set by .ci/run), which turns the skip into a

@@ -27,6 +27,7 @@
 #include "core/render/render.h"
 #include "core/scene/scene.h"
 #include "support.h"
+#include "tests/support.h"
 
 namespace obscura {
 namespace {
@@ -788,7 +789,7 @@ TEST(Adaptive, SettingsOutOfRangeAreRefused) {
 TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
   const std::string dir = tempDir("adaptive_cli");
   const std::string out = dir + "/a.exr";
-  const CliResult r = runCli({"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "--res", "32x18", "--spp", "64",
+  const CliResult r = runCli({"render", sourcePath("scenes/default.gltf"), "--res", "32x18", "--spp", "64",
                               "--target-error", "0.05", "--min-spp", "8", "-o", out},
                              dir + "/err.txt");
   ASSERT_EQ(r.exitCode, 0) << r.stderrText;
@@ -810,7 +811,7 @@ TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
            {{"--target-error", "0.1", "--background-spp", "-1"}, "--background-spp must be >= 0"},
            {{"--background-spp", "2"}, "--background-spp needs --target-error"},
        }) {
-    std::vector<std::string> a = {"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "--res", "8x8", "-o", dir + "/bad.exr"};
+    std::vector<std::string> a = {"render", sourcePath("scenes/default.gltf"), "--res", "8x8", "-o", dir + "/bad.exr"};
     a.insert(a.end(), args.begin(), args.end());
     const CliResult bad = runCli(a, dir + "/bad.txt");
     EXPECT_EQ(bad.exitCode, 1) << needle;
@@ -863,7 +864,7 @@ TEST(Adaptive, DenoisedRoundsAreDeterministicAndTheFixedRendersSamples) {
 // result does not depend on threads; and it changes the pass.
 TEST(DenoiseCli, KeepsTheRawPassAndShadedFollows) {
   const std::string dir = tempDir("denoise_cli");
-  const std::vector<std::string> base = {"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "--res", "64x36",
+  const std::vector<std::string> base = {"render", sourcePath("scenes/default.gltf"), "--res", "64x36",
                                          "--spp", "8", "-q"};
   const auto with = [&](std::vector<std::string> extra, const std::string& out) {
     std::vector<std::string> a = base;
@@ -911,7 +912,7 @@ TEST(DenoiseCli, KeepsTheRawPassAndShadedFollows) {
 // planes (multibounce --denoise), before anything is written.
 TEST(AovChoice, NoAlbedoDropsAlbedoAndShadedOnly) {
   const std::string dir = tempDir("no_albedo");
-  const std::vector<std::string> base = {"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "--res", "64x36", "-q"};
+  const std::vector<std::string> base = {"render", sourcePath("scenes/default.gltf"), "--res", "64x36", "-q"};
   const std::vector<std::vector<std::string>> variants = {
       {"-i", "ao", "--spp", "8"},
       {"-i", "ao", "--spp", "64", "--target-error", "0.05", "--denoise"},

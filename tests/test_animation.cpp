@@ -501,7 +501,7 @@ TEST(AnimationRender, InfoListsAnimations) {
   const std::string animated = writeShot(dir, "shot", nullptr);
   const std::string out = dir + "/info.txt";
   // runCli sends stdout to /dev/null: the listing is read through a shell redirect.
-  const std::string cmd = std::string(OBSCURA_BINARY) + " info " + animated + " --fps 10 > " + out + " 2>&1";
+  const std::string cmd = std::string(obscuraBinary()) + " info " + animated + " --fps 10 > " + out + " 2>&1";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   std::string text;
   for (unsigned char c : readBytes(out)) text += char(c);

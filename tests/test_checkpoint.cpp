@@ -218,7 +218,7 @@ TEST(Checkpoint, OfAnotherRenderIsRefused) {
   // A changed scene file: a copy of the bundled scene (its buffers and
   // images are data: uris), checkpointed, then one byte added.
   const std::string scene = dir + "/scene.gltf";
-  fs::copy_file(OBSCURA_SOURCE_DIR "/scenes/default.gltf", scene);
+  fs::copy_file(sourcePath("scenes/default.gltf"), scene);
   const std::string out2 = dir + "/out2.exr";
   {
     const ScopedEnv kill("OBSCURA_TEST_CHECKPOINT_KILL", "5");

@@ -18,7 +18,7 @@ bool identical(const Film& a, const Film& b) {
 }
 
 TEST(Determinism, BitIdenticalAcrossThreadsAndTiles) {
-  auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   ASSERT_FALSE(scene->cameras.empty());
   for (const PixelFilter filter : {PixelFilter::Box, PixelFilter::Gaussian}) {
     RenderSettings s;
@@ -43,7 +43,7 @@ TEST(Determinism, BitIdenticalAcrossThreadsAndTiles) {
 }
 
 TEST(Determinism, SeedChangesTheNoiseOnly) {
-  auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   RenderSettings s;
   s.width = 40;
   s.height = 24;

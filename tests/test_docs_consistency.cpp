@@ -28,6 +28,7 @@
 
 #include <obscura/integrator.h>
 #include "tests/integrator_table.h"
+#include "tests/support.h"
 
 namespace obscura::test {
 namespace {
@@ -43,7 +44,7 @@ std::string readFile(const fs::path& p) {
 
 TEST(DocsConsistency, IntegratorTableMatchesTheRegistry) {
   const std::string doc = kIntegratorTableDoc;
-  const std::vector<IntegratorTableRow> rows = integratorTableRows(readFile(fs::path(OBSCURA_SOURCE_DIR) / doc));
+  const std::vector<IntegratorTableRow> rows = integratorTableRows(readFile(fs::path(sourceDir()) / doc));
   ASSERT_FALSE(rows.empty()) << "no rows under the heading \"Integrators\" in " << doc;
   const std::vector<IntegratorDescriptor>& all = IntegratorRegistry::instance().all();
   std::set<std::string> documented;
@@ -108,7 +109,7 @@ TEST(DocsConsistency, TableCheckSeesEveryKindOfDisagreement) {
 std::vector<fs::path> sourceFiles() {
   std::vector<fs::path> files;
   const std::set<std::string> text = {".cpp", ".h", ".md", ".txt", ".cmake", ".py", ".sh", ".in", ".json"};
-  const fs::path root(OBSCURA_SOURCE_DIR);
+  const fs::path root(sourceDir());
   for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator(); ++it) {
     const std::string name = it->path().filename().string();
     if (it->is_directory()) {
@@ -124,7 +125,7 @@ std::vector<fs::path> sourceFiles() {
 // Section numbers docs/math.md has ("## N. title").
 std::set<int> mathSections() {
   std::set<int> s;
-  std::istringstream in(readFile(fs::path(OBSCURA_SOURCE_DIR) / "docs" / "math.md"));
+  std::istringstream in(readFile(fs::path(sourceDir()) / "docs" / "math.md"));
   for (std::string line; std::getline(in, line);)
     if (line.rfind("## ", 0) == 0 && line.size() > 3 && std::isdigit(static_cast<unsigned char>(line[3])))
       s.insert(std::stoi(line.substr(3)));
@@ -132,7 +133,7 @@ std::set<int> mathSections() {
 }
 
 TEST(DocsConsistency, CitedDocumentsAndSectionsExist) {
-  const fs::path root(OBSCURA_SOURCE_DIR);
+  const fs::path root(sourceDir());
   const std::set<int> sections = mathSections();
   ASSERT_FALSE(sections.empty()) << "docs/math.md has no numbered sections";
   const std::regex doc(R"(docs/[A-Za-z0-9_./-]+\.md)");
@@ -161,7 +162,7 @@ TEST(DocsConsistency, CitedDocumentsAndSectionsExist) {
 // by docs/math.md (same section numbers) and docs/architecture.md. A source
 // citing them points at nothing a reader of the repository has.
 TEST(DocsConsistency, NoCitationOfTheOldDesignNotes) {
-  const fs::path root(OBSCURA_SOURCE_DIR);
+  const fs::path root(sourceDir());
   // Built from pieces so this file does not cite them itself.
   const std::vector<std::string> old = {std::string("MATH") + ".md", std::string("ARCHITECTURE") + ".md"};
   for (const fs::path& file : sourceFiles()) {
@@ -232,7 +233,7 @@ std::vector<SectionCitation> sectionCitations(const std::string& text) {
 }
 
 TEST(DocsConsistency, CitedSectionsAreHeadingsOfTheirDocument) {
-  const fs::path root(OBSCURA_SOURCE_DIR);
+  const fs::path root(sourceDir());
   std::map<std::string, std::set<std::string>> sections;  // by document
   int checked = 0;
   for (const fs::path& file : sourceFiles()) {
@@ -280,7 +281,7 @@ TEST(DocsConsistency, SectionCitationCheckReadsWhatItShould) {
 
 // stdout and stderr of `obscura ARGS`.
 std::string runObscura(const std::string& args) {
-  const std::string cmd = std::string("'") + OBSCURA_BINARY + "' " + args + " 2>&1";
+  const std::string cmd = std::string("'") + obscuraBinary() + "' " + args + " 2>&1";
   std::string out;
   if (FILE* p = ::popen(cmd.c_str(), "r")) {
     char buf[4096];
@@ -324,7 +325,7 @@ bool mentionsOption(const std::string& text, const std::string& option) {
 }
 
 TEST(DocsConsistency, CliDocNamesEveryOptionTheHelpPrints) {
-  const std::string doc = readFile(fs::path(OBSCURA_SOURCE_DIR) / "docs" / "cli.md");
+  const std::string doc = readFile(fs::path(sourceDir()) / "docs" / "cli.md");
   ASSERT_FALSE(doc.empty()) << "docs/cli.md is missing";
   const std::string top = runObscura("--help");
   const std::vector<std::string> subs = helpSubcommands(top);
@@ -363,7 +364,7 @@ TEST(DocsConsistency, HelpOptionReadingSeesLongAndShortOptions) {
 // --- The README stays a front door -------------------------------------------
 
 TEST(DocsConsistency, ReadmeIsAtMost300Lines) {
-  const std::string readme = readFile(fs::path(OBSCURA_SOURCE_DIR) / "README.md");
+  const std::string readme = readFile(fs::path(sourceDir()) / "README.md");
   ASSERT_FALSE(readme.empty());
   const long lines = std::count(readme.begin(), readme.end(), '\n') + (readme.back() == '\n' ? 0 : 1);
   EXPECT_LE(lines, 300) << "README.md has " << lines

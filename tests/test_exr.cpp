@@ -139,7 +139,7 @@ TEST(Exr, CliRendersDefaultSceneWithChannelsAndMetadata) {
 // weights, only finite and >= 0).
 TEST(Exr, CliRendersEveryIntegratorOnEveryScene) {
   const std::string dir = tempDir("cli_all");
-  std::vector<std::string> scenes = {OBSCURA_SOURCE_DIR "/scenes/default.gltf"};
+  std::vector<std::string> scenes = {sourcePath("scenes/default.gltf")};
   // The third-party scenes run when present (and must be under
   // OBSCURA_REQUIRE_SCENES); the bundled scene always runs.
   for (const char* s : {"cornell_box_classic/cornell-box.gltf", "cornell_box_suzanne/cornell-box.glb",

@@ -23,13 +23,14 @@
 #include <vector>
 
 #include <obscura/plugin.h>
+#include "tests/support.h"
 
 namespace obscura::test {
 namespace {
 
 namespace fs = std::filesystem;
 
-const fs::path kRoot(OBSCURA_SOURCE_DIR);
+const fs::path kRoot(sourceDir());
 
 // The subsystems of core/ from the bottom up.
 const std::map<std::string, int> kRank = {{"util", 0}, {"subd", 2},  {"image", 1},

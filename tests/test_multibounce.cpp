@@ -97,7 +97,7 @@ TEST(MultiBounceMapping, GtaoEqualsThePublishedFit) {
 // albedo: with the same seed, multibounce (gtao) = the mapping applied to
 // the `ao` pass and the albedo AOV, per channel, on every covered pixel.
 TEST(MultiBounceIntegrator, IsTheMappingOfThePixelsAoAndAlbedo) {
-  const auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  const auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   RenderSettings s = passSettings(64, 36, 16, 3);
   s.aovs = true;
   const Film ao = renderWith(*scene, scene->cameras[0], "ao", {"rays=2"}, s);

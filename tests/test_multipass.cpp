@@ -65,7 +65,7 @@ void checkCombinedEqualsSolo(const Scene& scene, const Camera& cam, const std::v
 class MultiPass : public ::testing::Test {
  protected:
   void SetUp() override {
-    scene_ = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+    scene_ = loadGltf(sourcePath("scenes/default.gltf"));
     cam_ = scene_->cameras.at(0);
   }
   std::unique_ptr<Scene> scene_;

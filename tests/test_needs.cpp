@@ -22,7 +22,7 @@ RenderSettings small(bool aovs) {
 // albedo (--no-albedo), ray-traced or screen-space; asking for the albedo
 // AOV decodes it.
 TEST(Needs, TexturesAreDecodedOnlyWhenAlbedoIsRead) {
-  auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   ASSERT_FALSE(scene->textures.empty());
   renderWith(*scene, scene->cameras[0], "ao", {}, small(false));
   for (const auto& t : scene->textures) EXPECT_FALSE(t->decoded());
@@ -39,7 +39,7 @@ TEST(Needs, TexturesAreDecodedOnlyWhenAlbedoIsRead) {
 // AO and the occlusion estimator of obscurance trace any-hit rays only; the
 // distance estimator traces closest hits only.
 TEST(Needs, OcclusionEstimatorsTraceNoClosestHits) {
-  auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   const struct {
     std::string integrator;
     std::vector<std::string> params;

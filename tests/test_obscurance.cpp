@@ -373,7 +373,7 @@ TEST(ObscuranceCavity, ExtremeParametersAndScalesStayFiniteAndCorrect) {
 // seed, which correlates them positively: the variance of the difference is
 // at most the sum of the variances, so the test is conservative.
 TEST(ObscuranceAgreement, EstimatorsAgreeOnTheDefaultScene) {
-  const auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  const auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   ASSERT_FALSE(scene->cameras.empty());
   const std::vector<std::vector<std::string>> configs = {
       {"falloff=step", "distance=0.5"},
@@ -431,7 +431,7 @@ bool identicalR(const Film& a, const Film& b, std::string* where) {
 // bit-identical, not merely statistically equal. R = 0 is included: ao's
 // zero-length rays find nothing, obscurance traces none.
 TEST(ObscuranceVsAo, StepFalloffIsAoBitForBit) {
-  const auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  const auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   const auto cav = cavity(1.0f);
   struct View {
     const Scene* scene;

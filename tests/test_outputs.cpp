@@ -171,7 +171,7 @@ TEST(Outputs, BandedExrRoundTripsEveryPixel) {
 // in memory; a good existing pass is left as it was.
 TEST(Outputs, CliRefusesBadOutputsBeforeRendering) {
   const std::string dir = tempDir("outputs_cli");
-  const std::string scene = OBSCURA_SOURCE_DIR "/scenes/default.gltf";
+  const std::string scene = sourcePath("scenes/default.gltf");
   const std::string exr = dir + "/good.exr";
   ASSERT_EQ(runCli({"render", scene, "-o", exr, "--res", "16x9", "--spp", "1", "-q"}, dir + "/e0.txt").exitCode, 0);
   const std::string good = fileBytes(exr);

@@ -15,7 +15,7 @@
 namespace obscura::test {
 namespace {
 
-const std::string kDefaultScene = OBSCURA_SOURCE_DIR "/scenes/default.gltf";
+const std::string kDefaultScene = sourcePath("scenes/default.gltf");
 
 // Each option of both integrators away from its default at least once (the
 // defaults themselves are the first of each list).

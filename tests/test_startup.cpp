@@ -31,7 +31,7 @@ std::pair<std::string, int> shell(const std::string& command) {
 
 // The libraries the dynamic loader maps for the program (what ldd lists).
 TEST(Startup, ProgramDoesNotLoadOpenImageIO) {
-  const auto [libs, code] = shell("LD_TRACE_LOADED_OBJECTS=1 '" OBSCURA_BINARY "'");
+  const auto [libs, code] = shell(std::string("LD_TRACE_LOADED_OBJECTS=1 '") + obscuraBinary() + "'");
   ASSERT_EQ(code, 0) << libs;
   EXPECT_NE(libs.find("libobscura.so"), std::string::npos) << libs;
   EXPECT_NE(libs.find("libOpenEXR"), std::string::npos) << libs;
@@ -44,12 +44,12 @@ TEST(Startup, ProgramDoesNotLoadOpenImageIO) {
 TEST(Startup, MissingOiioModuleIsOneErrorLine) {
   const std::string dir = tempDir("startup_no_module");
   // Every name of the library (the soname the program needs among them).
-  for (const auto& e : fs::directory_iterator(fs::path(OBSCURA_BINARY).parent_path()))
+  for (const auto& e : fs::directory_iterator(fs::path(obscuraBinary()).parent_path()))
     if (e.path().filename().string().rfind("libobscura.so", 0) == 0)
       fs::copy_file(fs::canonical(e.path()), fs::path(dir) / e.path().filename(), fs::copy_options::overwrite_existing);
   Film film(4, 4, false);
   writeExr(dir + "/tile.exr", film, {});
-  const auto [text, code] = shell("LD_LIBRARY_PATH='" + dir + "' '" OBSCURA_BINARY "' merge '" + dir + "/out.exr' '" + dir +
+  const auto [text, code] = shell("LD_LIBRARY_PATH='" + dir + "' '" + std::string(obscuraBinary()) + "' merge '" + dir + "/out.exr' '" + dir +
                                   "/tile.exr'");
   EXPECT_EQ(code, 1) << text;
   EXPECT_EQ(text.rfind("obscura: error: " + dir + "/tile.exr: reading this file needs OpenImageIO", 0), 0u) << text;
@@ -67,7 +67,7 @@ TEST(ExrWrite, EveryCompressionWritesTheSamePixels) {
   for (const bool half : {false, true}) {
     std::vector<std::vector<std::string>> runs;
     for (const char* n : names) {
-      std::vector<std::string> args = {"render", OBSCURA_SOURCE_DIR "/scenes/default.gltf", "-o",
+      std::vector<std::string> args = {"render", sourcePath("scenes/default.gltf"), "-o",
                                        dir + "/" + n + (half ? "_half" : "") + ".exr", "--res", "48x27", "--spp", "2",
                                        "--quiet", "--compression", n == std::string("piz") ? "PIZ" : n};
       if (half) args.push_back("--half");

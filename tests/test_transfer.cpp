@@ -179,7 +179,7 @@ TEST(GiCavity, ErrorFallsLikeOneOverSqrtSpp) {
 // --- invariants on the default scene ---------------------------------------------
 
 std::unique_ptr<Scene> defaultSceneWithAlbedo(float a) {
-  auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   for (Material& m : scene->materials) {
     m.baseColorFactor = Vec3(a, a, a);
     m.texture = -1;
@@ -263,7 +263,7 @@ TEST(TransferInvariants, BlackOccludersGiveObscuranceExactly) {
 
 // Albedo <= 1 (the textured default scene): W <= 1, i.e. R,G,B <= A.
 TEST(TransferInvariants, NeverAboveOne) {
-  const auto scene = loadGltf(OBSCURA_SOURCE_DIR "/scenes/default.gltf");
+  const auto scene = loadGltf(sourcePath("scenes/default.gltf"));
   for (auto config : kMembershipConfigs)
     for (const char* extra : {"depth=0", "depth=1", "estimator=occlusion"}) {
       std::vector<std::string> p = config;
