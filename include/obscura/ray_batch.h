@@ -7,9 +7,10 @@
 // with static_assert. They are declared here so that a plugin compiles
 // against this header alone, without Embree's.
 //
-// Why streams: bench/obscura_bench_ao measured them ~12 % faster than
-// 16-wide packets and ~65 % faster than single rays for the AO integrator's
-// rays on a 1.1M-triangle scene (2 threads), and equal on small scenes.
+// Why streams: the AO integrator's rays traced raw ran ~12 % faster as
+// streams than as 16-wide packets and ~65 % faster than as single rays on a
+// 1.1M-triangle scene (2 threads), and equal on small scenes
+// (docs/architecture.md "Streams written in place").
 #pragma once
 
 #include <concepts>
