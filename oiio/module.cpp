@@ -5,11 +5,13 @@
 #include <OpenImageIO/imageio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 
 #include <obscura/error.h>
 #include "core/image/oiio_module.h"
+#include "core/image/texture.h"
 
 namespace obscura {
 
@@ -82,6 +84,31 @@ void readFirstChannel(const std::string& path, int& w, int& h, std::vector<float
     throw Error(path + ": cannot read the height map: " + oneLine(in->geterror()));
 }
 
+// An environment map as linear RGB, rows top first: grey images replicate
+// their channel; integer formats (8- and 16-bit PNG, JPEG, TIFF) are
+// decoded from sRGB unless the file says it is linear, as Blender's image
+// loader treats them by default.
+void readRgb(const std::string& path, int& w, int& h, std::vector<float>& rgb) {
+  QuietLibpng quiet;
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) throw Error(path + ": cannot read the environment map: " + oneLine(OIIO::geterror()));
+  const OIIO::ImageSpec& spec = in->spec();
+  w = spec.width, h = spec.height;
+  if (w < 1 || h < 1 || spec.nchannels < 1) throw Error(path + ": the environment map is empty");
+  const int channels = std::min(spec.nchannels, 3);
+  std::vector<float> raw(size_t(w) * size_t(h) * size_t(channels));
+  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, raw.data()))
+    throw Error(path + ": cannot read the environment map: " + oneLine(in->geterror()));
+  const std::string space = spec.get_string_attribute("oiio:ColorSpace");
+  const bool srgb = !spec.format.is_floating_point() && space != "Linear" && space != "linear";
+  rgb.resize(size_t(w) * size_t(h) * 3);
+  for (size_t i = 0; i < size_t(w) * size_t(h); ++i)
+    for (int c = 0; c < 3; ++c) {
+      const float v = raw[i * size_t(channels) + size_t(channels == 3 ? c : 0)];
+      rgb[3 * i + size_t(c)] = srgb ? srgbToLinear(v) : v;
+    }
+}
+
 PassImage readPass(const std::string& path) {
   OIIO::ImageBuf buf(path);
   if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT)) throw Error(path + ": cannot read: " + buf.geterror());
@@ -111,7 +138,7 @@ std::string readStringAttribute(const std::string& path, const std::string& name
   return v;
 }
 
-const OiioModule kModule{kOiioModuleAbi, readFirstChannel, readPass, readStringAttribute, mergeRegionsOiio};
+const OiioModule kModule{kOiioModuleAbi, readFirstChannel, readRgb, readPass, readStringAttribute, mergeRegionsOiio};
 
 }  // namespace
 }  // namespace obscura

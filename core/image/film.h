@@ -41,6 +41,9 @@ constexpr float kBackgroundDepth = 1e10f;
 // and the camera samples the pixel took.
 inline constexpr const char* kErrorPlane = "W.error";
 inline constexpr const char* kSppPlane = "spp";
+// lighting.R/G/B: what shaded.* = albedo x W x lighting multiplies, under a
+// non-constant environment (docs/exr.md "Channels").
+inline constexpr const char* kLightingPlane = "lighting.R";
 
 // The name of a fixed channel (Channel); extra planes are named by the Film.
 const char* channelName(int c);

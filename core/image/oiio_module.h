@@ -16,13 +16,15 @@ namespace obscura {
 
 // Bumped whenever the table changes: the module and libobscura are built
 // together, the check catches a stale module left in the directory.
-inline constexpr int kOiioModuleAbi = 1;
+inline constexpr int kOiioModuleAbi = 2;
 
 struct OiioModule {
   int abi;
   // The first channel of the first subimage, rows top first, as floats.
   // Throws obscura::Error naming the file.
   void (*readFirstChannel)(const std::string& path, int& width, int& height, std::vector<float>& texels);
+  // Linear RGB of an environment map, rows top first (8-bit sRGB decoded).
+  void (*readRgb)(const std::string& path, int& width, int& height, std::vector<float>& rgb);
   // R, G, B, A of any image OpenImageIO reads (see core/image/metrics.h readPass).
   PassImage (*readPass)(const std::string& path);
   // A string attribute of the header ("" if absent).

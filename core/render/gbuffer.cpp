@@ -264,8 +264,9 @@ void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float 
 }
 
 Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpaceIntegrator& integrator,
-                       const IntegratorNeeds& needs, const RenderSettings& s, RenderStats& stats,
+                       const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
                        const std::atomic<bool>* cancel) {
+  const RenderSettings s = withEnvironment(settings);
   // render() has checked the settings (it is the one entry point).
   const bool wantAlbedo = needs.albedo || (s.aovs && s.albedoAov);
   if (wantAlbedo)  // decode once, up front: the loops never throw or block
@@ -274,6 +275,10 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   Film film(s.width, s.height, s.aovs, s.albedoAov);
   const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
   const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
+  addLightingPlanes(film, s);
+  const PixelLighting light{.env = &s.environment->view(), .shading = needs.shading, .bent = false,
+                            .plane = film.find(kLightingPlane)};
+  const bool wantE0 = light.wantsE0() && film.hasAlbedo();
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   std::optional<CryptomatteFilm> crypto;  // its own pass, after the layers
   if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
@@ -289,7 +294,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   };
   // Allocated here, zeroed in parallel in the arena below.
   LargeVector<LayerSums> sums(n), evenSums(n);  // evenSums: the even layers' (docs/math.md §13)
-  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0);
+  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0), e0Sums(wantE0 ? n : 0);
   LargeVector<float> depthSums(s.aovs ? n : 0);
   GBufferLayer g;
   // The layer's estimates as a whole image only for the depth-aware filter;
@@ -331,6 +336,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     parallelFill(evenSums, LayerSums{});
     parallelFill(albedoSums, Vec3(0, 0, 0));
     parallelFill(normalSums, Vec3(0, 0, 0));
+    parallelFill(e0Sums, Vec3(0, 0, 0));
     parallelFill(depthSums, 0.0f);
     for (int si = 0; si < s.spp; ++si) {
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
@@ -351,6 +357,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         p.den += e.den;
         p.hits += 1;
         if (wantAlbedo) albedoSums[i] += g.albedo[i];
+        if (wantE0) e0Sums[i] += light.env->irradianceOverPi(normalize(g.view.vectorToWorld(g.normal[i])));
         if (s.aovs) {
           // The ray-traced loop's AOVs: world normal, camera-plane depth.
           normalSums[i] += g.view.vectorToWorld(g.normal[i]);
@@ -361,12 +368,12 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       const int tiles = PixelRect::tileCount(kScreenSpaceTile, s.width, s.height);
       tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
         std::unique_ptr<IntegratorContext>& ctx = contexts.local();
-        if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer);
+        if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer, s.environment->view());
         std::vector<SampleEstimate>& out = tileBuffers.local();
         out.resize(size_t(kScreenSpaceTile) * size_t(kScreenSpaceTile));
         for (int t = r.begin(); t != r.end(); ++t) {
           const PixelRect tile = PixelRect::tile(t, kScreenSpaceTile, s.width, s.height);
-          std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1)});
+          std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1), Vec3(0, 0, 0)});
           integrator.estimateTile(g, tile, *ctx, out.data());
           // Filtered layers go to the whole-image estimates (the filter
           // reads neighbours across tiles); the others straight to the sums.
@@ -418,6 +425,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       p.hits = sums[i].hits;
       if (wantAlbedo) p.albedo.add(albedoSums[i]);
       if (s.aovs) p.N.add(normalSums[i]), p.Z = double(depthSums[i]);
+      if (wantE0) p.e0.add(e0Sums[i]);
       return p;
     };
     parallelRows(s.height, [&](int y0, int y1) {
@@ -425,7 +433,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         for (int x = 0; x < s.width; ++x) {
           const size_t i = size_t(y) * size_t(s.width) + size_t(x);
           const int spp = schedule ? int(schedule->taken(i)) : s.spp;
-          resolvePixelSums(pixelSums(y, x), spp, integrator, wantAlbedo, s.sky, film, x, y);
+          resolvePixelSums(pixelSums(y, x), spp, integrator, wantAlbedo, light, film, x, y);
           if (errorPlane >= 0) film.at(errorPlane, x, y) = writtenError(pixelError(i), film, x, y);
           if (sppPlane >= 0) film.at(sppPlane, x, y) = float(spp);
         }

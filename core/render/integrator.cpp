@@ -54,6 +54,11 @@ void IntegratorRegistry::add(IntegratorDescriptor d, const std::string& origin) 
   for (size_t i = 0; i < all_.size(); ++i)
     if (all_[i].name == d.name)
       throw Error(origin + ": integrator '" + d.name + "' is already registered by " + origins_[i]);
+  if (d.shading == Shading::Irradiance &&
+      std::none_of(d.params.begin(), d.params.end(), [](const ParamSpec& p) { return p.name == "e0"; }))
+    d.params.push_back({.name = "e0", .type = ParamType::Enum, .defaultValue = "normal", .choices = {"normal", "bent"},
+                        .doc = "where shaded.* looks up the environment's irradiance E0: the shading normal, or "
+                               "this pass's bent normal (docs/math.md §14.6)"});
   // Validate the declared defaults now, so a bad plugin fails at load time.
   ParamSet check(d.params, d.name);
   (void)check;
@@ -78,6 +83,22 @@ const IntegratorDescriptor& IntegratorRegistry::find(const std::string& name) co
   std::string known;
   for (const auto& e : all_) known += (known.empty() ? "" : ", ") + e.name;
   throw Error("unknown integrator '" + name + "' (available: " + known + ")");
+}
+
+}  // namespace obscura
+
+namespace obscura {
+
+IntegratorNeeds passNeeds(const IntegratorDescriptor& desc, const ParamSet& params) {
+  IntegratorNeeds needs = desc.needs(params);
+  needs.bentE0 = false;
+  needs.shading = desc.shading;
+  if (desc.shading == Shading::Irradiance && params.getEnum("e0") == "bent") {
+    if (!desc.bentNormal)
+      throw Error("integrator '" + desc.name + "': e0=bent: this integrator estimates no bent normal (use e0=normal)");
+    needs.bentE0 = true;
+  }
+  return needs;
 }
 
 }  // namespace obscura

@@ -20,6 +20,9 @@ struct Sum3 {
 };
 struct PixelSums {
   Sum3 num, den, albedo, N;
+  // Sum of E0(n)/pi over the hits (lit by a non-constant environment), and
+  // of the primary pass's SampleEstimate::bent (e0=bent): PixelLighting.
+  Sum3 e0, bent;
   double Z;
   uint32_t hits;
   uint32_t object = ~0U;  // the object of the pixel's first hit in sample order (the denoiser's guide)
@@ -41,14 +44,35 @@ struct HalfSums {
   void add(const SampleEstimate& e) { num.add(e.num), den.add(e.den), hits += 1; }
 };
 
+// How the primary pass's shaded.* = albedo x W x lighting is lit
+// (include/obscura/integrator.h Shading; docs/math.md §14.6).
+struct PixelLighting {
+  const EnvironmentView* env = nullptr;
+  Shading shading = Shading::Irradiance;
+  bool bent = false;     // e0=bent: E0 at the pixel's bent normal
+  int plane = -1;        // the film channel of lighting.R (G, B follow), or -1
+  // Whether the per-hit sum PixelSums::e0 is needed.
+  bool wantsE0() const { return !env->constant && shading == Shading::Irradiance; }
+  // The factor of a pixel with hits: the constant sky's L; Lbar; or the
+  // mean E0/pi over its hits - at the bent normal with e0=bent, where the
+  // pixel has one.
+  Vec3 at(const PixelSums& p) const {
+    if (env->constant || shading == Shading::MeanRadiance) return env->meanRadiance;
+    if (bent && (p.bent.x != 0.0 || p.bent.y != 0.0 || p.bent.z != 0.0))
+      return env->irradianceOverPi(normalize(Vec3(float(p.bent.x), float(p.bent.y), float(p.bent.z))));
+    const double inv = 1.0 / double(p.hits);
+    return Vec3(float(p.e0.x * inv), float(p.e0.y * inv), float(p.e0.z * inv));
+  }
+};
+
 // Sum num / Sum den, one channel; 0/0 is 1 (include/obscura/integrator.h).
 inline float resolveRatio(double num, double den) { return den != 0.0 ? float(num / den) : 1.0f; }
 
 // Writes pixel (fx, fy) of `film` from its sums over `spp` camera samples:
 // coverage, the pass W (through integrator.resolvePixel) and the AOVs, all
 // premultiplied by coverage.
-void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo, Vec3 sky,
-                      Film& film, int fx, int fy);
+void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo,
+                      const PixelLighting& light, Film& film, int fx, int fy);
 
 // Writes the layer planes layer, layer + 1, layer + 2 of pixel (fx, fy) from
 // a pass's sums, given the pixel's hits and albedo sum (PixelSums'): W

@@ -45,7 +45,8 @@ constexpr size_t kChunk = 256;
 // One chunk's lanes (camera samples) and what each stage leaves for the
 // next, per thread, allocated once: the loop allocates nothing.
 struct ThreadScratch {
-  ThreadScratch(const Scene& scene, const Tracer& tracer, size_t passes) : ctx(scene, tracer), W(passes * kChunk) {
+  ThreadScratch(const Scene& scene, const Tracer& tracer, const EnvironmentView& env, size_t passes)
+      : ctx(scene, tracer, env), W(passes * kChunk) {
     camera.reserve(kChunk);
     hits.reserve(kChunk);
   }
@@ -82,7 +83,15 @@ struct PassSlot {
   const Integrator* integrator;
   bool albedo;
   int layer;
+  PixelLighting light;  // the primary's (slot 0) shaded.*
 };
+
+// The primary pass's lighting in `film` (PixelLighting), for settings whose
+// environment is set (render() sets it).
+PixelLighting primaryLighting(const RenderSettings& s, const IntegratorNeeds& needs, const Film& film) {
+  return {.env = &s.environment->view(), .shading = needs.shading, .bent = needs.bentE0,
+          .plane = film.find(kLightingPlane)};
+}
 
 // Where a tile's walk through its samples stands. Pixel-major, sample-minor:
 // each pixel's samples are summed in sample order whatever the chunking. The
@@ -118,7 +127,8 @@ class TileRenderer {
 
   TileRenderer(const Scene& scene, const Camera& camera, std::span<const PassSlot> passes, const RenderSettings& s,
                const Tracer& tracer, Film& film, bool wantAlbedo, const CryptomatteFilm* crypto = nullptr)
-      : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), shutter_(camera, s.width, s.height),
+      : scene_(scene), passes_(passes), s_(s), tracer_(tracer), film_(film), light_(passes[0].light),
+        wantE0_(passes[0].light.wantsE0() && film.hasAlbedo()), shutter_(camera, s.width, s.height),
         sampler_(s.seed), tnear_(camera.znear), tfar_(camera.zfar), forward_(camera.toWorld.vector(Vec3(0, 0, -1))),
         wantAlbedo_(wantAlbedo), mattes_(scene.hasMattes()), crypto_(crypto), window_(renderWindow(s)),
         errorPlane_(film.find(kErrorPlane)), sppPlane_(film.find(kSppPlane)) {}
@@ -349,7 +359,7 @@ class TileRenderer {
     if (ts.hits.empty()) return;
     for (size_t k = 0; k < passes_.size(); ++k) {
       SampleEstimate* W = ts.W.data() + k * kChunk;
-      for (size_t i = 0; i < ts.hits.size(); ++i) W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
+      for (size_t i = 0; i < ts.hits.size(); ++i) W[i] = {Vec3(0, 0, 0), Vec3(1, 1, 1), Vec3(0, 0, 0)};
       passes_[k].integrator->estimate(ts.hits, ts.ctx, W);
     }
   }
@@ -394,6 +404,8 @@ class TileRenderer {
       q.den.add(w.den);
     }
     if (wantAlbedo_) p.albedo.add(h.albedo);
+    if (wantE0_) p.e0.add(light_.env->irradianceOverPi(h.ns));
+    if (light_.bent) p.bent.add(ts.W[size_t(hi)].bent);
     if (s_.aovs) {
       p.N.add(h.ns);
       // Z is camera-plane depth: the hit's distance along the view axis,
@@ -415,7 +427,7 @@ class TileRenderer {
         const size_t i = window_.offset(fx, fy);
         const int n = schedule_ ? int(roundDone ? schedule_->target(i) : schedule_->taken(i)) : s_.spp;
         const PixelSums& p = sums[j];
-        resolvePixelSums(p, n, *primary.integrator, primary.albedo, s_.sky, film_, fx, fy);
+        resolvePixelSums(p, n, *primary.integrator, primary.albedo, light_, film_, fx, fy);
         if (errorPlane_ >= 0) film_.at(errorPlane_, fx, fy) = writtenError(pixelError(p, even[j]), film_, fx, fy);
         if (sppPlane_ >= 0) film_.at(sppPlane_, fx, fy) = float(n);
         if (objects_) objects_[window_.offset(fx, fy)] = p.object;
@@ -434,6 +446,8 @@ class TileRenderer {
   const RenderSettings& s_;
   const Tracer& tracer_;
   Film& film_;
+  const PixelLighting light_;  // the primary's shaded.*
+  const bool wantE0_;          // PixelSums::e0 is summed
   const ShutterCamera shutter_;
   const Sampler sampler_;
   const float tnear_, tfar_;
@@ -462,8 +476,8 @@ Vec3 resolvePass(const Sum3& num, const Sum3& den, const Integrator& integrator,
 
 }  // namespace
 
-void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo, Vec3 sky,
-                      Film& film, int fx, int fy) {
+void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator, bool wantAlbedo,
+                      const PixelLighting& light, Film& film, int fx, int fy) {
   const bool aovs = film.hasAovs();
   const double coverage = double(p.hits) / double(spp);
   film.at(kA, fx, fy) = float(coverage);
@@ -484,11 +498,18 @@ void resolvePixelSums(const PixelSums& p, int spp, const Integrator& integrator,
     film.at(kAlbedoR, fx, fy) = float(double(albedo.x) * coverage);
     film.at(kAlbedoG, fx, fy) = float(double(albedo.y) * coverage);
     film.at(kAlbedoB, fx, fy) = float(double(albedo.z) * coverage);
-    // shaded = albedo * W * La (docs/math.md §1), from the pixel's
-    // albedo and pass: exactly the product a compositor would form.
+    // shaded = albedo * W * lighting (docs/math.md §1, §14.6), from the
+    // pixel's albedo and pass: exactly the product a compositor would form
+    // (with lighting.R/G/B, written beside it under an environment map).
+    const Vec3 sky = light.at(p);
     film.at(kShadedR, fx, fy) = float(double(albedo.x) * W.x * sky.x * coverage);
     film.at(kShadedG, fx, fy) = float(double(albedo.y) * W.y * sky.y * coverage);
     film.at(kShadedB, fx, fy) = float(double(albedo.z) * W.z * sky.z * coverage);
+    if (light.plane >= 0) {
+      film.at(light.plane, fx, fy) = float(double(sky.x) * coverage);
+      film.at(light.plane + 1, fx, fy) = float(double(sky.y) * coverage);
+      film.at(light.plane + 2, fx, fy) = float(double(sky.z) * coverage);
+    }
   }
   const Vec3 nsum(float(p.N.x), float(p.N.y), float(p.N.z));
   const float nl = length(nsum);
@@ -705,7 +726,7 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
     if (cancel && cancel->load(std::memory_order_relaxed)) return;
     if (checkpoint && checkpoint->done(tile)) return;
     std::unique_ptr<ThreadScratch>& slot = scratch.local();
-    if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer, slots.size());
+    if (!slot) slot = std::make_unique<ThreadScratch>(scene, tracer, s.environment->view(), slots.size());
     const RayCounters before = threadRays(*slot);
     if (const uint64_t samples = tiles.renderTile(tile, *slot, cancel)) {
       progress.advance(adaptive ? samples : tiles.tileRect(tile).size());
@@ -859,13 +880,18 @@ void denoisePrimary(Film& film, const IntegratorNeeds& needs, const uint32_t* ob
     denoise(in, denoiseSettings(s), out, nullptr, &workspace);
     if (layer >= 0) copyPlanes(film, kR, film, layer, 3);
     if (!film.hasAlbedo()) return;
-    const double sky[3] = {s.sky.x, s.sky.y, s.sky.z};
+    // The lighting: its planes (premultiplied, as the albedo), or the constant sky's.
+    const Vec3 L = s.environment->meanRadiance();
+    const double sky[3] = {L.x, L.y, L.z};
+    const int light = film.find(kLightingPlane);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, size_t(1) << 16), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i != r.end(); ++i) {
         const float a = film.plane(kA)[i];
-        for (int c = 0; c < 3; ++c)
+        for (int c = 0; c < 3; ++c) {
+          const double lighting = light >= 0 ? double(film.plane(light + c)[i]) / a : sky[c];
           film.plane(kShadedR + c)[i] =
-              a > 0.0f ? float(double(film.plane(kAlbedoR + c)[i]) * film.plane(kR + c)[i] * sky[c] / a) : 0.0f;
+              a > 0.0f ? float(double(film.plane(kAlbedoR + c)[i]) * film.plane(kR + c)[i] * lighting / a) : 0.0f;
+        }
       }
     });
   });
@@ -879,8 +905,20 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
   return render(scene, camera, std::span<const RenderPass>(&pass, 1), s, stats, cancel);
 }
 
-Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass> passes, const RenderSettings& s,
-            RenderStats& stats, const std::atomic<bool>* cancel) {
+void addLightingPlanes(Film& film, const RenderSettings& s) {
+  if (!s.environment || s.environment->isConstant() || !film.hasAlbedo() || film.find(kLightingPlane) >= 0) return;
+  film.addPlane("lighting.R"), film.addPlane("lighting.G"), film.addPlane("lighting.B");
+}
+
+RenderSettings withEnvironment(const RenderSettings& s) {
+  RenderSettings out = s;
+  if (!out.environment) out.environment = Environment::constant(s.sky);
+  return out;
+}
+
+Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass> passes,
+            const RenderSettings& settings, RenderStats& stats, const std::atomic<bool>* cancel) {
+  const RenderSettings s = withEnvironment(settings);
   checkSettings(s);
   if (passes.empty()) throw Error("nothing to render: no pass");
   for (size_t k = 1; k < passes.size(); ++k)
@@ -904,6 +942,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
                              : Film(renderWindow(s), s.width, s.height, s.aovs, s.albedoAov);
   if (!screenSpace(0) && s.aovs) film.addPlane(kErrorPlane), film.addPlane(kSppPlane);
+  if (!screenSpace(0)) addLightingPlanes(film, s);
   addStats(stats, part);
   // Layer planes in pass order, after the fixed channels (and the
   // Cryptomatte layers of a screen-space primary).
@@ -936,9 +975,11 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
       rayTraced.push_back(k);
       wantAlbedo = wantAlbedo || passes[k].needs.albedo;
     }
-  const auto slotsFor = [&](const std::vector<int>& layerOf) {
+  const auto slotsFor = [&](const std::vector<int>& layerOf, const Film& film) {
     std::vector<PassSlot> slots;
-    for (size_t k : rayTraced) slots.push_back({passes[k].integrator, passes[k].needs.albedo || albedoAov, layerOf[k]});
+    for (size_t k : rayTraced)
+      slots.push_back({passes[k].integrator, passes[k].needs.albedo || albedoAov, layerOf[k],
+                       primaryLighting(s, passes[k].needs, film)});
     return slots;
   };
   // The denoiser's object guide: each pixel's first object, from the
@@ -950,7 +991,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   if (!rayTraced.empty()) {
     part = {};
     if (!screenSpace(0)) {
-      renderRayTraced(scene, camera, slotsFor(layer), wantAlbedo, s, film, part, cancel,
+      renderRayTraced(scene, camera, slotsFor(layer, film), wantAlbedo, s, film, part, cancel,
                       objects.empty() ? nullptr : objects.data(), s.denoise ? &passes[0].needs : nullptr,
                       &denoiseWorkspace);
     } else {
@@ -958,7 +999,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
       // ray-traced pass's layer is copied over.
       Film rt(renderWindow(s), s.width, s.height, others.aovs, others.albedoAov);
       const std::vector<int> rtLayer = addLayers(rt);
-      renderRayTraced(scene, camera, slotsFor(rtLayer), wantAlbedo, others, rt, part, cancel, nullptr);
+      renderRayTraced(scene, camera, slotsFor(rtLayer, rt), wantAlbedo, others, rt, part, cancel, nullptr);
       for (size_t k : rayTraced) copyPlanes(rt, rtLayer[k], film, layer[k], 3);
     }
     addStats(stats, part);

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "core/scene/camera.h"
+#include "core/scene/environment.h"
 #include "core/render/checkpoint.h"
 #include "core/render/cryptomatte.h"
 #include "core/image/film.h"
@@ -25,7 +26,10 @@ struct RenderSettings {
   int threads = 0;         // 0 = all hardware threads
   int tileSize = 16;       // pixels per tile side; does not change the image
   PixelFilter filter = PixelFilter::Box;
-  Vec3 sky{1, 1, 1};       // La of docs/math.md §1 (only scales shaded.*)
+  Vec3 sky{1, 1, 1};       // La of docs/math.md §1, when environment is null
+  // The light (docs/math.md §14): an environment map, or null for the
+  // uniform sky `sky` (render() makes it the constant environment).
+  std::shared_ptr<const Environment> environment;
   bool aovs = true;        // write albedo/N/Z/shaded channels
   // With aovs: the albedo.* and shaded.* channels too. false (--no-albedo)
   // drops them and, unless a pass reads albedo, the texture lookup at every
@@ -129,6 +133,12 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
 // the arithmetic of a solo render.
 Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass> passes,
             const RenderSettings& settings, RenderStats& stats, const std::atomic<bool>* cancel = nullptr);
+
+// The lighting.R/G/B planes of a film lit by a non-constant environment
+// with albedo (added once; the render loops fill them).
+void addLightingPlanes(Film& film, const RenderSettings& s);
+// s with its environment set: the constant sky when it has none.
+RenderSettings withEnvironment(const RenderSettings& s);
 
 // The layer loop render() runs for a screen-space integrator (core/render/gbuffer.h).
 class ScreenSpaceIntegrator;

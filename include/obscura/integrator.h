@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include <obscura/environment.h>
 #include <obscura/lobe.h>
 #include <obscura/math.h>
 #include <obscura/params.h>
@@ -32,6 +33,17 @@
 #include <obscura/surface_hit.h>
 
 namespace obscura {
+
+// What lights shaded.* = albedo x W x lighting (docs/math.md §14.6):
+// - Irradiance: W is a visibility-like factor of the unoccluded light, and
+//   lighting = E0(n)/pi, the environment's irradiance at the normal (or at
+//   the pass's bent normal, e0=bent) over pi: the ambient-transfer paper's
+//   eq. 9 with the environment in place of La. The core declares the
+//   pass's `e0` parameter. Every AO-family pass.
+// - MeanRadiance: W is already the environment-weighted irradiance over
+//   pi, relative to the mean radiance Lbar of the environment, and
+//   lighting = Lbar (gi: shaded.* is then the reflected radiance).
+enum class Shading { Irradiance, MeanRadiance };
 
 // What an integrator needs from the scene; the core builds and fetches only
 // that (docs/architecture.md).
@@ -47,13 +59,26 @@ struct IntegratorNeeds {
   // albedo (transfer, gi) leave it false: the shaded point's texture edges are
   // no edges of their W, and stopping the filter there only keeps noise.
   bool pixelAlbedo = false;
+  // Set by the core from the pass's `e0` parameter (passNeeds, never by an
+  // integrator's needs()): shaded.* looks E0 up at the pass's bent normal,
+  // the sum of SampleEstimate::bent over the pixel (docs/math.md §14.6).
+  bool bentE0 = false;
+  // Set by the core from the descriptor (passNeeds): how shaded.* is lit.
+  Shading shading{};
 };
+
+
 
 // One camera sample's estimate of W as a ratio (see above). The render loop
 // sets num = 0 and den = 1 before calling Integrator::estimate.
 struct SampleEstimate {
   Vec3 num;
   Vec3 den;
+  // The sample's contribution to the pass's bent normal: the sum of its
+  // open directions, each weighted as it counts towards num (unnormalized;
+  // zero when nothing is open). Read only for e0=bent, from integrators
+  // whose descriptor sets bentNormal; the render loop zeroes it.
+  Vec3 bent;
 };
 
 // The mean of n values whose sum is `sum`, as a float: one correctly rounded
@@ -79,7 +104,11 @@ class Tracer;  // core/scene/tracer.h
 // noticing.
 class IntegratorContext {
  public:
-  IntegratorContext(const Scene& scene, const Tracer& tracer) : scene_(scene), tracer_(tracer) {}
+  IntegratorContext(const Scene& scene, const Tracer& tracer, const EnvironmentView& environment)
+      : scene_(scene), tracer_(tracer), environment_(environment) {}
+  // The light of the render (obscura/environment.h): read once per batch,
+  // then looked up inline per ray.
+  const EnvironmentView& environment() const { return environment_; }
   // A cleared batch able to hold `rays` rays.
   OcclusionBatch& occlusionBatch(size_t rays) {
     occlusion_.reserve(rays);
@@ -117,6 +146,7 @@ class IntegratorContext {
  private:
   const Scene& scene_;
   const Tracer& tracer_;
+  const EnvironmentView& environment_;
   OcclusionBatch occlusion_;
   IntersectBatch intersect_;
 };
@@ -144,14 +174,21 @@ void pushCosineRays(std::span<const SurfaceHit> hits, uint32_t rays, float R, co
 // out[i].num = the fraction of hits[i]'s rays (rays i * rays + k of an
 // any-hit batch) whose direction is open (on the lobe's side of the
 // surface, and unoccluded), as a grey estimate.
+// out[i].bent is the sum of the open directions.
 inline void writeMeanVisibility(std::span<const SurfaceHit> hits, const OcclusionBatch& batch, uint32_t rays,
                                 const LobeControls& controls, SampleEstimate* out) {
   size_t r = 0;
   for (size_t i = 0; i < hits.size(); ++i) {
     uint32_t open = 0;
-    for (uint32_t k = 0; k < rays; ++k, ++r) open += controls.open(hits[i], batch, r) ? 1U : 0U;
+    Vec3 bent(0, 0, 0);
+    for (uint32_t k = 0; k < rays; ++k, ++r)
+      if (controls.open(hits[i], batch, r)) {
+        open += 1;
+        bent += batch.dir(r);
+      }
     const float v = sampleMean(double(open), rays);
     out[i].num = Vec3(v, v, v);
+    out[i].bent = bent;
   }
 }
 
@@ -194,7 +231,17 @@ struct IntegratorDescriptor {
   // ScreenSpace: create() returns a ScreenSpaceIntegrator. `obscura
   // integrators` lists the kind.
   IntegratorKind kind = IntegratorKind::RayTraced;
+  // How shaded.* is lit (above). Irradiance: the registry appends the
+  // parameter `e0` (normal|bent) to params.
+  Shading shading = Shading::Irradiance;
+  // estimate() writes SampleEstimate::bent, so e0=bent can be given.
+  bool bentNormal = false;
 };
+
+// The pass's needs as the core uses them: desc.needs(params) with bentE0
+// from the `e0` parameter. Throws obscura::Error naming the integrator for
+// e0=bent on an integrator without a bent normal.
+IntegratorNeeds passNeeds(const IntegratorDescriptor& desc, const ParamSet& params);
 
 class IntegratorRegistry {
  public:
