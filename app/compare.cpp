@@ -375,7 +375,7 @@ class CompareRun {
   std::optional<PassImage> renderPass(const IntegratorDescriptor& d, const ParamSet& p, const RenderSettings& s,
                                       RenderStats& stats) const {
     auto integ = d.create(p);
-    const IntegratorNeeds needs = d.needs(p);
+    const IntegratorNeeds needs = passNeeds(d, p);
     // AOVs that are on for the denoiser alone (settingsFor) skip the albedo
     // lookups unless the filter reads albedo: the timings are the pass's.
     RenderSettings rs = s;

@@ -190,7 +190,22 @@ ExrOptions passHeader(const PassInfo& i) {
   // Every object whose roles differ from the default, whoever set them (the
   // file's extras or --object): docs/production.md "Objects and roles".
   if (i.scene) str("obscura:objectRoles", nonDefaultRoles(i.scene->objects));
-  str("obscura:sky", formatFloat(i.settings.sky.x) + "," + formatFloat(i.settings.sky.y) + "," + formatFloat(i.settings.sky.z));
+  if (const Environment* e = i.settings.environment.get(); e && !e->options().path.empty()) {
+    // The map (docs/environment.md): its file, what it held (a hash of the
+    // texels as read, so a re-encoded file with the same values matches),
+    // how it was turned and scaled, and how E0 was computed.
+    const EnvironmentOptions& o = e->options();
+    str("obscura:environment", o.path);
+    str("obscura:environmentHash", e->contentHash());
+    str("obscura:environmentSize", std::to_string(e->width()) + "x" + std::to_string(e->height()));
+    str("obscura:environmentRotation", formatFloat(o.rotationDegrees));
+    str("obscura:environmentStrength", formatFloat(o.strength));
+    str("obscura:environmentIrradiance", irradianceMethodName(o.irradiance));
+    const Vec3 m = e->meanRadiance();
+    str("obscura:environmentMeanRadiance", formatFloat(m.x) + "," + formatFloat(m.y) + "," + formatFloat(m.z));
+  } else {
+    str("obscura:sky", formatFloat(i.settings.sky.x) + "," + formatFloat(i.settings.sky.y) + "," + formatFloat(i.settings.sky.z));
+  }
   exr.attributes.push_back({"obscura:threads", i.settings.threads > 0 ? i.settings.threads : int(tbb::this_task_arena::max_concurrency())});
   exr.attributes.push_back({"obscura:renderTime", float(i.stats.seconds)});
   exr.attributes.push_back({"obscura:bvhBuildTime", float(i.bvhSeconds)});

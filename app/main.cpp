@@ -36,6 +36,20 @@ using namespace obscura;
 namespace {
 
 // Scene-loading options shared by render and compare.
+void addEnvironmentOptions(CLI::App* cmd, EnvironmentArgs& a) {
+  cmd->add_option("--environment", a.environment,
+                  "Light by an equirectangular (lat-long) map, EXR/HDR/any image OpenImageIO reads, mapped as "
+                  "Blender's Environment Texture (docs/environment.md); replaces --sky");
+  cmd->add_option("--environment-rotation", a.rotation,
+                  "Turn the map about the up axis by DEGREES (counter-clockwise seen from above)")
+      ->type_name("DEGREES");
+  cmd->add_option("--environment-strength", a.strength, "Multiply the map's radiance by S (in [0, 1e30])")
+      ->type_name("S");
+  cmd->add_option("--environment-irradiance", a.irradiance,
+                  "E0(n) of shaded.*: exact (the convolution into a table) or sh9 (nine spherical harmonics)")
+      ->check(CLI::IsMember({"exact", "sh9"}));
+}
+
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--subdiv", a.subdiv, "Subdivide OBJ cages: none, catmull-clark or loop (OpenSubdiv, limit normals)");
   cmd->add_option("--subdiv-level", a.subdivLevel, "Uniform subdivision level, 0..10 (each level: 4x the faces)");
@@ -108,6 +122,7 @@ int runRender(const RenderArgs& args) {
   std::vector<PassSetup> setups = passSetups(args);
   RenderSettings s = renderSettings(args);
   if (args.output.empty()) throw Error("-o: an output .exr path is required");
+  if (s.environment && !args.quiet) std::fprintf(stderr, "%s", describeEnvironment(*s.environment).c_str());
 
   std::optional<tbb::global_control> limit;
   if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, size_t(args.threads));
@@ -224,6 +239,7 @@ int runIntegrators(const std::vector<std::string>& plugins) {
 
 struct InfoArgs : SceneArgs {
   std::string scene;
+  EnvironmentArgs env;
   std::string res = "960x540";  // for --subdiv-edge: the image the edges are measured on
   std::string camera;
 };
@@ -234,6 +250,7 @@ int runInfo(const InfoArgs& a) {
   parseResolution(a.res, w, h);
   Camera camera;
   sceneOptions(a);  // checked before the file is read
+  const std::shared_ptr<const Environment> environment = loadEnvironment(a.env, "1,1,1");
   const SceneSource source(path);
   std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, w, h, camera);
   const SceneStats st = scene->stats();
@@ -292,6 +309,7 @@ int runInfo(const InfoArgs& a) {
   std::printf("bvh build  %.3f s\n", scene->buildSeconds());
   std::printf("memory     %.1f MiB in Embree (peak %.1f), %.1f MiB of attributes\n", double(scene->embreeBytes()) / (1 << 20),
               double(scene->embreePeakBytes()) / (1 << 20), double(scene->attributeBytes()) / (1 << 20));
+  if (environment) std::printf("%s", describeEnvironment(*environment).c_str());
   return 0;
 }
 
@@ -341,7 +359,8 @@ int main(int argc, char** argv) {
   render->add_option("--camera", r.camera, "Camera name or index in the file, or 'auto' (default: the first camera, else auto)");
   render->add_option("--threads", r.threads, "Worker threads (0 = all cores)");
   render->add_option("--seed", r.seed, "Sampling seed (the image is a pure function of it)");
-  render->add_option("--sky", r.sky, "Sky radiance R,G,B (scales the shaded.* AOV)");
+  render->add_option("--sky", r.sky, "Uniform sky radiance R,G,B (scales the shaded.* AOV)");
+  addEnvironmentOptions(render, r.env);
   render->add_option("--preview", r.preview, "Also write an sRGB PNG preview of the pass");
   render->add_option("--filter", r.filter, "Pixel filter: box or gaussian (sigma 0.5 px, radius 1.5 px)");
   render->add_option("--tile", r.tileSize, "Tile size in pixels (does not change the image)");
@@ -413,6 +432,7 @@ int main(int argc, char** argv) {
   CLI::App* info = app.add_subcommand("info", "Describe a scene: meshes, triangles, instances, cameras, materials, bounds, memory");
   info->add_option("scene", infoArgs.scene, "glTF 2.0 scene or OBJ cage")->required();
   addSceneOptions(info, infoArgs);
+  addEnvironmentOptions(info, infoArgs.env);
   info->add_option("--res", infoArgs.res, "WIDTHxHEIGHT the edges of --subdiv-edge are measured on");
   info->add_option("--camera", infoArgs.camera, "Camera --subdiv-edge measures from (name, index or 'auto')");
 

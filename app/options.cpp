@@ -47,6 +47,43 @@ void parseResolution(const std::string& s, int& w, int& h) {
     throw Error("--res: expected WIDTHxHEIGHT with each in [1, 65536], got '" + s + "'");
 }
 
+std::shared_ptr<const Environment> loadEnvironment(const EnvironmentArgs& a, const std::string& sky) {
+  const bool other = a.rotation != 0.0 || a.strength != 1.0 || a.irradiance != "exact";
+  if (a.environment.empty()) {
+    if (other)
+      throw Error("--environment-rotation, --environment-strength and --environment-irradiance need --environment");
+    return nullptr;
+  }
+  if (sky != "1,1,1")
+    throw Error("--sky and --environment: give one (--sky is the uniform environment; scale a map with "
+                "--environment-strength)");
+  if (!std::isfinite(a.rotation))
+    throw Error("--environment-rotation: expected finite degrees, got " + formatFloat(a.rotation));
+  if (!(a.strength >= 0.0) || !std::isfinite(a.strength) || a.strength > 1e30)
+    throw Error("--environment-strength: expected a value in [0, 1e30], got " + formatFloat(a.strength));
+  EnvironmentOptions o;
+  o.path = a.environment;
+  o.rotationDegrees = a.rotation;
+  o.strength = a.strength;
+  o.irradiance = irradianceMethodFromName(a.irradiance, "--environment-irradiance");
+  return Environment::load(o);
+}
+
+std::string describeEnvironment(const Environment& e) {
+  const EnvironmentOptions& o = e.options();
+  const Vec3 m = e.meanRadiance();
+  char text[512];
+  std::snprintf(text, sizeof text,
+                "environment %s  %ux%u texels  rotation %s deg  strength %s  content %s\n"
+                "           mean radiance (%.6g, %.6g, %.6g)%s\n"
+                "           E0 by %s; SH9 against the exact table: max %.3g%%, rms %.3g%% of the mean E0\n",
+                o.path.c_str(), e.width(), e.height(), formatFloat(o.rotationDegrees).c_str(),
+                formatFloat(o.strength).c_str(), e.contentHash().c_str(), m.x, m.y, m.z,
+                e.isConstant() ? "  (constant: the uniform sky)" : "", irradianceMethodName(o.irradiance),
+                100.0 * e.sh9Error().max, 100.0 * e.sh9Error().rms);
+  return text;
+}
+
 Vec3 parseSky(const std::string& s) {
   std::vector<float> v;
   std::stringstream ss(s);

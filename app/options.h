@@ -3,12 +3,13 @@
 // header a pass carries: app/exr_header.h.)
 #pragma once
 
-#include <memory>
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/scene/camera.h"
+#include "core/scene/environment.h"
 #include "core/load/gltf_loader.h"
 #include "core/image/image_io.h"
 #include "core/render/plugin_loader.h"
@@ -25,6 +26,24 @@ void parseResolution(const std::string& s, int& w, int& h);
 PixelRect parseRegion(const std::string& s);
 // "R,G,B" or one value, finite and non-negative; throws naming --sky.
 Vec3 parseSky(const std::string& s);
+
+// The light of a render beyond the uniform --sky (docs/math.md §14): an
+// equirectangular map, its rotation about the up axis and its strength,
+// and how E0 is computed. Shared by render, compare, info and Python.
+struct EnvironmentArgs {
+  std::string environment;  // --environment FILE; empty: the uniform --sky
+  double rotation = 0.0;    // --environment-rotation DEGREES
+  double strength = 1.0;    // --environment-strength S
+  std::string irradiance = "exact";  // --environment-irradiance exact|sh9
+};
+// The environment of `a` (null without --environment), checked and built:
+// throws obscura::Error naming the option or the file. `sky` is --sky as
+// typed: a sky other than the default beside --environment is refused.
+std::shared_ptr<const Environment> loadEnvironment(const EnvironmentArgs& a, const std::string& sky);
+// What `info` and a render print about an environment: its file, size,
+// rotation and strength, mean radiance, and the SH9 fit's error against
+// the exact E0 (lines of the form "environment ...\n").
+std::string describeEnvironment(const Environment& e);
 // --camera: a name, an index into the file's cameras, "auto", or empty
 // (the first camera, else auto).
 Camera selectCamera(const Scene& scene, const std::string& want, float aspect);

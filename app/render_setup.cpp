@@ -114,7 +114,7 @@ std::vector<PassSetup> passSetups(const RenderArgs& a) {
     ParamSet params(desc.params, desc.name);
     for (const auto& p : assignments) params.setAssignment(p);
     auto integ = desc.create(params);
-    const IntegratorNeeds needs = desc.needs(params);
+    const IntegratorNeeds needs = passNeeds(desc, params);
     out.push_back({std::move(layer), &desc, std::move(params), std::move(integ), needs});
   };
   if (a.passes.empty()) {
@@ -173,6 +173,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   s.threads = args.threads;
   s.tileSize = args.tileSize;
   s.sky = parseSky(args.sky);
+  s.environment = loadEnvironment(args.env, args.sky);
   s.aovs = !args.noAovs;
   if (args.noAlbedo && args.noAovs) throw Error("--no-albedo: --no-aovs already drops every AOV; give one of them");
   s.albedoAov = !args.noAlbedo;

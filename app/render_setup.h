@@ -34,6 +34,7 @@ struct RenderArgs : SceneArgs {
   int threads = 0;
   long long seed = 0;
   std::string sky = "1,1,1";
+  EnvironmentArgs env;
   std::string preview;
   std::string filter = "box";
   int tileSize = 16;

@@ -54,7 +54,7 @@ Row timeConfig(const BenchScene& bs, const std::string& name, const std::vector<
     label += (label == name ? ":" : ",") + a;
   }
   const auto integ = d.create(p);
-  const IntegratorNeeds needs = d.needs(p);
+  const IntegratorNeeds needs = passNeeds(d, p);
   std::vector<double> t, g, q, f;
   for (int r = 0; r < runs; ++r) {
     RenderStats st;

@@ -178,7 +178,7 @@ BenchIntegrator::BenchIntegrator(const std::string& name,
   ParamSet p(d.params, d.name);
   for (const auto& [k, v] : params) p.set(k, v);
   integrator = d.create(p);
-  needs = d.needs(p);
+  needs = passNeeds(d, p);
 }
 
 Film BenchIntegrator::render(const Scene& scene, const Camera& camera, const RenderSettings& s,

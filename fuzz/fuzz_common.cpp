@@ -52,7 +52,7 @@ void loadAndTrace(const std::string& path, const SceneArgs& args) {
   RenderSettings s;
   s.width = w, s.height = h, s.spp = 1, s.threads = 1, s.tileSize = 8, s.aovs = false;
   RenderStats stats;
-  render(*scene, camera, *integrator, d.needs(params), s, stats);
+  render(*scene, camera, *integrator, passNeeds(d, params), s, stats);
 }
 
 void checkErrorLine(const char* message) {

@@ -19,6 +19,9 @@ struct PathState {
   Rgb absorbed;      // A = Sum throughput * (1 - mu) * (1 - a)  (tail=closed only)
   uint32_t owner;    // index of the camera hit
   bool self;         // this bounce's direction is below x's geometric plane
+  float pdfB;        // this bounce's cosine density at its direction (MIS)
+  Vec3 Lb;           // the environment's radiance / Lbar along it (environment only)
+  Rgb light;         // the light sample's contribution if its ray is open (MIS)
 };
 
 // Per-thread storage that keeps its memory between batches: the hot loop
@@ -26,6 +29,7 @@ struct PathState {
 struct Scratch {
   std::vector<PathState> paths;
   std::vector<Rgb> num, den;  // per camera hit
+  std::vector<Vec3> bent;     // per camera hit: bounce 0's open directions, weighted by mu
 };
 thread_local Scratch tlsScratch;
 
@@ -47,6 +51,7 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
   Scratch& s = tlsScratch;
   s.num.assign(hits.size(), splat(0.0));
   s.den.assign(hits.size(), splat(0.0));
+  s.bent.assign(hits.size(), Vec3(0, 0, 0));
   s.paths.clear();
   for (size_t i = 0; i < hits.size(); ++i)
     for (uint32_t k = 0; k < rays; ++k) {
@@ -70,6 +75,16 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
     }
   };
 
+  // The environment: escapes scale by L(w) / Lbar (docs/math.md §14.3).
+  const EnvironmentView& env = ctx.environment();
+  const bool lit = environment && !env.constant;
+  const bool mis = lit && lightSamples && env.samplable;
+  double invMean[3] = {1.0, 1.0, 1.0};
+  if (lit) {
+    const float m[3] = {env.meanRadiance.x, env.meanRadiance.y, env.meanRadiance.z};
+    for (int c = 0; c < 3; ++c) invMean[c] = m[c] > 0.0f ? 1.0 / double(m[c]) : 0.0;
+  }
+
   for (uint32_t bounce = 0; !s.paths.empty(); ++bounce) {
     const bool last = bounce >= std::min(depth, kMaxBounces);
     const uint32_t dim = kFirstIntegratorDim + 4 * bounce;
@@ -85,6 +100,7 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
       if (estimator == Estimator::Occlusion && !mu.zeroRadius())
         tfar = mu.segment(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 1));
       p.self = intoSurface(p.x, w);
+      p.pdfB = float(dot(w, p.x.ns)) * kInvPi;
       // A segment shorter than near (tnear > tfar) is inactive: a miss, open.
       if (tfar > 0.0f && !p.self)
         batch.push(spawnOrigin(p.x, w), w, tnear, tfar, p.x);
@@ -92,6 +108,33 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
         batch.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f, p.x);
     }
     ctx.trace(batch);
+    if (mis) {
+      // One light direction per path (docs/math.md §14.3): its would-be
+      // contribution in p.light, zeroed if its ray is blocked. The cosine
+      // batch above is traced already: the batches are separate buffers.
+      OcclusionBatch& shadow = ctx.occlusionBatch(s.paths.size());
+      for (PathState& p : s.paths) {
+        float pl = 0.0f;
+        Vec3 L;
+        const Vec3 w = env.sample(Sampler::get2D(p.x.pixelKey, p.x.sampleIndex, dim + 3), pl, L);
+        const float cosTheta = dot(w, p.x.ns);
+        p.light = splat(0.0);
+        if (!(pl > 0.0f) || !(cosTheta > 0.0f) || intoSurface(p.x, w)) {
+          shadow.push(spawnOrigin(p.x, w), w, kInfinity, 0.0f, p.x);
+          continue;
+        }
+        const double pb = double(cosTheta) * double(kInvPi), pld = pl;
+        const double f = pb / pld * (pld * pld / (pb * pb + pld * pld));
+        const double Lc[3] = {double(L.x), double(L.y), double(L.z)};
+        for (int c = 0; c < 3; ++c) p.light.c[c] = Lc[c] * invMean[c] * f;
+        // [0, R] in vacuum; [0, r], r ~ mu', in the medium: open with probability mu(d).
+        const float tfar = mu.segment(Sampler::get1D(p.x.pixelKey, p.x.sampleIndex, dim + 1));
+        shadow.push(spawnOrigin(p.x, w), w, 0.0f, tfar, p.x);
+      }
+      ctx.trace(shadow);
+      for (size_t r = 0; r < s.paths.size(); ++r)
+        if (shadow.occluded(r)) s.paths[r].light = splat(0.0);
+    }
 
     // Paths that go on are compacted to the front, in order.
     size_t kept = 0;
@@ -106,7 +149,21 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
       } else if (!self && estimator == Estimator::Distance) {
         m = mu(double(batch.t(r)));
       }
-      for (int c = 0; c < 3; ++c) p.sum.c[c] += p.throughput.c[c] * m;
+      if (bounce == 0 && m > 0.0) s.bent[p.owner] += batch.dir(r) * float(m);
+      if (!lit) {
+        for (int c = 0; c < 3; ++c) p.sum.c[c] += p.throughput.c[c] * m;
+      } else {
+        // The environment along w, MIS-weighted against the light sample
+        // (which already added its own contribution, p.light).
+        double wb = 1.0;
+        const Vec3 L = m > 0.0 ? env.radiance(batch.dir(r)) : Vec3(0, 0, 0);
+        if (mis && m > 0.0) {
+          const double pb = p.pdfB, pl = env.pdf(batch.dir(r));
+          wb = pb * pb / (pb * pb + pl * pl);
+        }
+        const double Lc[3] = {double(L.x), double(L.y), double(L.z)};
+        for (int c = 0; c < 3; ++c) p.sum.c[c] += p.throughput.c[c] * (m * wb * Lc[c] * invMean[c] + p.light.c[c]);
+      }
       if (m >= 1.0 || (last && !closedTail)) {
         finish(p);
         continue;
@@ -159,6 +216,7 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
     }
     out[i].num = Vec3(n[0], n[1], n[2]);
     out[i].den = Vec3(d[0], d[1], d[2]);
+    out[i].bent = s.bent[i];
   }
 }
 

@@ -59,9 +59,28 @@
 // by the surface itself - lies on the inside; bounce 0 draws from the cone
 // of `spread` and ignores occluders closer than `near`.
 //
+// Environment lighting (gi, docs/math.md §14.3): what escapes along w
+// carries L(w) / Lbar (Lbar the environment's mean radiance, per channel),
+// and in the ambient medium the in-scattered light along w is mu(d) L(w) /
+// Lbar: the uniform sky's model with the sky's radiance taken from the
+// direction. So W = (1/pi) Int L_in cos / Lbar, and under a constant sky
+// (L = Lbar exactly) every factor is exactly 1 and the estimator is the
+// one above bit for bit. With `lightSamples` (a non-constant map), each
+// vertex also draws a direction from the map's density (light sampling)
+// and the two techniques are combined by the power heuristic (Veach 1997,
+// eq. 9.13): the cosine direction's escape weighs w_b = p_b^2 / (p_b^2 +
+// p_l^2), the light direction's unoccluded contribution
+//   T L(w_l) (cos theta_l / pi) / p_l x p_l^2 / (p_b^2 + p_l^2),
+// p_b = cos theta / pi about the shading normal, p_l the map's density.
+// The light direction's ray is an any-hit ray over [0, r]: r = R (inf) in
+// vacuum, r ~ mu' in the medium, whose probability of being open is mu(d)
+// (the occlusion estimator of §3), so the medium stays unbiased too.
+//
 // Sample dimensions: bounce b draws its direction from the 2D pair
-// kFirstIntegratorDim + 4b, the occlusion estimator's r from the 1D
-// dimension kFirstIntegratorDim + 4b + 1 and roulette from + 4b + 2, all at
+// kFirstIntegratorDim + 4b, the occlusion estimator's r (and the light
+// ray's, which the distance estimator leaves free) from the 1D dimension
+// kFirstIntegratorDim + 4b + 1, roulette from + 4b + 2 and the light
+// direction from the 2D pair + 4b + 3, all at
 // index sampleIndex * rays + k (path k of the camera sample). Bounce 0 is
 // exactly the obscurance integrator's sequence, which is what makes
 // transfer with black occluders equal obscurance bit for bit.
@@ -91,6 +110,10 @@ struct AmbientPaths {
   // hit's side, cone and near clip. Later bounces sample the full cosine
   // hemisphere from tnear 0 (they are light transport, not the pass's lobe).
   LobeControls lobe;
+  // Environment lighting (gi; see above): escapes carry L(w) / Lbar.
+  bool environment = false;
+  // With environment: MIS with light sampling where the map is not constant.
+  bool lightSamples = true;
 
   // Writes out[i] for every camera hit (num and den, see above).
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const;
@@ -107,6 +130,7 @@ class AmbientPathIntegrator final : public Integrator {
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     paths_.estimate(hits, ctx, out);
   }
+  Shading shading() const override { return paths_.environment ? Shading::MeanRadiance : Shading::Irradiance; }
 
  private:
   AmbientPaths paths_;

@@ -51,6 +51,7 @@ IntegratorDescriptor aoDescriptor() {
        .doc = "AO rays per camera sample"},
   };
   addLobeParams(d.params);
+  d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const double R = p.getFloat("distance");

@@ -1,5 +1,6 @@
-// Full global illumination under the uniform sky: the reference every other
-// integrator approximates (docs/math.md §1, §2 and §5).
+// Full global illumination under the uniform sky or an environment map: the
+// reference every other integrator approximates (docs/math.md §1, §2, §5
+// and §14.3).
 //
 //   W(x) = (1/pi) Int L_in(x, w) / La cos+(theta) dw,
 //   L_in = e^(-sigma d) a(y) La W(y) + La (1 - e^(-sigma d))  (hit at d)
@@ -14,6 +15,9 @@
 // medium's transmittance and whose mu is its in-scattered sky light.
 // Nothing is closed: paths end by escaping, at max-depth bounces, or by
 // roulette (unbiased), so the estimate is a plain mean with error ~ 1/sqrt(spp).
+// Under an environment map, L_in of an escape is L(w) and W is normalised by
+// the map's mean radiance Lbar; light directions drawn from the map join
+// the cosine ones by MIS (integrators/ambient_paths.h).
 #include <cmath>
 
 #include <obscura/plugin.h>
@@ -25,7 +29,10 @@ namespace {
 IntegratorDescriptor giDescriptor() {
   IntegratorDescriptor d;
   d.name = "gi";
-  d.doc = "Full global illumination: diffuse path tracing under the uniform sky, optionally in an ambient medium (the reference).";
+  d.doc = "Full global illumination: diffuse path tracing under the sky or environment map, optionally in an ambient medium (the reference).";
+  // W is the irradiance over pi relative to the environment's mean
+  // radiance: shaded.* = albedo x W x Lbar is the reflected radiance.
+  d.shading = Shading::MeanRadiance;
   d.params = {
       {.name = "sigma", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
        .doc = "extinction of the ambient medium (1/scene units); 0 = vacuum"},
@@ -33,6 +40,9 @@ IntegratorDescriptor giDescriptor() {
        .doc = "bounces after the first segment; -1 = unlimited (roulette ends paths), 0 = AO"},
       {.name = "rays", .type = ParamType::Int, .defaultValue = "1", .min = 1, .max = 65536,
        .doc = "paths per camera sample"},
+      {.name = "sampling", .type = ParamType::Enum, .defaultValue = "mis", .choices = {"mis", "cosine"},
+       .doc = "under an environment map: cosine and light directions combined by MIS, or cosine directions "
+              "alone (a constant sky needs no light directions: both are cosine alone)"},
   };
   d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
@@ -46,6 +56,8 @@ IntegratorDescriptor giDescriptor() {
     paths.depth = maxDepth < 0 ? AmbientPaths::kUnlimited : uint32_t(maxDepth);
     paths.closedTail = false;
     paths.roulette = true;
+    paths.environment = true;
+    paths.lightSamples = p.getEnum("sampling") == "mis";
     return std::make_unique<AmbientPathIntegrator>(paths);
   };
   return d;

@@ -76,6 +76,7 @@ IntegratorDescriptor multibounceDescriptor() {
        .doc = "AO rays per camera sample"},
   };
   addLobeParams(d.params);
+  d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true, .pixelAlbedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const Mapping m = p.getEnum("mapping") == "gtao" ? Mapping::Gtao : Mapping::Improved;

@@ -84,9 +84,15 @@ class Obscurance final : public Integrator {
       const SurfaceHit& h = hits[i];
       const Lobe lobe = lobe_.at(h);
       double open = 0.0;
-      for (uint32_t k = 0; k < rays_; ++k)
-        open += lobe.blocked(cosineDirection(h, lobe, rays_, k)) ? 0.0 : 1.0;
+      Vec3 bent(0, 0, 0);
+      for (uint32_t k = 0; k < rays_; ++k) {
+        const Vec3 w = cosineDirection(h, lobe, rays_, k);
+        if (lobe.blocked(w)) continue;
+        open += 1.0;
+        bent += w;
+      }
       setGrey(W[i], open, rays_);
+      W[i].bent = bent;
     }
   }
 
@@ -106,11 +112,15 @@ class Obscurance final : public Integrator {
     size_t r = 0;
     for (size_t i = 0; i < hits.size(); ++i) {
       double sum = 0.0;
+      Vec3 bent(0, 0, 0);  // each direction weighted by its mu, as in the sum
       for (uint32_t k = 0; k < rays_; ++k, ++r) {
         if (lobe_.blocked(hits[i], batch.dir(r))) continue;  // mu = 0
-        sum += batch.hit(r) ? mu_(double(batch.t(r))) : 1.0;
+        const double m = batch.hit(r) ? mu_(double(batch.t(r))) : 1.0;
+        sum += m;
+        bent += batch.dir(r) * float(m);
       }
       setGrey(W[i], sum, rays_);
+      W[i].bent = bent;
     }
   }
 
@@ -147,6 +157,7 @@ IntegratorDescriptor obscuranceDescriptor() {
   d.doc = "Obscurance: cosine-weighted mean of a falloff mu(d) of the distance to the first occluder (AO with fuzzy membership).";
   d.params = membershipParams("obscurance rays per camera sample");
   addLobeParams(d.params);
+  d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     return std::make_unique<Obscurance>(Membership::fromParams(p), estimatorFromParams(p), p.getInt("rays"),

@@ -40,6 +40,7 @@ IntegratorDescriptor transferDescriptor() {
   d.params.push_back({.name = "tail", .type = ParamType::Enum, .defaultValue = "closed", .choices = {"closed", "zero"},
                       .doc = "after depth bounces: closed = the closed form (local approximation), zero = truncate"});
   addLobeParams(d.params);
+  d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     AmbientPaths paths{.mu = Membership::fromParams(p)};

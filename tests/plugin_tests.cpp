@@ -38,7 +38,7 @@ TEST(Plugin, BentNormalLoadsAndIsListed) {
   loadPlugin(OBSCURA_BENT_PLUGIN);
   loadPlugin(OBSCURA_BENT_PLUGIN);  // the same library twice is one plugin
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find("bent-normal");
-  EXPECT_EQ(d.params.size(), 5u);  // distance, rays and the lobe controls inside, spread, near
+  EXPECT_EQ(d.params.size(), 6u);  // distance, rays, the lobe controls inside, spread, near, and e0
   EXPECT_NO_THROW(IntegratorRegistry::instance().find("ao"));
 }
 

@@ -145,7 +145,7 @@ Film renderWith(const Scene& scene, const Camera& camera, const std::string& int
   for (const auto& a : params) p.setAssignment(a);
   auto integ = d.create(p);
   RenderStats local;
-  return render(scene, camera, *integ, d.needs(p), settings, stats ? *stats : local);
+  return render(scene, camera, *integ, passNeeds(d, p), settings, stats ? *stats : local);
 }
 
 double meanCovered(const Film& film, int channel, size_t* count) {

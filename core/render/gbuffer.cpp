@@ -276,7 +276,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
   const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
   addLightingPlanes(film, s);
-  const PixelLighting light{.env = &s.environment->view(), .shading = needs.shading, .bent = false,
+  const PixelLighting light{.env = &s.environment->view(), .shading = integrator.shading(), .bent = false,
                             .plane = film.find(kLightingPlane)};
   const bool wantE0 = light.wantsE0() && film.hasAlbedo();
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());

@@ -92,7 +92,6 @@ namespace obscura {
 IntegratorNeeds passNeeds(const IntegratorDescriptor& desc, const ParamSet& params) {
   IntegratorNeeds needs = desc.needs(params);
   needs.bentE0 = false;
-  needs.shading = desc.shading;
   if (desc.shading == Shading::Irradiance && params.getEnum("e0") == "bent") {
     if (!desc.bentNormal)
       throw Error("integrator '" + desc.name + "': e0=bent: this integrator estimates no bent normal (use e0=normal)");

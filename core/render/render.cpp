@@ -88,8 +88,9 @@ struct PassSlot {
 
 // The primary pass's lighting in `film` (PixelLighting), for settings whose
 // environment is set (render() sets it).
-PixelLighting primaryLighting(const RenderSettings& s, const IntegratorNeeds& needs, const Film& film) {
-  return {.env = &s.environment->view(), .shading = needs.shading, .bent = needs.bentE0,
+PixelLighting primaryLighting(const RenderSettings& s, const Integrator& integrator, const IntegratorNeeds& needs,
+                              const Film& film) {
+  return {.env = &s.environment->view(), .shading = integrator.shading(), .bent = needs.bentE0,
           .plane = film.find(kLightingPlane)};
 }
 
@@ -979,7 +980,7 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     std::vector<PassSlot> slots;
     for (size_t k : rayTraced)
       slots.push_back({passes[k].integrator, passes[k].needs.albedo || albedoAov, layerOf[k],
-                       primaryLighting(s, passes[k].needs, film)});
+                       primaryLighting(s, *passes[k].integrator, passes[k].needs, film)});
     return slots;
   };
   // The denoiser's object guide: each pixel's first object, from the

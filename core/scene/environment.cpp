@@ -3,9 +3,9 @@
 //
 // E0(n) = Int L(w) max(0, n.w) dw over the sphere. L is constant over each
 // texel, a lat-long rectangle [phi0, phi1] x [theta0, theta1], so over a
-// texel that lies wholly above n's horizon the integral is L n.M with M the
-// texel's first moment Int w dw, which has a closed form (w = (sin t cos p,
-// cos t, sin t sin p), dw = sin t dt dp):
+// rectangle that lies wholly above n's horizon the integral is L n.M with
+// M the rectangle's first moment Int w dw, which has a closed form
+// (w = (sin t cos p, cos t, sin t sin p), dw = sin t dt dp):
 //
 //   M = ( A (sin p1 - sin p0),  B (p1 - p0),  A (cos p0 - cos p1) ),
 //   A = Int sin^2 t dt = (dt - cos(t0 + t1) sin dt) / 2,
@@ -16,18 +16,27 @@
 // so a pyramid of those sums (each node four children) evaluates E0(n)
 // visiting only the blocks the horizon crosses: O(perimeter) nodes per
 // normal instead of every texel. A block is wholly above (below) when its
-// centre c satisfies n.c >= sin(rho) (<= -sin(rho)), rho bounding the
-// angle from c to any point of the block: rho <= dt/2 + (dp/2) max sin t
-// (along the meridian, then along the parallel). A texel the horizon
-// crosses is split into four until rho < kSplitRadius, where the clamped
-// integrand is replaced by max(0, n.M): an error of at most about
-// rho Omega / 4 per piece, pi kSplitRadius^2 L in all, a relative 4e-6 of
-// E0 for a uniform sky.
+// centre c has n.c >= rho (<= -rho), rho bounding the angle from c to any
+// point of the block (sin rho <= rho): rho <= dt/2 + (dp/2) max sin t
+// (along the meridian, then along the parallel).
 //
-// Maps above 2^22 texels keep the pyramid from a coarser base level (a
-// 16384 x 8192 map: blocks of 8 x 8 texels, 150 MB), and a base block the
-// horizon crosses is split with its mean radiance: exact wherever the
-// horizon does not cut through detail finer than a block.
+// Blocks the horizon crosses are refined down to kLeafRadius (0.01 rad).
+// There n.w is nearly linear, and the block's integral is taken as that of
+// the positive part of a linear function: with the mean m = n.M / P
+// (radiance-weighted, P = Int L dw) and the half-range h of n.w over the
+// block's corners, P max(0, m) where the corners agree in sign (exact),
+// else P (m + h)^2 / (4h) - the positive part of a value uniform on
+// [m - h, m + h]. A horizon along texel edges (an axis-aligned normal on a
+// map whose width is a multiple of 4 and height even) is then exact; a
+// horizon through texels errs by about pi kLeafRadius^2 x 1/8 of L in all
+// (a relative 1e-5 of E0). Texels coarser than kLeafRadius are split into
+// s x s equal virtual texels first, so a small map is refined as finely as
+// a large one.
+//
+// The pyramid is stored from level 1 up (level 0, the virtual texels, is
+// computed from per-row and per-column tables) - from a coarser base level
+// for maps above 2^24 texels, whose base blocks are leaves (a 16384 x 8192
+// map: blocks of 4 x 4 texels, 0.0015 rad, 150 MB).
 #include "core/scene/environment.h"
 
 #include <tbb/blocked_range.h>
@@ -48,59 +57,27 @@ namespace obscura {
 namespace {
 
 constexpr double kPiD = 3.14159265358979323846;
-constexpr double kSplitRadius = 2e-3;
+constexpr double kLeafRadius = 1e-2;
 
 struct D3 {
   double x = 0, y = 0, z = 0;
 };
-inline double dotD(const D3& a, const D3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
-// A lat-long rectangle, angles in radians (phi from -pi, theta from the up pole).
-struct Rect {
-  double p0, p1, t0, t1;
-};
-
-D3 firstMoment(const Rect& r) {
-  const double dt = r.t1 - r.t0, st = r.t0 + r.t1;
-  const double A = 0.5 * (dt - std::cos(st) * std::sin(dt));
-  const double B = 0.5 * std::sin(st) * std::sin(dt);
-  return {A * (std::sin(r.p1) - std::sin(r.p0)), B * (r.p1 - r.p0), A * (std::cos(r.p0) - std::cos(r.p1))};
+// The solid angle of a texel of row j of a W x H lat-long map.
+double rowOmega(uint32_t W, uint32_t H, uint32_t j) {
+  return (2.0 * kPiD / W) * (std::cos(kPiD * j / H) - std::cos(kPiD * (j + 1) / H));
 }
 
-double solidAngle(const Rect& r) { return (r.p1 - r.p0) * (std::cos(r.t0) - std::cos(r.t1)); }
-
-enum class Side { Above, Below, Across };
-
-// Where the rectangle lies against n's horizon (conservative: Across when unsure).
-Side sideOf(const D3& n, const Rect& r) {
-  const double maxSin = (r.t0 <= 0.5 * kPiD && r.t1 >= 0.5 * kPiD) ? 1.0 : std::max(std::sin(r.t0), std::sin(r.t1));
-  const double rho = 0.5 * (r.t1 - r.t0) + 0.5 * (r.p1 - r.p0) * maxSin;
-  if (rho >= 0.5 * kPiD) return Side::Across;
-  const double tc = 0.5 * (r.t0 + r.t1), pc = 0.5 * (r.p0 + r.p1);
-  const D3 c{std::sin(tc) * std::cos(pc), std::cos(tc), std::sin(tc) * std::sin(pc)};
-  const double d = dotD(n, c), s = std::sin(rho);
-  return d >= s ? Side::Above : (d <= -s ? Side::Below : Side::Across);
-}
-
-double rectRadius(const Rect& r) {
-  const double maxSin = (r.t0 <= 0.5 * kPiD && r.t1 >= 0.5 * kPiD) ? 1.0 : std::max(std::sin(r.t0), std::sin(r.t1));
-  return 0.5 * (r.t1 - r.t0) + 0.5 * (r.p1 - r.p0) * maxSin;
-}
-
-// Int over r of max(0, n.w) dw, for a rectangle of constant radiance.
-double clampedCosine(const D3& n, const Rect& r, int depth = 0) {
-  switch (sideOf(n, r)) {
-    case Side::Above:
-      return dotD(n, firstMoment(r));
-    case Side::Below:
-      return 0.0;
-    case Side::Across:
-      break;
-  }
-  if (rectRadius(r) < kSplitRadius || depth > 48) return std::max(0.0, dotD(n, firstMoment(r)));
-  const double pm = 0.5 * (r.p0 + r.p1), tm = 0.5 * (r.t0 + r.t1);
-  return clampedCosine(n, {r.p0, pm, r.t0, tm}, depth + 1) + clampedCosine(n, {pm, r.p1, r.t0, tm}, depth + 1) +
-         clampedCosine(n, {r.p0, pm, tm, r.t1}, depth + 1) + clampedCosine(n, {pm, r.p1, tm, r.t1}, depth + 1);
+// Int over a block of max(0, n.w) L dw for a block whose n.w over its
+// corners spans [lo, hi], with radiance-weighted first moment dot n.M = nm
+// and power P (see the head of the file).
+inline double positivePart(double nm, double P, double lo, double hi) {
+  if (lo >= 0.0) return nm;
+  if (hi <= 0.0 || P <= 0.0) return 0.0;
+  const double m = nm / P, h = 0.5 * (hi - lo);
+  if (m >= h) return nm;
+  if (m <= -h) return 0.0;
+  return P * (m + h) * (m + h) / (4.0 * h);
 }
 
 // Reads RGB texels (top row first) from an EXR (R, G, B or Y channels) or,
@@ -141,15 +118,24 @@ IrradianceMethod irradianceMethodFromName(const std::string& name, const std::st
 
 const char* irradianceMethodName(IrradianceMethod m) { return m == IrradianceMethod::Sh9 ? "sh9" : "exact"; }
 
-// The pyramid of block sums from `base` up: per node the first moment
-// times radiance (3 channels x 3 components) and the power Int L dw (3).
+// The virtual grid (s x s virtual texels a texel) and its pyramid of block
+// sums from `base` up: per node the radiance-weighted first moment (3
+// channels x 3 components) and the power Int L dw (3).
 struct Environment::Pyramid {
+  uint32_t s = 1;           // virtual texels per texel, each way
+  uint32_t VW = 0, VH = 0;  // the virtual grid
+  // Boundaries of the virtual grid: phi at x = 0..VW, theta at y = 0..VH.
+  std::vector<double> phi, sinPhi, cosPhi, theta, sinTheta, cosTheta;
+  std::vector<double> A, B;  // per virtual row (the moment's theta factors)
   struct Level {
     uint32_t w = 0, h = 0;
     std::vector<float> node;  // 12 floats a node
+    // Per row and per column of this level: the centre's trig, the half
+    // extents and the largest sin theta (for rho), and the texel range.
+    std::vector<double> cSinT, cCosT, halfT, maxSin, cSinP, cCosP, halfP;
   };
   uint32_t base = 1;
-  std::vector<Level> levels;  // levels[l] for l >= base (lower ones empty)
+  std::vector<Level> levels;  // levels[l]: l >= base stored; every level has its row/column tables
 };
 
 Environment::~Environment() = default;
@@ -216,14 +202,14 @@ void Environment::build(std::vector<float> rgb, uint32_t width, uint32_t height,
   // Row solid angles and the mean radiance (1/4pi) Sum L Omega.
   rowSolidAngle_.resize(height);
   for (uint32_t j = 0; j < height; ++j)
-    rowSolidAngle_[j] = float(solidAngle({0.0, 2.0 * kPiD / width, kPiD * j / height, kPiD * (j + 1) / height}));
+    rowSolidAngle_[j] = float(rowOmega(width, height, j));
   view_.rowSolidAngle = rowSolidAngle_.data();
   if (view_.constant) {
     view_.meanRadiance = Vec3(texels_[0], texels_[1], texels_[2]);
   } else {
     double sum[3] = {0, 0, 0};
     for (uint32_t j = 0; j < height; ++j) {
-      const double omega = solidAngle({0.0, 2.0 * kPiD / width, kPiD * j / height, kPiD * (j + 1) / height});
+      const double omega = rowOmega(width, height, j);
       for (uint32_t i = 0; i < width; ++i)
         for (int c = 0; c < 3; ++c) sum[c] += double(texels_[3 * (size_t(j) * width + i) + size_t(c)]) * omega;
     }
@@ -275,99 +261,149 @@ void Environment::buildPyramid() {
   const uint32_t W = view_.width, H = view_.height;
   pyramid_ = std::make_unique<Pyramid>();
   Pyramid& p = *pyramid_;
-  // Levels until one node covers the map.
-  std::vector<std::pair<uint32_t, uint32_t>> dims{{W, H}};
+  // Virtual texels no coarser than kLeafRadius.
+  const double coarsest = std::max(2.0 * kPiD / W, kPiD / H);
+  p.s = uint32_t(std::max(1.0, std::ceil(coarsest / kLeafRadius)));
+  p.VW = W * p.s, p.VH = H * p.s;
+  const uint32_t VW = p.VW, VH = p.VH;
+  p.phi.resize(VW + 1), p.sinPhi.resize(VW + 1), p.cosPhi.resize(VW + 1);
+  for (uint32_t x = 0; x <= VW; ++x) {
+    p.phi[x] = 2.0 * kPiD * (double(x) / VW - 0.5);
+    p.sinPhi[x] = std::sin(p.phi[x]), p.cosPhi[x] = std::cos(p.phi[x]);
+  }
+  p.theta.resize(VH + 1), p.sinTheta.resize(VH + 1), p.cosTheta.resize(VH + 1);
+  for (uint32_t y = 0; y <= VH; ++y) {
+    p.theta[y] = kPiD * y / VH;
+    p.sinTheta[y] = std::sin(p.theta[y]), p.cosTheta[y] = std::cos(p.theta[y]);
+  }
+  p.A.resize(VH), p.B.resize(VH);
+  for (uint32_t y = 0; y < VH; ++y) {
+    const double dt = p.theta[y + 1] - p.theta[y], st = p.theta[y] + p.theta[y + 1];
+    p.A[y] = 0.5 * (dt - std::cos(st) * std::sin(dt));
+    p.B[y] = 0.5 * std::sin(st) * std::sin(dt);
+  }
+  // Levels until one node covers the map, with their row/column tables.
+  std::vector<std::pair<uint32_t, uint32_t>> dims{{VW, VH}};
   while (dims.back().first > 1 || dims.back().second > 1)
     dims.push_back({(dims.back().first + 1) / 2, (dims.back().second + 1) / 2});
   p.levels.resize(dims.size());
+  for (uint32_t l = 0; l < dims.size(); ++l) {
+    Pyramid::Level& L = p.levels[l];
+    L.w = dims[l].first, L.h = dims[l].second;
+    const uint32_t step = 1u << l;
+    for (uint32_t j = 0; j < L.h; ++j) {
+      const uint32_t y0 = j * step, y1 = std::min(VH, (j + 1) * step);
+      const double tc = 0.5 * (p.theta[y0] + p.theta[y1]);
+      L.cSinT.push_back(std::sin(tc)), L.cCosT.push_back(std::cos(tc));
+      L.halfT.push_back(0.5 * (p.theta[y1] - p.theta[y0]));
+      const bool equator = p.theta[y0] <= 0.5 * kPiD && p.theta[y1] >= 0.5 * kPiD;
+      L.maxSin.push_back(equator ? 1.0 : std::max(p.sinTheta[y0], p.sinTheta[y1]));
+    }
+    for (uint32_t i = 0; i < L.w; ++i) {
+      const uint32_t x0 = i * step, x1 = std::min(VW, (i + 1) * step);
+      const double pc = 0.5 * (p.phi[x0] + p.phi[x1]);
+      L.cSinP.push_back(std::sin(pc)), L.cCosP.push_back(std::cos(pc));
+      L.halfP.push_back(0.5 * (p.phi[x1] - p.phi[x0]));
+    }
+  }
   uint32_t base = 1;
   while (base + 1 < dims.size() && uint64_t(dims[base].first) * dims[base].second > (uint64_t(1) << 22)) ++base;
   p.base = base;
-  if (dims.size() <= 1) return;  // one texel: no blocks
-  // The base level from texels, then each level from the one below.
+  if (dims.size() <= 1) return;
+  // The base level from the texels, then each level from the one below.
   for (uint32_t l = base; l < dims.size(); ++l) {
     Pyramid::Level& L = p.levels[l];
-    L.w = dims[l].first, L.h = dims[l].second;
     L.node.assign(size_t(L.w) * L.h * 12, 0.0f);
     tbb::parallel_for(uint32_t(0), L.h, [&](uint32_t j) {
       for (uint32_t i = 0; i < L.w; ++i) {
-        double s[12] = {};
+        double acc[12] = {};
         if (l == base) {
           const uint32_t step = 1u << l;
-          for (uint32_t y = j * step; y < std::min(H, (j + 1) * step); ++y)
-            for (uint32_t x = i * step; x < std::min(W, (i + 1) * step); ++x) {
-              const Rect r{2 * kPiD * (double(x) / W - 0.5), 2 * kPiD * (double(x + 1) / W - 0.5), kPiD * y / H,
-                           kPiD * (y + 1) / H};
-              const D3 m = firstMoment(r);
-              const double omega = double(rowSolidAngle_[y]);
-              const float* t = texels_.data() + 3 * (size_t(y) * W + x);
+          for (uint32_t y = j * step; y < std::min(VH, (j + 1) * step); ++y) {
+            const double cosDiff = p.cosTheta[y] - p.cosTheta[y + 1];
+            for (uint32_t x = i * step; x < std::min(VW, (i + 1) * step); ++x) {
+              const double mx = p.A[y] * (p.sinPhi[x + 1] - p.sinPhi[x]), my = p.B[y] * (p.phi[x + 1] - p.phi[x]),
+                           mz = p.A[y] * (p.cosPhi[x] - p.cosPhi[x + 1]);
+              const double omega = (p.phi[x + 1] - p.phi[x]) * cosDiff;
+              const float* t = texels_.data() + 3 * (size_t(y / p.s) * W + x / p.s);
               for (int c = 0; c < 3; ++c) {
-                s[3 * c] += t[c] * m.x, s[3 * c + 1] += t[c] * m.y, s[3 * c + 2] += t[c] * m.z;
-                s[9 + c] += t[c] * omega;
+                acc[3 * c] += t[c] * mx, acc[3 * c + 1] += t[c] * my, acc[3 * c + 2] += t[c] * mz;
+                acc[9 + c] += t[c] * omega;
               }
             }
+          }
         } else {
           const Pyramid::Level& C = p.levels[l - 1];
           for (uint32_t y = 2 * j; y < std::min(C.h, 2 * j + 2); ++y)
             for (uint32_t x = 2 * i; x < std::min(C.w, 2 * i + 2); ++x)
-              for (int k = 0; k < 12; ++k) s[k] += C.node[12 * (size_t(y) * C.w + x) + size_t(k)];
+              for (int k = 0; k < 12; ++k) acc[k] += C.node[12 * (size_t(y) * C.w + x) + size_t(k)];
         }
-        for (int k = 0; k < 12; ++k) L.node[12 * (size_t(j) * L.w + i) + size_t(k)] = float(s[k]);
+        for (int k = 0; k < 12; ++k) L.node[12 * (size_t(j) * L.w + i) + size_t(k)] = float(acc[k]);
       }
     });
   }
 }
 
 Vec3 Environment::exactIrradianceOverPi(Vec3 m) const {
-  const uint32_t W = view_.width, H = view_.height;
   if (view_.constant) return Vec3(texels_[0], texels_[1], texels_[2]);
+  const Pyramid& p = *pyramid_;
+  const uint32_t W = view_.width, VW = p.VW, VH = p.VH;
   const double len = std::sqrt(double(m.x) * m.x + double(m.y) * m.y + double(m.z) * m.z);
   const D3 n{m.x / len, m.y / len, m.z / len};
   double e[3] = {0, 0, 0};
-  const auto texelRect = [&](uint32_t x0, uint32_t x1, uint32_t y0, uint32_t y1) {
-    return Rect{2 * kPiD * (double(x0) / W - 0.5), 2 * kPiD * (double(x1) / W - 0.5), kPiD * y0 / H, kPiD * y1 / H};
+  // n.w at the virtual grid's boundary point (x, y).
+  const auto cornerDot = [&](uint32_t x, uint32_t y) {
+    return p.sinTheta[y] * (n.x * p.cosPhi[x] + n.z * p.sinPhi[x]) + n.y * p.cosTheta[y];
   };
-  const auto texel = [&](uint32_t x, uint32_t y) {
-    const double k = clampedCosine(n, texelRect(x, x + 1, y, y + 1));
-    const float* t = texels_.data() + 3 * (size_t(y) * W + x);
-    for (int c = 0; c < 3; ++c) e[c] += t[c] * k;
+  // Depth-first over the blocks the horizon crosses.
+  struct Item {
+    uint32_t l, i, j;
   };
-  const Pyramid& p = *pyramid_;
-  if (p.levels.size() <= 1) {
-    texel(0, 0);
-  } else {
-    // Depth-first over the blocks the horizon crosses.
-    struct Item {
-      uint32_t l, i, j;
-    };
-    std::vector<Item> stack{{uint32_t(p.levels.size() - 1), 0, 0}};
-    while (!stack.empty()) {
-      const Item it = stack.back();
-      stack.pop_back();
-      const uint32_t step = 1u << it.l;
-      const Rect r = texelRect(it.i * step, std::min(W, (it.i + 1) * step), it.j * step, std::min(H, (it.j + 1) * step));
-      const Side side = sideOf(n, r);
-      if (side == Side::Below) continue;
-      const Pyramid::Level& L = p.levels[it.l];
+  Item stack[256];
+  int top = 0;
+  stack[top++] = {uint32_t(p.levels.size() - 1), 0, 0};
+  while (top > 0) {
+    const Item it = stack[--top];
+    const Pyramid::Level& L = p.levels[it.l];
+    const double d = L.cSinT[it.j] * (n.x * L.cCosP[it.i] + n.z * L.cSinP[it.i]) + n.y * L.cCosT[it.j];
+    const double rho = L.halfT[it.j] + L.halfP[it.i] * L.maxSin[it.j];
+    if (rho < 0.5 * kPiD && d <= -rho) continue;  // wholly below
+    // The node's moment and power: stored, or a virtual texel's.
+    double mom[9], pow[3];
+    if (it.l >= p.base) {
       const float* s = L.node.data() + 12 * (size_t(it.j) * L.w + it.i);
-      if (side == Side::Above) {
-        for (int c = 0; c < 3; ++c) e[c] += n.x * s[3 * c] + n.y * s[3 * c + 1] + n.z * s[3 * c + 2];
-        continue;
-      }
-      if (it.l == p.base && p.base > 1) {  // a base block: its mean radiance
-        const double k = clampedCosine(n, r) / solidAngle(r);
-        for (int c = 0; c < 3; ++c) e[c] += s[9 + c] * k;
-        continue;
-      }
-      for (uint32_t y = 2 * it.j; y < 2 * it.j + 2; ++y)
-        for (uint32_t x = 2 * it.i; x < 2 * it.i + 2; ++x) {
-          if (it.l == 1) {
-            if (x < W && y < H) texel(x, y);
-          } else if (x < p.levels[it.l - 1].w && y < p.levels[it.l - 1].h) {
-            stack.push_back({it.l - 1, x, y});
-          }
-        }
+      for (int k = 0; k < 9; ++k) mom[k] = s[k];
+      for (int c = 0; c < 3; ++c) pow[c] = s[9 + c];
+    } else if (it.l == 0) {
+      const uint32_t x = it.i, y = it.j;
+      const double mx = p.A[y] * (p.sinPhi[x + 1] - p.sinPhi[x]), my = p.B[y] * (p.phi[x + 1] - p.phi[x]),
+                   mz = p.A[y] * (p.cosPhi[x] - p.cosPhi[x + 1]);
+      const double omega = (p.phi[x + 1] - p.phi[x]) * (p.cosTheta[y] - p.cosTheta[y + 1]);
+      const float* t = texels_.data() + 3 * (size_t(y / p.s) * W + x / p.s);
+      for (int c = 0; c < 3; ++c) mom[3 * c] = t[c] * mx, mom[3 * c + 1] = t[c] * my, mom[3 * c + 2] = t[c] * mz,
+                                  pow[c] = t[c] * omega;
+    } else {
+      mom[0] = -1;  // below the stored base (never a leaf): only its children are read
+      pow[0] = 0;
     }
+    if (rho < 0.5 * kPiD && d >= rho && (it.l >= p.base || it.l == 0)) {  // wholly above
+      for (int c = 0; c < 3; ++c) e[c] += n.x * mom[3 * c] + n.y * mom[3 * c + 1] + n.z * mom[3 * c + 2];
+      continue;
+    }
+    const bool leaf = it.l == 0 || (it.l >= p.base && (rho < kLeafRadius || (it.l == p.base && p.base > 1)));
+    if (leaf) {
+      const uint32_t step = 1u << it.l;
+      const uint32_t x0 = it.i * step, x1 = std::min(VW, (it.i + 1) * step);
+      const uint32_t y0 = it.j * step, y1 = std::min(VH, (it.j + 1) * step);
+      const double c4[4] = {cornerDot(x0, y0), cornerDot(x1, y0), cornerDot(x0, y1), cornerDot(x1, y1)};
+      const double lo = std::min({c4[0], c4[1], c4[2], c4[3]}), hi = std::max({c4[0], c4[1], c4[2], c4[3]});
+      for (int c = 0; c < 3; ++c)
+        e[c] += positivePart(n.x * mom[3 * c] + n.y * mom[3 * c + 1] + n.z * mom[3 * c + 2], pow[c], lo, hi);
+      continue;
+    }
+    const Pyramid::Level& C = p.levels[it.l - 1];
+    for (uint32_t y = 2 * it.j; y < std::min(C.h, 2 * it.j + 2); ++y)
+      for (uint32_t x = 2 * it.i; x < std::min(C.w, 2 * it.i + 2); ++x) stack[top++] = {it.l - 1, x, y};
   }
   return Vec3(float(e[0] / kPiD), float(e[1] / kPiD), float(e[2] / kPiD));
 }

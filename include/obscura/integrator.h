@@ -63,8 +63,6 @@ struct IntegratorNeeds {
   // integrator's needs()): shaded.* looks E0 up at the pass's bent normal,
   // the sum of SampleEstimate::bent over the pixel (docs/math.md §14.6).
   bool bentE0 = false;
-  // Set by the core from the descriptor (passNeeds): how shaded.* is lit.
-  Shading shading{};
 };
 
 
@@ -215,6 +213,9 @@ class Integrator {
   // tracing from camera hits (obscura/screen_space.h): render() then runs the layer
   // loop and never calls estimate().
   virtual const ScreenSpaceIntegrator* screenSpace() const { return nullptr; }
+  // How shaded.* is lit (Shading above): the descriptor's `shading`, which
+  // a test checks each built-in integrator agrees with.
+  virtual Shading shading() const { return Shading::Irradiance; }
 };
 
 // How an integrator works, for listings and checks: from camera hits with
