@@ -30,6 +30,7 @@
 #include "app/interrupt.h"
 #include "app/merge.h"
 #include "app/render_setup.h"
+#include "app/sky.h"
 
 using namespace obscura;
 
@@ -436,6 +437,21 @@ int main(int argc, char** argv) {
   info->add_option("--res", infoArgs.res, "WIDTHxHEIGHT the edges of --subdiv-edge are measured on");
   info->add_option("--camera", infoArgs.camera, "Camera --subdiv-edge measures from (name, index or 'auto')");
 
+  // obscura sky: analytic environment maps (app/sky.h, docs/math.md §14.7).
+  SkyArgs skyArgs;
+  CLI::App* sky = app.add_subcommand("sky", "Write an analytic environment map (equirectangular float RGB EXR)");
+  sky->add_option("model", skyArgs.model, "overcast, gradient, texel, half or sunsky")
+      ->required()
+      ->check(CLI::IsMember(skyModels()));
+  sky->add_option("-o,--output", skyArgs.output, "Output EXR path (written atomically)")->required();
+  sky->add_option("--res", skyArgs.res, "Resolution WIDTHxHEIGHT (height even but for gradient and texel)")
+      ->default_str("512x256; sunsky 2048x1024");
+  sky->add_option("-p,--param", skyArgs.params, "Model parameter key=value (repeatable; docs/cli.md \"Analytic environments\")");
+  sky->footer(
+      "Parameters (defaults): overcast Lz=1 ground=0; gradient a=1 b=0.5 (L = max(0, a + b y)); texel column=W/2 "
+      "row=H/4 L=1, or elevation=E azimuth=A; half L=1; sunsky turbidity=3 (2..10) elevation=45 azimuth=0 Lz=1 "
+      "sun_diameter=0.53 sun_radiance=1e5*Lz ground=0.1*mean sky. Angles in degrees; azimuth from +X towards +Z.\n");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -457,6 +473,7 @@ int main(int argc, char** argv) {
     }
     if (compare->parsed()) return runCompare(cmp, interrupt::flag());
     if (info->parsed()) return runInfo(infoArgs);
+    if (sky->parsed()) return runSky(skyArgs);
     if (merge->parsed()) {
       mergeRegions(mergeOutput, mergeTiles);
       return 0;

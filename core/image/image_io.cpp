@@ -59,6 +59,26 @@ std::string captureDate() {
   return text;
 }
 
+// The header attributes every EXR of ours carries, then `attributes`.
+void insertHeaderAttributes(Imf::Header& header, const std::vector<HeaderAttribute>& attributes) {
+  // CIE xy of the Rec.709 / sRGB primaries R, G, B and of the D65 white
+  // (ITU-R BT.709): what linear sRGB textures and a grey sky make.
+  header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities(
+                                      {0.64f, 0.33f}, {0.30f, 0.60f}, {0.15f, 0.06f}, {0.3127f, 0.3290f})));
+  header.insert("capDate", Imf::StringAttribute(captureDate()));
+  for (const HeaderAttribute& a : attributes) {
+    if (auto* s = std::get_if<std::string>(&a.value)) header.insert(a.name, Imf::StringAttribute(*s));
+    else if (auto* i = std::get_if<int>(&a.value)) header.insert(a.name, Imf::IntAttribute(*i));
+    else if (auto* f = std::get_if<float>(&a.value)) header.insert(a.name, Imf::FloatAttribute(*f));
+    else {
+      const auto& m = std::get<std::vector<float>>(a.value);
+      if (m.size() == 16)
+        header.insert(a.name, Imf::M44fAttribute(Imath::M44f(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9],
+                                                              m[10], m[11], m[12], m[13], m[14], m[15])));
+    }
+  }
+}
+
 // Writes the film's channels to `tmp` as a scanline EXR, straight from the
 // planes (one slice per plane, no interleaved copy); OpenEXR converts
 // float to half per channel and compresses blocks on its thread pool.
@@ -82,22 +102,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
                                                        [&](const std::string& p) { return n.compare(0, p.size(), p) == 0; }));
     header.channels().insert(n, Imf::Channel(keep ? Imf::FLOAT : Imf::HALF));
   }
-  // CIE xy of the Rec.709 / sRGB primaries R, G, B and of the D65 white
-  // (ITU-R BT.709): what linear sRGB textures and a grey sky make.
-  header.insert("chromaticities", Imf::ChromaticitiesAttribute(Imf::Chromaticities(
-                                      {0.64f, 0.33f}, {0.30f, 0.60f}, {0.15f, 0.06f}, {0.3127f, 0.3290f})));
-  header.insert("capDate", Imf::StringAttribute(captureDate()));
-  for (const HeaderAttribute& a : options.attributes) {
-    if (auto* s = std::get_if<std::string>(&a.value)) header.insert(a.name, Imf::StringAttribute(*s));
-    else if (auto* i = std::get_if<int>(&a.value)) header.insert(a.name, Imf::IntAttribute(*i));
-    else if (auto* f = std::get_if<float>(&a.value)) header.insert(a.name, Imf::FloatAttribute(*f));
-    else {
-      const auto& m = std::get<std::vector<float>>(a.value);
-      if (m.size() == 16)
-        header.insert(a.name, Imf::M44fAttribute(Imath::M44f(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9],
-                                                              m[10], m[11], m[12], m[13], m[14], m[15])));
-    }
-  }
+  insertHeaderAttributes(header, options.attributes);
   // Float channels are written from the planes in place. OpenEXR's output
   // does not convert, so half channels go through a buffer of `band` rows
   // (a multiple of every block height: 16 for ZIP, 32 for PIZ), converted
@@ -270,6 +275,36 @@ void OutputSet::commit() {
 void writeExr(const std::string& path, const Film& film, const ExrOptions& options) {
   OutputSet out;
   out.addExr(path, film, options);
+  out.commit();
+}
+
+void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                 const std::vector<HeaderAttribute>& attributes) {
+  if (width < 1 || height < 1 || rgb.size() != size_t(width) * size_t(height) * 3)
+    throw Error(path + ": write failed: " + std::to_string(rgb.size()) + " floats are not " + std::to_string(width) + "x" +
+                std::to_string(height) + " RGB texels");
+  OutputSet out;
+  out.addFile(path, [&](const std::string& tmp) {
+    const Imath::Box2i window({0, 0}, {width - 1, height - 1});
+    Imf::Header header(window, window);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(Imf::FLOAT));
+    insertHeaderAttributes(header, attributes);
+    // One interleaved buffer: each channel's slice starts at its offset
+    // and strides over the other two.
+    Imf::FrameBuffer frame;
+    const size_t xs = 3 * sizeof(float), ys = size_t(width) * xs;
+    for (int c = 0; c < 3; ++c)
+      frame.insert(std::string(1, "RGB"[c]),
+                   Imf::Slice(Imf::FLOAT, (char*)(rgb.data() + c), xs, ys));
+    try {
+      Imf::OutputFile file(tmp.c_str(), header);
+      file.setFrameBuffer(frame);
+      file.writePixels(height);
+    } catch (const std::exception& e) {
+      throw Error(path + ": write failed: " + e.what());
+    }
+  });
   out.commit();
 }
 

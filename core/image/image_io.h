@@ -67,6 +67,13 @@ bool exrKeepsFloat(int channel);
 // film is linear Rec.709).
 void writeExr(const std::string& path, const Film& film, const ExrOptions& options);
 
+// A float32 RGB EXR of width x height texels from interleaved RGB floats,
+// top row first (an environment map: `obscura sky`), zip-compressed, with
+// the header of writeExr (chromaticities, capDate, `attributes`). Written
+// atomically like writeExr; throws obscura::Error naming the path.
+void writeRgbExr(const std::string& path, int width, int height, const std::vector<float>& rgb,
+                 const std::vector<HeaderAttribute>& attributes);
+
 // Files written together: each add*() writes a temporary sibling of its
 // destination (throwing obscura::Error naming the destination on failure);
 // commit() moves them all into place. If a move fails, the destinations
