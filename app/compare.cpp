@@ -283,6 +283,7 @@ struct ComparePlan {
   RenderSettings base;  // resolution, sky, threads, motion blur; spp and seed per render
   fs::path dir;
   std::optional<PassImage> givenReference;
+  bool lit = false;  // --environment: shaded.* relative to the reference's mean radiance
 };
 
 ComparePlan planCompare(const CompareArgs& a) {
@@ -298,16 +299,20 @@ ComparePlan planCompare(const CompareArgs& a) {
   if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
   parseResolution(a.res, p.base.width, p.base.height);
   p.base.sky = parseSky(a.sky);
+  // Under a map the cells are measured by their shaded.* (the radiance),
+  // which needs the albedo AOV.
+  p.base.environment = loadEnvironment(a.env, a.sky);
+  p.lit = p.base.environment != nullptr;
   p.base.threads = a.threads;
   p.base.motionBlur = !a.shutter.empty();
-  p.base.aovs = false;
+  p.base.aovs = p.lit;
   p.base.progress = !a.quiet;
   if (a.output.empty()) throw Error("-o: an output directory is required");
   p.dir = fs::path(a.output);
   if (fs::exists(p.dir) && !fs::is_directory(p.dir)) throw Error(a.output + ": exists and is not a directory");
   if (!p.dir.parent_path().empty() && !fs::is_directory(p.dir.parent_path()))
     throw Error(a.output + ": cannot create: directory '" + p.dir.parent_path().string() + "' does not exist");
-  if (!a.reference.empty()) p.givenReference = readPass(a.reference);
+  if (!a.reference.empty()) p.givenReference = p.lit ? readPass(a.reference, "shaded.") : readPass(a.reference);
   return p;
 }
 
@@ -316,6 +321,19 @@ struct Reference {
   PassImage image;
   std::string path, key;
   double noiseRmse = -1;  // RMSE of the reference itself; < 0: unknown (a given reference)
+  // Under a map: 1 / the reference's mean radiance. Cells and reference are
+  // measured after multiplying by it, so every error is relative to the
+  // reference's mean (docs/compare.md "Under an environment map"); 1 otherwise.
+  double scale = 1.0;
+  // Scales the image (and the noise, which is in its units) by `scale`.
+  void normalise(bool lit) {
+    if (!lit) return;
+    const double m = meanCoveredRgb(image);
+    if (!(m > 0.0)) throw Error(path + ": the reference's mean radiance is 0: nothing to measure errors against");
+    scale = 1.0 / m;
+    scaleRgb(image, scale);
+    if (noiseRmse >= 0) noiseRmse *= scale;
+  }
 };
 
 // The stages that render (reference, cells) and the report, over one loaded
@@ -330,6 +348,13 @@ class CompareRun {
     viewHash_.add(&camera.yfov, sizeof camera.yfov).add(a.res);
     viewHash_.add(formatFloat(plan.base.sky.x) + "," + formatFloat(plan.base.sky.y) + "," + formatFloat(plan.base.sky.z));
     viewHash_.add(a.robust ? "robust" : "fast");
+    // The map: its content, turn, strength and E0 method (added only with a
+    // map, so the keys of uniform-sky runs stay as they were).
+    if (const Environment* e = plan.base.environment.get()) {
+      const EnvironmentOptions& o = e->options();
+      viewHash_.add("environment/" + e->contentHash() + "/" + formatFloat(o.rotationDegrees) + "/" +
+                    formatFloat(o.strength) + "/" + irradianceMethodName(o.irradiance));
+    }
     // What the scene is made of beyond its file: the geometry options and
     // the objects' roles (a reference with other roles is another image).
     viewHash_.add(a.subdiv + "/" + a.subdivBackend + "/" + std::to_string(a.subdivLevel) + "/" + formatFloat(a.subdivEdge));
@@ -382,7 +407,7 @@ class CompareRun {
     if (!plan_.base.aovs && rs.denoise) rs.albedoAov = needs.pixelAlbedo;
     Film film = render(scene_, camera_, *integ, needs, rs, stats, cancel_);
     if (cancel_ && cancel_->load()) return std::nullopt;
-    return passFromFilm(film);
+    return plan_.lit ? shadedFromFilm(film) : passFromFilm(film);
   }
   ExrOptions header(const IntegratorDescriptor& d, const ParamSet& p, const RenderSettings& s,
                     const RenderStats& stats) const {
@@ -414,6 +439,7 @@ std::optional<Reference> CompareRun::reference() const {
     // A reference written by an earlier compare records its noise.
     const std::string noise = readExrAttribute(a_.reference, "obscura:referenceNoise");
     if (!noise.empty()) ref.noiseRmse = std::strtod(noise.c_str(), nullptr);
+    ref.normalise(plan_.lit);
     return ref;
   }
   Hash64 rk = viewHash_;
@@ -434,6 +460,7 @@ std::optional<Reference> CompareRun::reference() const {
   }
   if (have) {
     if (!a_.quiet) std::fprintf(stderr, "obscura: reference: cached %s\n", cached.string().c_str());
+    ref.normalise(plan_.lit);
     return ref;
   }
   // Two independent halves: their mean is the reference, their difference
@@ -462,6 +489,7 @@ std::optional<Reference> CompareRun::reference() const {
   exr.attributes.push_back({"obscura:referenceNoise", std::string(noise)});
   exr.attributes.push_back({"obscura:referenceKey", ref.key});
   writeExr(cached.string(), filmFromPass(ref.image), exr);
+  ref.normalise(plan_.lit);
   return ref;
 }
 
@@ -475,6 +503,12 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
     const RenderSettings s = settingsFor(&cfg, spp, uint32_t(a_.seed) + uint32_t(k));
     auto img = renderPass(d, params, s, stats);
     if (!img) return std::nullopt;
+    if (k == 0) {  // the pass as rendered (shaded.* under a map), before scaling
+      c.rays = stats.rays.camera + stats.rays.occlusion + stats.rays.closest;
+      c.pass = "passes/" + safeFileName(cfg.text) + "@" + std::to_string(spp) + ".exr";
+      writeExr((plan_.dir / c.pass).string(), filmFromPass(*img), header(d, params, s, stats));
+    }
+    scaleRgb(*img, ref.scale);
     const ErrorMetrics e = errorMetrics(*img, ref.image);
     mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
     c.error.values = e.values;
@@ -483,11 +517,6 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
     seconds.push_back(stats.seconds + stats.denoiseSeconds);
     denoiseSeconds.push_back(stats.denoiseSeconds);
     meanSpp += stats.meanSpp > 0 ? stats.meanSpp : double(spp);
-    if (k == 0) {
-      c.rays = stats.rays.camera + stats.rays.occlusion + stats.rays.closest;
-      c.pass = "passes/" + safeFileName(cfg.text) + "@" + std::to_string(spp) + ".exr";
-      writeExr((plan_.dir / c.pass).string(), filmFromPass(*img), header(d, params, s, stats));
-    }
     renders.push_back(std::move(*img));
   }
   const double K = double(a_.seeds);
@@ -559,6 +588,16 @@ void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells) co
   report.resolution = a_.res;
   report.referencePath = ref.path;
   report.referenceNoise = ref.noiseRmse;
+  if (const Environment* e = plan_.base.environment.get()) {
+    char m[64];
+    std::snprintf(m, sizeof m, "%.6g", 1.0 / ref.scale);
+    report.lighting = "environment " + e->options().path + " (content " + e->contentHash() + ", rotation " +
+                      formatFloat(e->options().rotationDegrees) + " deg, strength " +
+                      formatFloat(e->options().strength) + "); errors are of shaded.* (radiance), relative to the "
+                      "reference's mean radiance " + m;
+  } else {
+    report.lighting = "uniform sky " + a_.sky + "; errors are of W (R,G,B)";
+  }
   report.reference = &ref.image;
   report.targets = plan_.targets;
   report.cells = cells;

@@ -24,6 +24,7 @@ struct CompareArgs : SceneArgs {
   int threads = 0;
   long long seed = 0;
   std::string sky = "1,1,1";
+  EnvironmentArgs env;  // --environment: cells and reference compared by shaded.* (docs/compare.md)
   bool quiet = false;
   std::vector<std::string> plugins;
 };

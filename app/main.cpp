@@ -409,6 +409,7 @@ int main(int argc, char** argv) {
   compare->add_option("--threads", cmp.threads, "Worker threads (0 = all cores)");
   compare->add_option("--seed", cmp.seed, "First sampling seed");
   compare->add_option("--sky", cmp.sky, "Sky radiance R,G,B (part of the view: the reference cache key)");
+  addEnvironmentOptions(compare, cmp.env);
   compare->add_flag("-q,--quiet", cmp.quiet, "No progress (the summary table still goes to stdout)");
   compare->add_flag("--robust", cmp.robust, "Watertight Embree traversal");
   addSceneOptions(compare, cmp);

@@ -236,6 +236,7 @@ std::string summaryMarkdown(const CompareReport& r) {
     s << "\n";
   }
   s << "\n";
+  if (!r.lighting.empty()) s << "Lighting: " << r.lighting << ".\n\n";
   if (r.referenceNoise >= 0) s << "Reference noise (RMSE of the gi reference itself): " << num(r.referenceNoise) << ".\n\n";
   s << "Time includes the denoiser for `denoise=on` configs; spp is a `target=` config's most per pixel.\n\n";
   s << "| RMSE target | fastest config reaching it |\n|---:|---|\n";
@@ -336,6 +337,7 @@ void writeCompareReport(const CompareReport& r) {
   j["camera"] = r.camera;
   j["resolution"] = r.resolution;
   j["reference"] = {{"path", r.referencePath}};
+  if (!r.lighting.empty()) j["lighting"] = r.lighting;
   if (r.referenceNoise >= 0) j["reference"]["noiseRmse"] = r.referenceNoise;
   j["metrics"] = {{"rmse", "sqrt(mean e^2), e = W - W_ref over fully covered reference pixels and R,G,B"},
                   {"relMse", "mean e^2 / (W_ref^2 + 0.01)"},
@@ -381,6 +383,7 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   bool bv = false;
   size_t width = 6;
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), width = std::max(width, c.config.size());
+  if (!r.lighting.empty()) std::fprintf(out, "lighting: %s\n", r.lighting.c_str());
   std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s", "Mrays",
                "RMSE", "relMSE", "MAE", "p99");
   if (bv) std::fprintf(out, " %9s %9s", "bias^2", "variance");

@@ -38,6 +38,7 @@ struct ReportCell {
 
 struct CompareReport {
   std::string dir, scene, camera, resolution, referencePath;
+  std::string lighting;  // the light and what the errors measure, one line
   double referenceNoise = -1;  // RMSE of the reference itself; < 0: unknown
   const PassImage* reference = nullptr;
   std::vector<double> targets;  // RMSE targets, largest first

@@ -138,6 +138,15 @@ class Kwargs {
 };
 
 // The scene options (SceneArgs: the CLI's --subdiv ... --shutter).
+// environment=, environment_rotation=, environment_strength=,
+// environment_irradiance= (the CLI's --environment options).
+void takeEnvironmentArgs(Kwargs& kw, EnvironmentArgs& a) {
+  kw.take("environment", a.environment);
+  kw.take("environment_rotation", a.rotation);
+  kw.take("environment_strength", a.strength);
+  kw.take("environment_irradiance", a.irradiance);
+}
+
 void takeSceneArgs(Kwargs& kw, SceneArgs& a) {
   kw.take("robust", a.robust);
   kw.take("subdiv", a.subdiv);
@@ -421,6 +430,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   kw.take("threads", a.threads);
   kw.take("seed", a.seed);
   kw.takeText("sky", a.sky);
+  takeEnvironmentArgs(kw, a.env);
   kw.take("filter", a.filter);
   kw.take("tile", a.tileSize);
   bool aovs = true;
@@ -607,6 +617,7 @@ py::list compare(const py::object& scene, const std::string& output, const py::o
   kw.take("threads", a.threads);
   kw.take("seed", a.seed);
   kw.takeText("sky", a.sky);
+  takeEnvironmentArgs(kw, a.env);
   bool progress = false;
   kw.take("progress", progress);
   a.quiet = !progress;

@@ -20,7 +20,7 @@ Blender 3.4 (Debian 12's package). What it sets up, and why:
   without a material get glTF's default material: white. Alpha is ignored.
 - World: Texture Coordinate (Generated) -> Mapping (Point, Z rotation = -DEG) -> Environment
   Texture (equirectangular, Closest, Linear, RGB channel-packed so alpha never touches colour)
-  -> Background (strength S). docs/environment_mapping_blender.md derives the lookup
+  -> Background (strength S). docs/environment.md derives the lookup
   (bench/cycles/verify_mapping.py verifies it): in glTF coordinates, for direction d,
       u = 0.5 + atan2(d.z, d.x) / (2 pi) + DEG / 360   (left column = 0)
       v = 0.5 - asin(d.y) / pi                           (top row = 0, OIIO's row 0)

@@ -33,12 +33,41 @@ PassImage passFromFilm(const Film& film) {
   return p;
 }
 
+PassImage shadedFromFilm(const Film& film) {
+  PassImage p = passFromFilm(film);
+  if (!film.hasAlbedo()) throw Error("the film has no shaded.* channels (no albedo AOV)");
+  const size_t n = p.pixels();
+  p.r.assign(film.plane(kShadedR), film.plane(kShadedR) + n);
+  p.g.assign(film.plane(kShadedG), film.plane(kShadedG) + n);
+  p.b.assign(film.plane(kShadedB), film.plane(kShadedB) + n);
+  return p;
+}
+
+void scaleRgb(PassImage& p, double s) {
+  for (std::vector<float>* plane : {&p.r, &p.g, &p.b})
+    for (float& v : *plane) v = float(double(v) * s);
+}
+
+double meanCoveredRgb(const PassImage& p) {
+  double sum = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < p.pixels(); ++i)
+    if (p.a[i] == 1.0f) sum += double(p.r[i]) + p.g[i] + p.b[i], n += 3;
+  return n ? sum / double(n) : 0.0;
+}
+
 PassImage readPass(const std::string& path) {
   // An EXR through OpenEXR (no OpenImageIO start-up); other formats through
   // the module (core/image/oiio_module.h).
   if (!isExrFile(path)) return oiioModule(path).readPass(path);
+  return readPass(path, "");
+}
+
+PassImage readPass(const std::string& path, const std::string& prefix) {
+  if (!isExrFile(path)) throw Error(path + ": not an OpenEXR file (" + prefix + "R/G/B are read from EXR only)");
   PassImage p;
-  const char* names[4] = {"R", "G", "B", "A"};
+  const std::string r = prefix + "R", g = prefix + "G", b = prefix + "B";
+  const char* names[4] = {r.c_str(), g.c_str(), b.c_str(), "A"};
   try {
     Imf::InputFile in(path.c_str());
     const Imath::Box2i data = in.header().dataWindow();

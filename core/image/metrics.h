@@ -22,10 +22,19 @@ struct PassImage {
 };
 
 PassImage passFromFilm(const Film& film);
+// The film's shaded.R/G/B (the radiance under the render's light) with A:
+// what `compare` measures under an environment map.
+PassImage shadedFromFilm(const Film& film);
+// Multiplies R, G, B (not A) by s.
+void scaleRgb(PassImage& p, double s);
+// The mean of the un-premultiplied R, G, B over pixels with A = 1.
+double meanCoveredRgb(const PassImage& p);
 // Reads R, G, B, A of an EXR written by obscura (its data window; through
 // OpenEXR), or of another format through OpenImageIO's module
 // (core/image/oiio_module.h); throws obscura::Error naming the file.
 PassImage readPass(const std::string& path);
+// An EXR's `prefix`R, `prefix`G, `prefix`B and A (e.g. "shaded."): EXR only.
+PassImage readPass(const std::string& path, const std::string& prefix);
 
 // Which pixels count: those the reference covers fully (A = 1: every
 // reference sample hit geometry) and the test covers at all. Edge pixels,
