@@ -20,7 +20,6 @@ struct PathState {
   uint32_t owner;    // index of the camera hit
   bool self;         // this bounce's direction is below x's geometric plane
   float pdfB;        // this bounce's cosine density at its direction (MIS)
-  Vec3 Lb;           // the environment's radiance / Lbar along it (environment only)
   Rgb light;         // the light sample's contribution if its ray is open (MIS)
 };
 
@@ -124,7 +123,7 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
           continue;
         }
         const double pb = double(cosTheta) * double(kInvPi), pld = pl;
-        const double f = pb / pld * (pld * pld / (pb * pb + pld * pld));
+        const double f = pb / pld * powerHeuristic(pld, pb);
         const double Lc[3] = {double(L.x), double(L.y), double(L.z)};
         for (int c = 0; c < 3; ++c) p.light.c[c] = Lc[c] * invMean[c] * f;
         // [0, R] in vacuum; [0, r], r ~ mu', in the medium: open with probability mu(d).
@@ -156,10 +155,11 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
         // The environment along w, MIS-weighted against the light sample
         // (which already added its own contribution, p.light).
         double wb = 1.0;
-        const Vec3 L = m > 0.0 ? env.radiance(batch.dir(r)) : Vec3(0, 0, 0);
-        if (mis && m > 0.0) {
-          const double pb = p.pdfB, pl = env.pdf(batch.dir(r));
-          wb = pb * pb / (pb * pb + pl * pl);
+        Vec3 L(0, 0, 0);
+        if (m > 0.0) {
+          float pl = 0.0f;
+          L = env.radianceAndPdf(batch.dir(r), pl);
+          if (mis) wb = powerHeuristic(p.pdfB, pl);
         }
         const double Lc[3] = {double(L.x), double(L.y), double(L.z)};
         for (int c = 0; c < 3; ++c) p.sum.c[c] += p.throughput.c[c] * (m * wb * Lc[c] * invMean[c] + p.light.c[c]);

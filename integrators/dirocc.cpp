@@ -71,7 +71,7 @@ class DirectionalOcclusion final : public Integrator {
             continue;
           }
           const double pb = double(cosTheta) * double(kInvPi), pld = pl;
-          factor[r] = float(pb / pld * (pld * pld / (pb * pb + pld * pld)));
+          factor[r] = float(pb / pld * powerHeuristic(pld, pb));
           radiance[r] = L;
           batch.push(spawnOrigin(h, w), w, 0.0f, kInfinity, h);
         }
@@ -84,12 +84,9 @@ class DirectionalOcclusion final : public Integrator {
         const size_t r = i * rays_ + k;
         if (hemisphere.open(h, batch, r)) {
           const Vec3 w = batch.dir(r);
-          const Vec3 L = env.radiance(w);
-          double wb = 1.0;
-          if (mis) {
-            const double pb = double(dot(w, h.ns)) * double(kInvPi), pl = env.pdf(w);
-            wb = pb * pb / (pb * pb + pl * pl);
-          }
+          float pl = 0.0f;
+          const Vec3 L = env.radianceAndPdf(w, pl);
+          const double wb = mis ? powerHeuristic(double(dot(w, h.ns)) * double(kInvPi), pl) : 1.0;
           num[0] += wb * L.x, num[1] += wb * L.y, num[2] += wb * L.z;
           bent += w;
         }

@@ -179,7 +179,7 @@ TEST(EnvironmentIrradiance, ExactAndShAgainstBruteForceOnEveryMap) {
       const double exact = env->exactIrradianceOverPi(n).x;
       // Brute force errs by bruteBound x the largest radiance / pi; the exact by kE0Tolerance.
       float Lmax = 0;
-      for (uint32_t t = 0; t < W * H; ++t) Lmax = std::max(Lmax, env->view().texels[3 * t]);
+      for (uint32_t t = 0; t < W * H; ++t) Lmax = std::max(Lmax, env->view().texels[4 * t]);
       EXPECT_NEAR(exact, brute, bruteBound * Lmax / kPiD + kE0Tolerance * brute) << name << " normal " << s;
     }
     if (name == "gradient") {
@@ -445,9 +445,63 @@ TEST(EnvironmentExtremes, StrengthOneMapSizeAndBadTexels) {
   }
 }
 
+TEST(EnvironmentShading, RotationMovesTheSunsShadow) {
+  // A pole on a plane under one bright texel at elevation ~45 degrees
+  // towards +X: its shadow points to -X. Turned 90 degrees the sun is
+  // towards -Z and the shadow points to +Z. Seen from above (image x = +X,
+  // image y = +Z), the shadow's centroid turns by 90 degrees about the pole.
+  Scene scene;
+  const float h = 50.0f, r = 0.1f, H = 1.0f;
+  scene.addWorldPrimitive({{-h, 0, -h}, {h, 0, -h}, {h, 0, h}, {-h, 0, h}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+  // The pole: a box of half-width r and height H at the origin.
+  scene.addWorldPrimitive({{-r, 0, -r}, {r, 0, -r}, {r, 0, r}, {-r, 0, r}, {-r, H, -r}, {r, H, -r}, {r, H, r}, {-r, H, r}},
+                          {0, 1, 5, 0, 5, 4, 1, 2, 6, 1, 6, 5, 2, 3, 7, 2, 7, 6, 3, 0, 4, 3, 4, 7, 4, 5, 6, 4, 6, 7}, {}, {}, -1);
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(0, 6, 0), Vec3(0, 0, 0), Vec3(0, 0, 1), 0.7f, "above");
+  const uint32_t W = 64, Hm = 32;
+  const auto angleOfShadow = [&](double degrees) {
+    EnvironmentOptions o;
+    o.rotationDegrees = degrees;
+    const auto env = singleTexel(W, Hm, W / 2, Hm / 4, 100.0f, o);  // u = 0.5 (+X), v = 0.25 (45 degrees up)
+    const int n = 64;
+    const Film f = renderWith(scene, cam, "dirocc", {"rays=4"}, litSettings(n, n, 4, env));
+    // The shadow: covered pixels of the plane with D < 1/2, minus the pole's own pixels near the centre.
+    double sx = 0, sy = 0, count = 0;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) {
+        const double dx = x + 0.5 - n / 2.0, dy = y + 0.5 - n / 2.0;
+        if (f.at(kA, x, y) == 1.0f && f.at(kR, x, y) < 0.5f && dx * dx + dy * dy > 9.0) sx += dx, sy += dy, count += 1;
+      }
+    EXPECT_GT(count, 20) << degrees;
+    return std::atan2(sy, sx) * 180.0 / kPiD;
+  };
+  const double a0 = angleOfShadow(0), a90 = angleOfShadow(90);
+  double turn = std::fmod(std::fabs(a90 - a0), 360.0);
+  if (turn > 180) turn = 360 - turn;
+  EXPECT_NEAR(turn, 90.0, 10.0) << a0 << " -> " << a90;  // the texel is 5.6 degrees wide
+}
+
+TEST(EnvironmentShading, BlackHalfGivesZeroNotNaN) {
+  // A plane seen from below under a map whose lower half is black: E0 = 0
+  // there, gi's W and shaded.* are 0 and finite (W is relative to the map's
+  // mean radiance, never to E0).
+  const auto half = thetaMap(64, 32, [](double t0, double) { return t0 < 0.5 * kPiD ? 1.0 : 0.0; });
+  OpenPlane plane(0.5f);
+  const Camera below = makeLookAtCamera(Vec3(0.3f, -2.0f, 1.0f), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.8f, "below");
+  for (const char* integ : {"gi", "ao", "dirocc"}) {
+    const Film f = renderWith(plane.scene, below, integ, {}, litSettings(16, 16, 4, half));
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x) {
+        ASSERT_TRUE(std::isfinite(f.at(kR, x, y))) << integ;
+        // 0 up to the rounding of cos(pi/2) at the horizon's texel edge (~1e-16).
+        ASSERT_NEAR(f.at(kShadedR, x, y), 0.0f, 1e-12) << integ << " " << x << "," << y;
+      }
+  }
+}
+
 #if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_UNDEFINED__)
 TEST(EnvironmentExtremes, A16kMapBuilds) {
-  // 16384 x 8192 (1.5 GiB of texels): the pyramid starts at a coarser base
+  // 16384 x 8192 (2 GiB of texels and densities): the pyramid starts at a coarser base
   // level; the half-black map's E0 stays exact (its horizon is a texel edge).
   const uint32_t W = 16384, H = 8192;
   std::vector<float> rgb(size_t(W) * H * 3, 0.0f);

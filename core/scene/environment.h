@@ -83,7 +83,7 @@ class Environment {
 
   struct Pyramid;
   EnvironmentOptions options_;
-  std::vector<float> texels_, rowCdf_, columnCdf_, rowSolidAngle_, irradiance_;
+  std::vector<float> texels_, rowCdf_, columnCdf_, rowSolidAngle_, rowCos_, irradiance_;
   std::unique_ptr<Pyramid> pyramid_;
   EnvironmentView view_;
   std::string hash_;

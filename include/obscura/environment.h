@@ -49,6 +49,12 @@ namespace obscura {
 // weight is positive, so a texel with any radiance has a positive density.
 inline float luminance(Vec3 c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
+// The power heuristic (Veach 1997, eq. 9.13): the MIS weight of a direction
+// drawn by the technique of density pThis, against one of density pOther.
+inline double powerHeuristic(double pThis, double pOther) {
+  return pThis * pThis / (pThis * pThis + pOther * pOther);
+}
+
 // The map coordinates (u, v) in [0, 1]^2 of a unit direction in the map's
 // frame (see above).
 inline void directionToLatLong(Vec3 d, float& u, float& v) {
@@ -68,8 +74,9 @@ inline Vec3 latLongToDirection(float u, float v) {
 }
 
 struct EnvironmentView {
-  // Radiance, RGB interleaved, width x height texels, top row first, with
-  // the strength applied. A constant environment has one texel.
+  // Radiance, four floats a texel - R, G, B with the strength applied, and
+  // the texel's density pdf (per steradian; 0 if the map cannot be
+  // sampled) - width x height texels, top row first.
   const float* texels = nullptr;
   uint32_t width = 1, height = 1;
   bool constant = true;  // every texel equal: radiance() is texels[0..2] everywhere
@@ -82,6 +89,7 @@ struct EnvironmentView {
   const float* rowCdf = nullptr;
   const float* columnCdf = nullptr;
   const float* rowSolidAngle = nullptr;
+  const float* rowCos = nullptr;  // height + 1 entries: cos(pi j / height), the rows' bounds
   bool samplable = false;
   // E0(n) / pi, the unoccluded irradiance over pi (docs/math.md §14.4):
   // irradianceWidth x irradianceHeight RGB nodes on the lat-long, node
@@ -110,9 +118,10 @@ struct EnvironmentView {
     j = std::min(height - 1, uint32_t(std::max(0.0f, v * float(height))));
   }
   Vec3 texel(uint32_t i, uint32_t j) const {
-    const float* t = texels + 3 * (size_t(j) * width + i);
+    const float* t = texels + 4 * (size_t(j) * width + i);
     return {t[0], t[1], t[2]};
   }
+  float storedPdf(uint32_t i, uint32_t j) const { return texels[4 * (size_t(j) * width + i) + 3]; }
   // L(w) for a unit world direction w.
   Vec3 radiance(Vec3 w) const {
     if (constant) return {texels[0], texels[1], texels[2]};
@@ -130,7 +139,16 @@ struct EnvironmentView {
     if (!samplable) return 0.0f;
     uint32_t i, j;
     texelOf(w, i, j);
-    return texelPdf(i, j);
+    return storedPdf(i, j);
+  }
+  // L(w) and pdf(w) with one texel lookup (a cosine direction's escape
+  // under MIS needs both).
+  Vec3 radianceAndPdf(Vec3 w, float& density) const {
+    uint32_t i = 0, j = 0;
+    if (!constant) texelOf(w, i, j);
+    const float* t = texels + 4 * (size_t(j) * width + i);
+    density = t[3];
+    return {t[0], t[1], t[2]};
   }
   // A direction drawn from the density above (samplable only), with its
   // density and the radiance of the texel it lies in (the one drawn, not a
@@ -142,11 +160,12 @@ struct EnvironmentView {
     // Uniform in solid angle within the texel: phi uniform, cos theta uniform.
     const float fu = remap(c, i, s.u), fv = remap(rowCdf, j, s.v);
     const float phi = ((float(i) + fu) / float(width) - 0.5f) * (2.0f * kPi);
-    const float c0 = std::cos(kPi * float(j) / float(height)), c1 = std::cos(kPi * float(j + 1) / float(height));
+    const float c0 = rowCos[j], c1 = rowCos[j + 1];
     const float cosTheta = std::clamp(c0 + (c1 - c0) * fv, -1.0f, 1.0f);
     const float sinTheta = std::sqrt(std::max(0.0f, 1.0f - cosTheta * cosTheta));
-    density = texelPdf(i, j);
-    L = texel(i, j);
+    const float* t = texels + 4 * (size_t(j) * width + i);
+    density = t[3];
+    L = Vec3(t[0], t[1], t[2]);
     return fromMap({sinTheta * std::cos(phi), cosTheta, sinTheta * std::sin(phi)});
   }
   // E0(n) / pi for a unit world normal n (docs/math.md §14.4).
