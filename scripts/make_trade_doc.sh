@@ -371,9 +371,10 @@ EOF
     echo "![error versus time under the sun and sky](trade/lit-$sname-sunsky-error_vs_time.svg)"
     echo
   done
-  # The maps (top row the zenith, docs/math.md §14.1), exposure 1, clipped.
-  oiiotool "$maps/overcast.exr" --resize:filter=box 256x128 --colorconvert linear sRGB -o docs/trade/lit-overcast.png
-  oiiotool "$maps/sunsky.exr" --resize:filter=box 256x128 --colorconvert linear sRGB -o docs/trade/lit-sunsky.png
+  # The maps (top row the zenith, docs/math.md §14.1), exposure 1, clipped;
+  # without the maps' DateTime, so that an unchanged preview stays the same file.
+  oiiotool "$maps/overcast.exr" --eraseattrib DateTime --resize:filter=box 256x128 --colorconvert linear sRGB -o docs/trade/lit-overcast.png
+  oiiotool "$maps/sunsky.exr" --eraseattrib DateTime --resize:filter=box 256x128 --colorconvert linear sRGB -o docs/trade/lit-sunsky.png
   echo "The two maps (lat-long, the zenith at the top, exposure 1, clipped at 1), overcast and sun and sky:"
   echo
   echo "![overcast](trade/lit-overcast.png) ![sun and sky](trade/lit-sunsky.png)"
@@ -428,9 +429,9 @@ EOF
 if [[ "$mode" == lit ]]; then
   mkdir -p docs/trade
   section="$(lit_section)"
-  SECTION="$section" python3 - docs/trade.md "$lit_begin" "$lit_end" <<'PY'
+  SECTION="$section" python3 - "$lit_begin" "$lit_end" docs/trade.md <<'PY'
 import os, sys
-path, begin, end = sys.argv[1:4]
+begin, end, path = sys.argv[1:4]
 text, section = open(path).read(), os.environ["SECTION"] + "\n"
 i, j = text.find(begin), text.find(end)
 if i >= 0 and j > i:
