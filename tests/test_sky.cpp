@@ -144,9 +144,8 @@ TEST(Sky, TexelHoldsItsRadianceOverItsSolidAngle) {
   EXPECT_DOUBLE_EQ(power, L * skyRowSolidAngle(W, H, 7));
   // By direction: the texel the renderer looks up for that direction.
   const SkyImage d = texelSkyAt(W, H, 30.0, 100.0, L);
-  EnvironmentView view;
-  view.width = W, view.height = H, view.constant = false, view.texels = d.rgb.data();
-  EXPECT_EQ(view.radiance(skyDirection(30.0, 100.0)).x, float(L));
+  const auto env = Environment::fromTexels(d.rgb, W, H, {}, "texel sky");
+  EXPECT_EQ(env->view().radiance(skyDirection(30.0, 100.0)).x, float(L));
   uint32_t i, j;
   skyTexelOf(W, H, 30.0, 100.0, i, j);
   EXPECT_EQ(d.rgb[3 * (size_t(j) * W + i)], float(L));
