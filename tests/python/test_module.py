@@ -372,3 +372,20 @@ def test_adaptive_subdivision_equals_cli(tmp_path):
     assert_same_image(result, obscura.read_exr(out))
     with pytest.raises(obscura.Error, match=r"--subdiv-edge: the scene was refined for camera '' at 64x48"):
         obscura.render(scene, res=(32, 24))
+
+
+def test_environment_keywords_equal_cli(scene, tmp_path):
+    # environment= and its options light the render exactly as the CLI's flags.
+    sky = str(tmp_path / "sky.exr")
+    code, err = cli("sky", "overcast", "--res", "32x16", "-o", sky)
+    assert code == 0, err
+    result = obscura.render(scene, "ao", None, spp=2, res=(32, 18), environment=sky,
+                            environment_rotation=30.0, environment_strength=2.0)
+    cli_exr = str(tmp_path / "cli.exr")
+    code, err = cli("render", SCENE, "-o", cli_exr, "-q", "-i", "ao", "--spp", "2", "--res", "32x18",
+                    "--environment", sky, "--environment-rotation", "30", "--environment-strength", "2")
+    assert code == 0, err
+    assert_same_image(result, obscura.read_exr(cli_exr))
+    assert "lighting.R" in result.channel_names
+    assert result.header["obscura:environment"] == sky
+    assert result.header["obscura:environmentRotation"] == "30"
