@@ -69,7 +69,12 @@ if [[ "${OBSCURA_SKIP_SANITIZE:-0}" != 1 ]]; then
   configure "$build-asan" -DOBSCURA_SANITIZE=ON -DOBSCURA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo -DOBSCURA_PYTHON=OFF
   cmake --build "$build-asan" -j "$jobs"
   stage "tests (ASan + UBSan)"
-  ASAN_OPTIONS=abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  # intercept_tls_get_addr=0: GCC 12's LeakSanitizer misreads glibc 2.36's
+  # dynamic-TLS vector once enough dlopen'ed libraries have TLS (OpenImageIO's
+  # module and its dependencies): its tracer reads a bogus block ("DTLS 19 at
+  # 0x326a-0x8000436c") and dies with SIGSEGV at exit, failing a clean run.
+  # Static TLS, stacks and the heap are still scanned (docs/testing.md).
+  ASAN_OPTIONS=abort_on_error=1:intercept_tls_get_addr=0 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     ctest --test-dir "$build-asan" --output-on-failure -j "$jobs"
 fi
 stage ""

@@ -65,6 +65,18 @@ struct D3 {
   double x = 0, y = 0, z = 0;
 };
 
+// body(j) for every row j < H: on TBB's threads for a large map, inline for
+// a small one - the constant sky (--sky) builds without waking a worker,
+// so a render under it starts TBB exactly as before environments existed.
+template <class Body>
+void forRows(uint32_t H, size_t texels, const Body& body) {
+  if (texels < (size_t(1) << 16)) {
+    for (uint32_t j = 0; j < H; ++j) body(j);
+  } else {
+    tbb::parallel_for(uint32_t(0), H, body);
+  }
+}
+
 // The solid angle of a texel of row j of a W x H lat-long map.
 double rowOmega(uint32_t W, uint32_t H, uint32_t j) {
   return (2.0 * kPiD / W) * (std::cos(kPiD * j / H) - std::cos(kPiD * (j + 1) / H));
@@ -238,7 +250,7 @@ void Environment::buildSampling() {
   rowCdf_.assign(size_t(H) + 1, 0.0f);
   columnCdf_.assign(size_t(H) * (W + 1), 0.0f);
   std::vector<double> rowWeight(H, 0.0);
-  tbb::parallel_for(uint32_t(0), H, [&](uint32_t j) {
+  forRows(H, size_t(W) * H, [&](uint32_t j) {
     double acc = 0.0;
     float* c = columnCdf_.data() + size_t(j) * (W + 1);
     const float* t = texels_.data() + 4 * size_t(j) * W;
@@ -267,7 +279,7 @@ void Environment::buildSampling() {
   view_.rowCdf = rowCdf_.data();
   view_.columnCdf = columnCdf_.data();
   if (view_.samplable)
-    tbb::parallel_for(uint32_t(0), H, [&](uint32_t j) {
+    forRows(H, size_t(W) * H, [&](uint32_t j) {
       for (uint32_t i = 0; i < W; ++i) texels_[4 * (size_t(j) * W + i) + 3] = view_.texelPdf(i, j);
     });
 }
