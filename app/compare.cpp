@@ -14,6 +14,8 @@
 // parameters (target=E, min-spp=N, denoise=on; parseCompareConfig).
 #include "app/compare.h"
 
+#include "core/util/hash.h"
+
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -40,24 +42,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// FNV-1a, 64 bit: a stable key for file names and resumption (not security).
-struct Hash64 {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  Hash64& add(const void* data, size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ULL;
-    return *this;
-  }
-  Hash64& add(const std::string& s) {
-    add(s.data(), s.size());
-    return add("\x1f", 1);  // separator: ("ab","c") != ("a","bc")
-  }
-  std::string hex() const {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-    return buf;
-  }
-};
+// compare's keys: file names and resumption (core/util/hash.h).
+using Hash64 = Fnv1a64;
 
 std::string fileHash(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

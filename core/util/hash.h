@@ -1,6 +1,8 @@
-// FNV-1a, 64 bit: stable keys for files, settings and content (checkpoint
-// fingerprints, compare's cache names, the environment's content hash).
-// Not for security.
+// FNV-1a, 64 bit: stable keys for settings and content (compare's cache
+// names and resumption, the environment's content hash). Not for security.
+// (The checkpoint's checksum and the scene-file hash in its fingerprint keep
+// their own loops: they start from another basis, and files on disk hold
+// their values.)
 #pragma once
 
 #include <cstddef>
@@ -11,11 +13,16 @@
 namespace obscura {
 
 struct Fnv1a64 {
-  uint64_t h = 1469598103934665603ull;
+  uint64_t h = 0xcbf29ce484222325ull;
   Fnv1a64& add(const void* data, size_t n) {
     const auto* p = static_cast<const unsigned char*>(data);
-    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+    for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
     return *this;
+  }
+  // A string and a separator: ("ab", "c") and ("a", "bc") differ.
+  Fnv1a64& add(const std::string& s) {
+    add(s.data(), s.size());
+    return add("\x1f", 1);
   }
   // Sixteen lowercase hex digits.
   std::string hex() const {
