@@ -68,6 +68,9 @@
 // shorter than near is open). No `inside`: the hemisphere behind the
 // displaced surface starts inside the height field, every sample closed.
 //
+// e0=bent: the bent normal is the sum of the open samples' directions (the
+// cosine lobe about n_d), as obscurance's (docs/math.md §14.6).
+//
 // Sampling: the direction of sample k of a camera sample is the Sobol' pair
 // kFirstIntegratorDim and r the 1D dimension kFirstIntegratorDim + 1, both
 // indexed by sampleIndex * rays + k - the very numbers `obscurance` draws,
@@ -137,9 +140,12 @@ class Containment final : public Integrator {
     size_t r = 0;
     for (size_t i = 0; i < hits.size(); ++i) {
       uint32_t open = 0;
-      for (uint32_t k = 0; k < rays_; ++k, ++r) open += batch.occluded(r) ? 0U : 1U;
+      Vec3 bent(0, 0, 0);
+      for (uint32_t k = 0; k < rays_; ++k, ++r)
+        if (!batch.occluded(r)) ++open, bent += batch.dir(r);
       const float v = sampleMean(double(open), rays_);
       W[i].num = Vec3(v, v, v);
+      W[i].bent = bent;
     }
   }
 
@@ -247,11 +253,13 @@ class Containment final : public Integrator {
     j = 0;
     for (size_t i = 0; i < hits.size(); ++i) {
       double num = 0, den[3] = {0, 0, 0};
+      Vec3 bent(0, 0, 0);
       for (uint32_t k = 0; k < rays_; ++k, ++j) {
         const bool byField = closedBy[j].x >= 0.0f;
         if (!byField && !batch.hit(j)) {
           num += 1;
           for (double& d : den) d += 1;
+          bent += batch.dir(j);
           continue;
         }
         const Vec3 a = byField ? closedBy[j] : ctx.albedoAt(batch, j);
@@ -260,6 +268,7 @@ class Containment final : public Integrator {
       const float o = sampleMean(num, rays_);
       W[i].num = Vec3(o, o, o);
       W[i].den = Vec3(sampleMean(den[0], rays_), sampleMean(den[1], rays_), sampleMean(den[2], rays_));
+      W[i].bent = bent;
     }
   }
 
@@ -335,6 +344,7 @@ IntegratorDescriptor containmentDescriptor() {
     if (s.name == "near") s.doc += "; containment test points nearer than it are skipped too";
   }
   d.needs = [](const ParamSet& p) { return IntegratorNeeds{.albedo = p.getBool("albedo")}; };
+  d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const std::string& map = p.getString("map");
     if (map.empty()) throw Error("integrator 'containment': parameter 'map' (a height map file) is required");

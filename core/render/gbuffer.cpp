@@ -67,8 +67,11 @@ uint64_t screenSpaceWorkingBytes(int w, int h) {
   const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) +
                               sizeof(std::array<float, 2>) + 2 * sizeof(uint32_t));
   const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
-  // Sums: num, den, hits, and the AOVs' albedo, normal and depth.
-  return layer + moments + n * (2 * sizeof(Vec3) + sizeof(uint32_t) + 2 * sizeof(Vec3) + sizeof(float) + sizeof(SampleEstimate));
+  // Sums: num, den, hits (twice: the whole pixel's and the even layers'),
+  // the AOVs' albedo, normal and depth, E0 and the bent normal.
+  const uint64_t layerSums = 2 * sizeof(Vec3) + sizeof(uint32_t);
+  return layer + moments +
+         n * (2 * layerSums + 4 * sizeof(Vec3) + sizeof(float) + sizeof(SampleEstimate));
 }
 
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
@@ -244,7 +247,7 @@ void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float 
         continue;
       }
       const float z = g.depth[c], limit = tolerance * z;
-      Vec3 num(0, 0, 0), den(0, 0, 0);
+      Vec3 num(0, 0, 0), den(0, 0, 0), bent(0, 0, 0);
       int count = 0;
       for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 2); ++yy)
         for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 2); ++xx) {
@@ -253,12 +256,14 @@ void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float 
           if (!(std::abs(g.depth[j] - z) <= limit)) continue;
           num += in[j].num;
           den += in[j].den;
+          bent += in[j].bent;
           ++count;
         }
       // count >= 1: the pixel itself passes.
       const float inv = 1.0f / float(count);
       o.num = num * inv;
       o.den = den * inv;
+      o.bent = bent * inv;
     }
   }
 }
@@ -276,7 +281,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
   const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
   addLightingPlanes(film, s);
-  const PixelLighting light{.env = &s.environment->view(), .shading = integrator.shading(), .bent = false,
+  const PixelLighting light{.env = &s.environment->view(), .shading = integrator.shading(), .bent = needs.bentE0,
                             .plane = film.find(kLightingPlane)};
   const bool wantE0 = light.wantsE0() && film.hasAlbedo();
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
@@ -294,7 +299,8 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   };
   // Allocated here, zeroed in parallel in the arena below.
   LargeVector<LayerSums> sums(n), evenSums(n);  // evenSums: the even layers' (docs/math.md §13)
-  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0), e0Sums(wantE0 ? n : 0);
+  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0), e0Sums(wantE0 ? n : 0),
+      bentSums(light.bent ? n : 0);  // e0=bent: SampleEstimate::bent (world space)
   LargeVector<float> depthSums(s.aovs ? n : 0);
   GBufferLayer g;
   // The layer's estimates as a whole image only for the depth-aware filter;
@@ -337,6 +343,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     parallelFill(albedoSums, Vec3(0, 0, 0));
     parallelFill(normalSums, Vec3(0, 0, 0));
     parallelFill(e0Sums, Vec3(0, 0, 0));
+    parallelFill(bentSums, Vec3(0, 0, 0));
     parallelFill(depthSums, 0.0f);
     for (int si = 0; si < s.spp; ++si) {
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
@@ -357,6 +364,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
         p.den += e.den;
         p.hits += 1;
         if (wantAlbedo) albedoSums[i] += g.albedo[i];
+        if (light.bent) bentSums[i] += e.bent;
         if (wantE0) e0Sums[i] += light.env->irradianceOverPi(normalize(g.view.vectorToWorld(g.normal[i])));
         if (s.aovs) {
           // The ray-traced loop's AOVs: world normal, camera-plane depth.
@@ -426,6 +434,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       if (wantAlbedo) p.albedo.add(albedoSums[i]);
       if (s.aovs) p.N.add(normalSums[i]), p.Z = double(depthSums[i]);
       if (wantE0) p.e0.add(e0Sums[i]);
+      if (light.bent) p.bent.add(bentSums[i]);
       return p;
     };
     parallelRows(s.height, [&](int y0, int y1) {

@@ -74,8 +74,10 @@ struct SampleEstimate {
   Vec3 den;
   // The sample's contribution to the pass's bent normal: the sum of its
   // open directions, each weighted as it counts towards num (unnormalized;
-  // zero when nothing is open). Read only for e0=bent, from integrators
-  // whose descriptor sets bentNormal; the render loop zeroes it.
+  // zero when nothing is open), world space. Read only for e0=bent, from
+  // integrators whose descriptor sets bentNormal; the render loop zeroes
+  // it. A screen-space integrator rotates its view-space sum with
+  // GBufferLayer::view.vectorToWorld.
   Vec3 bent;
 };
 
@@ -238,6 +240,15 @@ struct IntegratorDescriptor {
   // estimate() writes SampleEstimate::bent, so e0=bent can be given.
   bool bentNormal = false;
 };
+
+// Whether the pass's `e0` parameter (appended by the registry to
+// Irradiance-lit integrators) asks for E0 at the bent normal: an integrator
+// whose bent normal costs extra work computes it only then.
+inline bool bentE0Requested(const ParamSet& params) {
+  for (const ParamSpec& spec : params.specs())
+    if (spec.name == "e0") return params.getEnum("e0") == "bent";
+  return false;
+}
 
 // The pass's needs as the core uses them: desc.needs(params) with bentE0
 // from the `e0` parameter. Throws obscura::Error naming the integrator for

@@ -26,6 +26,11 @@
 //
 // Converges to `obscurance` with the same mu when the depth buffer holds
 // every occluder and each segment crosses at most one surface.
+//
+// e0=bent: the bent normal is obscurance's, the sum of the open samples'
+// directions w (cosine distributed, so the sum estimates the
+// cosine-weighted mean open direction; docs/math.md §14.6), rotated from
+// the pixel's frame to world space once per pixel.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -48,6 +53,7 @@ struct SsatConfig {
   int steps = 1;
   bool albedo = false;
   bool silhouette = true;
+  bool bent = false;  // e0=bent: write SampleEstimate::bent
   bool interleave = true;
   float filterDepth = 0.02f;
   DepthSource depth = DepthSource::GBuffer;
@@ -67,7 +73,8 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
   // randomized by the per-pixel rotation), which keeps the set's
   // stratification within a layer and makes the mean over layers unbiased
   // for the integral of AT 7. Computed once per call, n values.
-  void layerOffsets(uint32_t imageKey, uint32_t sampleIndex, float* ox, float* oy, float* oz) const {
+  // (dx, dy, dz): the unit directions w of the offsets, for the bent normal.
+  void layerOffsets(uint32_t imageKey, uint32_t sampleIndex, float* ox, float* oy, float* oz, Vec3* dir) const {
     const Sample2 sh = Sampler::get2D(imageKey, sampleIndex, kFirstIntegratorDim + 3);
     for (int k = 0; k < c_.count; ++k) {
       float uy = xi_[k].y + sh.u, uz = xi_[k].z + sh.v;
@@ -76,9 +83,10 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
       // Cosine-distributed direction about +z from (xi_x, xi_y) [AT 4.1].
       const float phi = 2.0f * kPi * xi_[k].x, sr = std::sqrt(uy);
       const float r = mu_.segment(double(uz));
-      ox[k] = std::cos(phi) * sr * r;
-      oy[k] = std::sin(phi) * sr * r;
-      oz[k] = std::sqrt(std::max(0.0f, 1.0f - uy)) * r;
+      dir[k] = Vec3(std::cos(phi) * sr, std::sin(phi) * sr, std::sqrt(std::max(0.0f, 1.0f - uy)));
+      ox[k] = dir[k].x * r;
+      oy[k] = dir[k].y * r;
+      oz[k] = dir[k].z * r;
     }
   }
 
@@ -92,7 +100,8 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
     }
     const size_t perPixel = size_t(c_.count) * size_t(c_.steps);
     float ox[kMaxCount], oy[kMaxCount], oz[kMaxCount];
-    layerOffsets(g.imageKey, g.sampleIndex, ox, oy, oz);
+    Vec3 dir[kMaxCount];
+    layerOffsets(g.imageKey, g.sampleIndex, ox, oy, oz, dir);
     // The set rotated about the normal per pixel (AT §4.2, §5).
     const NormalRotations rotations(g, c_.interleave);
     const auto frameOf = [&](size_t i, int x, int y) {
@@ -126,7 +135,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
                   // Off the image or behind the camera (depth -1): no occluder known.
                   return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, [&] { return point(m); }) : kInfinity;
                 },
-                [&](size_t m) { return depth[m]; }, point, out[tile.offset(x, y)]);
+                [&](size_t m) { return depth[m]; }, point, dir, f, out[tile.offset(x, y)]);
           });
       return;
     }
@@ -139,10 +148,12 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         for (int j = 1; j <= c_.steps; ++j) look.push(g, P + off * (float(j) / float(c_.steps)));
       }
     };
-    const auto evaluate = [&](size_t, int, int, size_t at, SampleEstimate& o) {
+    const auto evaluate = [&](size_t i, int x, int y, size_t at, SampleEstimate& o) {
+      // The frame again only for the bent normal (a rotation per pixel).
+      const Frame f = c_.bent ? frameOf(i, x, y) : Frame{};
       tally(
           g, [&](size_t m) { return look.z(at + m); }, [&](size_t m) { return -look.q(at + m).z; },
-          [&](size_t m) { return look.q(at + m); }, o);
+          [&](size_t m) { return look.q(at + m); }, dir, f, o);
     };
     forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
   }
@@ -150,10 +161,12 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
  private:
   // One pixel's estimate from its test points m = k steps + j: zStar(m) the
   // depth the lookup found on the camera ray through point m, depthOf(m)
-  // the point's own view depth, point(m) the point (view space).
+  // the point's own view depth, point(m) the point (view space); dir[k]
+  // sample k's direction in the pixel's frame f (view space).
   template <class ZStar, class DepthOf, class Point>
-  void tally(const GBufferLayer& g, ZStar&& zStar, DepthOf&& depthOf, Point&& point, SampleEstimate& o) const {
-    Vec3 open(0, 0, 0), closedAlbedo(0, 0, 0);
+  void tally(const GBufferLayer& g, ZStar&& zStar, DepthOf&& depthOf, Point&& point, const Vec3* dir, const Frame& f,
+             SampleEstimate& o) const {
+    Vec3 open(0, 0, 0), closedAlbedo(0, 0, 0), bent(0, 0, 0);
     if (c_.steps == 1) {
       // One test point per sample (the default): inside or not as a
       // bitwise expression, not a branch - the outcome is as good as random
@@ -166,6 +179,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         const bool inside = (behind > kDepthBias * z) & (!c_.silhouette | (behind < ruleR_));
         openCount += !inside;
         if (c_.albedo && inside) closedAlbedo += albedoAt(g, point(size_t(k)));
+        if (c_.bent && !inside) bent += dir[k];
       }
       open = Vec3(float(openCount), float(openCount), float(openCount));
     }
@@ -180,11 +194,13 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
           break;
         }
       }
-      if (inside < 0)
+      if (inside < 0) {
         open += Vec3(1, 1, 1);
-      else if (c_.albedo)
+        if (c_.bent) bent += dir[k];
+      } else if (c_.albedo)
         closedAlbedo += albedoAt(g, point(size_t(inside)));
     }
+    if (c_.bent) o.bent = g.view.vectorToWorld(f.toWorld(bent));
     const float n = float(c_.count);
     if (c_.albedo) {
       o.num = open;
@@ -239,6 +255,7 @@ IntegratorDescriptor ssatDescriptor() {
                       .doc = "m: test points per sample at r i/m (the paper uses 1 or 2)"});
   for (ParamSpec& p : sharedParams("n: sample points per pixel and layer", 16, "on")) d.params.push_back(p);
   d.needs = [](const ParamSet& p) { return IntegratorNeeds{.albedo = p.getBool("albedo")}; };
+  d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const Membership mu = Membership::fromParams(p);
     if (mu.falloff() != Falloff::Exponential && std::isinf(mu.tfar()))
@@ -249,6 +266,7 @@ IntegratorDescriptor ssatDescriptor() {
     c.steps = p.getInt("steps");
     c.albedo = p.getBool("albedo");
     c.silhouette = p.getBool("silhouette");
+    c.bent = bentE0Requested(p);
     c.interleave = p.getEnum("interleave") == "on";
     c.filterDepth = float(p.getFloat("filter-depth"));
     c.depth = depthSourceFromParams(p);

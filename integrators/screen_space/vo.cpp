@@ -33,6 +33,17 @@
 // - radius2 > 0: V computed at both radii with the same samples, combined by
 //   product or min (VO §6).
 //
+// e0=bent (docs/math.md §14.6): the bent normal is the first moment of the
+// empty part of the ball about P, Int_{X empty} (x - P) dx, estimated with
+// the same samples - points: Sum w_k [x_k empty] (x_k - P); lines and areas:
+// Sum a_k cos(theta_k) Int_{free part of chord k} (Q0 + s u - P) ds, the
+// free part the chord before the surface (and, with the thickness model,
+// after surface + T), an area sample's surface at its texel's mean depth
+// and its uncovered fraction free; lengths not weighed by the camera rays'
+// spread (the direction is what E0 reads). From the first radius only. An
+// open plane gives the normal (the half-ball's centroid), a crease the
+// bisector of the open quarter ball.
+//
 // VO equals obscurance with mu(d) = min(d/R, 1)^3 under *uniform* direction
 // weighting when every line crosses one surface: the empty length of a chord
 // through P in direction w is min(d(w), R) (VO §3).
@@ -61,6 +72,7 @@ struct VoConfig {
   int count = 16;
   bool centre = true;
   bool normalClamp = true;
+  bool bent = false;  // e0=bent: write SampleEstimate::bent
   float thickness = 0.0f;  // 0 = off (every point behind the surface is occupied)
   bool interleave = false;
   float filterDepth = 0.02f;
@@ -138,21 +150,26 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
             const float* depth = pts.depth(b);
             const uint32_t* pixel = pts.pixels(b);
             float v[2] = {0.0f, 0.0f};
+            Vec3 bent(0, 0, 0);
             for (int r = 0, m = 0; r < radii; ++r)
               for (int k = 0; k < c_.count; ++k, ++m) {
-                if (!(depth[m] > 0.0f)) {  // behind the camera or off the image: no occluder known
-                  v[r] += w_[k];
-                  continue;
-                }
-                const auto point = [&] {  // the point again, for the exact read near a surface
+                const auto offset = [&] {  // the point again, for the exact read near a surface
                   Vec3 o = f.s * ox[m] + f.t * oy[m] + f.n * oz[m];
                   const float on = dot(o, clamp);
                   if (on < 0.0f) o = o - clamp * (2.0f * on);
-                  return P + o;
+                  return o;
                 };
-                if (!occupied(depth[m], zStarAt(g, pixel[m], depth[m], false, point), c_.thickness)) v[r] += w_[k];
+                // Behind the camera or off the image (depth -1): no occluder known.
+                if (!(depth[m] > 0.0f) ||
+                    !occupied(depth[m], zStarAt(g, pixel[m], depth[m], false, [&] { return P + offset(); }),
+                              c_.thickness)) {
+                  v[r] += w_[k];
+                  if (c_.bent && r == 0) bent += offset() * w_[k];
+                }
               }
-            out[tile.offset(x, y)].num = combine(v[0], v[1]);
+            SampleEstimate& o = out[tile.offset(x, y)];
+            o.num = combine(v[0], v[1]);
+            if (c_.bent) o.bent = g.view.vectorToWorld(bent);
           });
       return;
     }
@@ -178,7 +195,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
             const Frame& f = pts.f[b];
             const float* depth = pts.depth(b);
             const uint32_t* pixel = pts.pixels(b);
-            const auto radius = [&](int first, float R) {
+            const auto radius = [&](int first, float R, Vec3* bent) {
               const auto q = [&](int k) { return P + f.s * ox[first + k] + f.t * oy[first + k]; };
               return evaluate(
                   g, i, q,
@@ -188,10 +205,13 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
                     if (!(d > 0.0f)) return kInfinity;
                     return zStarAt(g, pixel[first + k], d, true, [&] { return q(k); });
                   },
-                  R);
+                  R, bent);
             };
-            const float v = radius(0, c_.R);
-            out[tile.offset(x, y)].num = combine(v, radii == 2 ? radius(c_.count, c_.R2) : 1.0f);
+            SampleEstimate& o = out[tile.offset(x, y)];
+            Vec3 bent(0, 0, 0);
+            const float v = radius(0, c_.R, c_.bent ? &bent : nullptr);
+            o.num = combine(v, radii == 2 ? radius(c_.count, c_.R2, nullptr) : 1.0f);
+            if (c_.bent) o.bent = g.view.vectorToWorld(bent);
           });
       return;
     }
@@ -201,13 +221,15 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
         g, tile, perPixel, ctx, look, out,
         [&](size_t i, int x, int y) { pushPoints(g, i, x, y, radii, radial, rotations, look); },
         [&](size_t i, int, int, size_t at, SampleEstimate& o) {
-          const auto radius = [&](size_t first, float R) {
+          const auto radius = [&](size_t first, float R, Vec3* bent) {
             return evaluate(
                 g, i, [&](int k) { return look.q(first + size_t(k)); }, [&](int k) { return look.z(first + size_t(k)); },
-                R);
+                R, bent);
           };
-          const float v = radius(at, c_.R);
-          o.num = combine(v, radii == 2 ? radius(at + size_t(c_.count), c_.R2) : 1.0f);
+          Vec3 bent(0, 0, 0);
+          const float v = radius(at, c_.R, c_.bent ? &bent : nullptr);
+          o.num = combine(v, radii == 2 ? radius(at + size_t(c_.count), c_.R2, nullptr) : 1.0f);
+          if (c_.bent) o.bent = g.view.vectorToWorld(bent);
         });
   }
 
@@ -249,17 +271,22 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
 
   // V at pixel i for radius R from its points k = 0..count-1: q(k) the
   // point (points) or the chord's disk point Q0 (lines, areas), zStar(k)
-  // the depth the lookup found on the camera ray through it.
+  // the depth the lookup found on the camera ray through it. bent: if not
+  // null, the empty volume's first moment about P is added to it (view
+  // space; see the head of the file).
   template <class Point, class ZStar>
-  float evaluate(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R) const {
+  float evaluate(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, Vec3* bent) const {
+    const Vec3 P = g.position[i], n = g.normal[i];
     if (c_.samples == VoSamples::Point) {
       float v = 0.0f;
       for (int k = 0; k < c_.count; ++k) {
-        if (!occupied(-q(k).z, zStar(k), c_.thickness)) v += w_[k];
+        if (!occupied(-q(k).z, zStar(k), c_.thickness)) {
+          v += w_[k];
+          if (bent) *bent += (q(k) - P) * w_[k];
+        }
       }
       return v;
     }
-    const Vec3 P = g.position[i], n = g.normal[i];
     // Area samples: the mip level whose texel matches a disk cell's
     // footprint - a cell of the n-point set covers ~1/n of the disk, radius
     // R / sqrt(n), which spans 2 R / sqrt(n) / (pixel size at P's depth)
@@ -310,19 +337,28 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       float covered = 1.0f, zMean = c_.samples == VoSamples::Area ? kInfinity : zStar(k), zSigma = 0.0f;
       if (c_.samples == VoSamples::Area) depthModel(g, level, Q0, covered, zMean, zSigma);
       float freeLen = chord;
+      // The first moment of the segment [a, b] of the chord about P (bent).
+      const auto moment = [&](float a, float b) { return b > a ? (o + u * (0.5f * (a + b))) * (b - a) : Vec3(0, 0, 0); };
+      Vec3 freeMoment = bent ? moment(s0, s1) : Vec3(0, 0, 0);
       if (covered > 0.0f && zMean < kInfinity) {
         const float bias = kDepthBias * zMean * perDepth;
-        const float lo = zMean * perDepth - dQ + bias - zSigma * perDepth;
-        const float hi = zMean * perDepth - dQ + bias + zSigma * perDepth;
+        const float surface = zMean * perDepth - dQ + bias;
+        const float lo = surface - zSigma * perDepth;
+        const float hi = surface + zSigma * perDepth;
         float f = freeAlong(s0, s1, lo, hi, invDQ);
-        if (c_.thickness > 0.0f) {  // VO §4.3: the occupancy shifted back by T, complemented, added
-          const float t = c_.thickness * perDepth;
+        const float t = c_.thickness * perDepth;
+        if (c_.thickness > 0.0f)  // VO §4.3: the occupancy shifted back by T, complemented, added
           f += chord - freeAlong(s0, s1, lo + t, hi + t, invDQ);
-        }
         freeLen = (1.0f - covered) * chord + covered * std::clamp(f, 0.0f, chord);
+        if (bent) {
+          Vec3 m = moment(s0, std::min(s1, surface));
+          if (c_.thickness > 0.0f) m += moment(std::max(s0, surface + t), s1);
+          freeMoment = freeMoment * (1.0f - covered) + m * covered;
+        }
       }
       freeSum += double(w_[k] * cosTheta) * double(freeLen);
       chordSum += double(w_[k] * cosTheta) * double(chord);
+      if (bent) *bent += freeMoment * (w_[k] * cosTheta);
     }
     return chordSum > 0.0 ? float(freeSum / chordSum) : 1.0f;
   }
@@ -402,6 +438,7 @@ IntegratorDescriptor voDescriptor() {
   };
   for (ParamSpec& p : sharedParams("samples per pixel and layer (the set's size)", 16, "off")) d.params.push_back(p);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.bentNormal = true;  // SampleEstimate::bent: the empty volume's first moment (e0=bent)
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     VoConfig c;
     const std::string& kind = p.getEnum("samples");
@@ -412,6 +449,7 @@ IntegratorDescriptor voDescriptor() {
     c.count = p.getInt("count");
     c.centre = p.getBool("centre");
     c.normalClamp = p.getBool("normal");
+    c.bent = bentE0Requested(p);
     c.thickness = float(p.getFloat("thickness"));
     c.interleave = p.getEnum("interleave") == "on";
     c.filterDepth = float(p.getFloat("filter-depth"));

@@ -38,6 +38,7 @@ class BentNormal final : public Integrator {
       for (uint32_t k = 0; k < rays_; ++k, ++r)
         if (lobe_.open(hits[i], batch, r)) sum += batch.dir(r);
       out[i].num = sum * inv;
+      out[i].bent = sum;  // e0=bent: E0 at the pass's own direction
     }
   }
 
@@ -68,6 +69,7 @@ IntegratorDescriptor bentNormalDescriptor() {
   d.params = {distance, rays};
   addLobeParams(d.params);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
+  d.bentNormal = true;
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
     const double R = p.getFloat("distance");
     const float r = toRayDistance(R);
