@@ -5,6 +5,7 @@
 // test_ao_analytic.cpp.
 #include <gtest/gtest.h>
 
+#include "core/scene/environment.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -128,6 +129,45 @@ TEST(Stability, ExtremeDistances) {
     expectFiniteInUnitRange(huge, integ + " huge R");
     for (int y = 0; y < st.height; ++y)
       for (int x = 0; x < st.width; ++x) EXPECT_EQ(huge.at(kR, x, y), inf.at(kR, x, y)) << integ;
+  }
+}
+
+// The screen-space passes' radius over its whole accepted range, 1e-30 to
+// 1e30 (scene size ~16): every pixel finite and in [0, 1], and shaded.*
+// finite with E0 read at the bent normal under a non-uniform map (vo's
+// line and area chords once overflowed float for R in 1e14 .. 1e19: NaN in
+// every covered pixel). Tiny R: nothing occludes, W = 1.
+TEST(Stability, ScreenSpaceRadiusOverItsWholeRange) {
+  Scene scene;
+  addCrease(scene, 1.0f);
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(6, -5, 4), Vec3(2, 0, 1), Vec3(0, 0, 1), 0.9f, "crease");
+  std::vector<float> rgb;
+  for (int t = 0; t < 8 * 4; ++t) rgb.insert(rgb.end(), {float(t % 8), 1.0f, float(t / 8)});
+  RenderSettings st = passSettings(24, 16, 2);
+  st.aovs = true;
+  st.albedoAov = true;
+  st.environment = Environment::fromTexels(std::move(rgb), 8, 4, {}, "ramp");
+  for (const char* R : {"1e-30", "1e-20", "1e-10", "1e-3", "1", "1e3", "1e10", "1e14", "1e16", "1e19", "1e20", "1e30"}) {
+    const std::string r = R;
+    const std::vector<Config> configs = {
+        {"vo", {"samples=point", "radius=" + r, "e0=bent"}},
+        {"vo", {"samples=line", "radius=" + r, "e0=bent"}},
+        {"vo", {"samples=area", "radius=" + r, "e0=bent"}},
+        {"vo", {"samples=line", "radius=1", "radius2=" + r, "thickness=" + r}},
+        {"vo", {"samples=line", "radius=" + r, "depth=traced"}},
+        {"ssat", {"distance=" + r, "e0=bent"}},
+        {"ssat", {"distance=" + r, "falloff=linear", "steps=2", "albedo=true"}},
+    };
+    for (const Config& c : configs) {
+      const Film f = renderWith(scene, cam, c.integrator, c.params, st);
+      expectFiniteInUnitRange(f, describe(c));
+      for (int y = 0; y < f.height(); ++y)
+        for (int x = 0; x < f.width(); ++x) ASSERT_TRUE(std::isfinite(f.at(kShadedR, x, y))) << describe(c);
+      if (std::stod(r) < 1e-9) {
+        EXPECT_EQ(meanCovered(f, kR), 1.0) << describe(c);
+      }
+    }
   }
 }
 

@@ -4,6 +4,7 @@
 // core/render/gbuffer.h).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "core/render/adaptive.h"
@@ -58,8 +59,13 @@ struct PixelLighting {
   // pixel has one.
   Vec3 at(const PixelSums& p) const {
     if (env->constant || shading == Shading::MeanRadiance) return env->meanRadiance;
-    if (bent && (p.bent.x != 0.0 || p.bent.y != 0.0 || p.bent.z != 0.0))
-      return env->irradianceOverPi(normalize(Vec3(float(p.bent.x), float(p.bent.y), float(p.bent.z))));
+    if (bent) {
+      // Normalised in double: a pass's sum may be tiny (vo's moments at
+      // R = 1e-30 are ~1e-31, whose float square underflows to 0).
+      const double len = std::sqrt(p.bent.x * p.bent.x + p.bent.y * p.bent.y + p.bent.z * p.bent.z);
+      if (len > 0.0 && std::isfinite(len))
+        return env->irradianceOverPi(Vec3(float(p.bent.x / len), float(p.bent.y / len), float(p.bent.z / len)));
+    }
     const double inv = 1.0 / double(p.hits);
     return Vec3(float(p.e0.x * inv), float(p.e0.y * inv), float(p.e0.z * inv));
   }

@@ -298,28 +298,49 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       level = span > 1.0f ? int(std::lround(std::log2(span))) : 0;
       level = std::min(level, int(g.moments.size()) - 1);
     }
-    double freeSum = 0.0, chordSum = 0.0;
-    const float lengthP = length(P);
+    // The chords in float where that is safe, in double where it is not:
+    // with R up to 1e30 the chord's lengths, |Q0|^2 and the spread's weight
+    // ((dQ + s) / dQ)^2 - large where the ball holds the camera, dQ << R -
+    // overflow float (NaN from inf / inf in every covered pixel for R in
+    // 1e14 .. 1e19, issue 36). With R < |P| / 2 the camera is outside the
+    // ball, dQ > |P| / 2, the weight < 4 and every length < 2R: float holds
+    // for R < 1e18. Float keeps the common case fast (double cost the line
+    // samples 18 % of the pass on scenes/default.gltf).
+    if (R < 0.5f * length(P) && R < 1e18f) return chords<float>(g, i, q, zStar, R, level, bent);
+    return chords<double>(g, i, q, zStar, R, level, bent);
+  }
+
+  // evaluate's chords (lines, areas) with scalar T.
+  template <class T, class Point, class ZStar>
+  float chords(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, int level, Vec3* bent) const {
+    using V = V3<T>;
+    const Vec3 P = g.position[i], n = g.normal[i];
+    double freeSum = 0.0, chordSum = 0.0;  // over the chords: double for either T
+    const V Pd(P), nd(n);
+    const T lengthP = Pd.length();
+    // bent: the moments relative to R^2 (only their direction is read), so
+    // that they stay finite in float at every R.
+    const T invR = T(1) / T(R);
     for (int k = 0; k < c_.count; ++k) {
-      const Vec3 Q0 = q(k);
-      const float dQ = length(Q0);
-      if (!(dQ > 0.0f) || w_[k] == 0.0f) continue;
-      const float invDQ = 1.0f / dQ;
-      const Vec3 u = Q0 * invDQ;
+      const V Q0(q(k));
+      const T dQ = Q0.length();
+      if (!(dQ > T(0)) || w_[k] == 0.0f) continue;
+      const T invDQ = T(1) / dQ;
+      const V u = Q0 * invDQ;
       // Chord of the sphere |Q0 + s u - P| = R along the ray: s^2 + 2 b s + c = 0.
-      const Vec3 o = Q0 - P;
-      const float b = dot(u, o), c = dot(o, o) - R * R;
-      const float disc = b * b - c;
-      if (!(disc > 0.0f)) continue;
-      const float root = std::sqrt(disc);
-      float s0 = -b - root, s1 = -b + root;
+      const V o = Q0 - Pd;
+      const T b = u.dot(o), c = o.dot(o) - T(R) * T(R);
+      const T disc = b * b - c;
+      if (!(disc > T(0))) continue;
+      const T root = std::sqrt(disc);
+      T s0 = -b - root, s1 = -b + root;
       if (c_.normalClamp) {  // keep the side of the tangent plane n.(X - P) >= 0
-        const float nu = dot(n, u), no = dot(n, o);
-        if (nu < 0.0f)
+        const T nu = nd.dot(u), no = nd.dot(o);
+        if (nu < T(0))
           s1 = std::min(s1, -no / nu);
-        else if (nu > 0.0f)
+        else if (nu > T(0))
           s0 = std::max(s0, -no / nu);
-        else if (no < 0.0f)
+        else if (no < T(0))
           s1 = s0;  // parallel to the plane, below it
       }
       if (!(s1 > s0)) continue;
@@ -329,48 +350,67 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       // between the ray and the disk's normal (the view direction of P):
       // cos = |P| / dQ. Lengths are weighed by that (weightedLength); with
       // plain lengths a plane without the clamp reads 1/2 + (3/8) R / d.
-      const float cosTheta = lengthP * invDQ;
-      const float chord = weightedLength(s0, s1, invDQ);
+      const T cosTheta = lengthP * invDQ;
+      const T chord = weightedLength(s0, s1, invDQ);
       // Depth along a camera ray is proportional to distance along it: a
       // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
-      const float perDepth = dQ / -Q0.z;
+      const T perDepth = dQ / -Q0.z;
       float covered = 1.0f, zMean = c_.samples == VoSamples::Area ? kInfinity : zStar(k), zSigma = 0.0f;
-      if (c_.samples == VoSamples::Area) depthModel(g, level, Q0, covered, zMean, zSigma);
-      float freeLen = chord;
-      // The first moment of the segment [a, b] of the chord about P (bent).
-      const auto moment = [&](float a, float b) { return b > a ? (o + u * (0.5f * (a + b))) * (b - a) : Vec3(0, 0, 0); };
-      Vec3 freeMoment = bent ? moment(s0, s1) : Vec3(0, 0, 0);
+      if (c_.samples == VoSamples::Area) depthModel(g, level, q(k), covered, zMean, zSigma);
+      T freeLen = chord;
+      // The first moment of the segment [a, b] of the chord about P (bent), / R^2.
+      const auto moment = [&](T a, T b) {
+        return b > a ? (o * invR + u * (T(0.5) * (a + b) * invR)) * ((b - a) * invR) : V();
+      };
+      V freeMoment = bent ? moment(s0, s1) : V();
       if (covered > 0.0f && zMean < kInfinity) {
-        const float bias = kDepthBias * zMean * perDepth;
-        const float surface = zMean * perDepth - dQ + bias;
-        const float lo = surface - zSigma * perDepth;
-        const float hi = surface + zSigma * perDepth;
-        float f = freeAlong(s0, s1, lo, hi, invDQ);
-        const float t = c_.thickness * perDepth;
-        if (c_.thickness > 0.0f)  // VO §4.3: the occupancy shifted back by T, complemented, added
+        const T bias = T(kDepthBias) * zMean * perDepth;
+        const T surface = zMean * perDepth - dQ + bias;
+        const T lo = surface - zSigma * perDepth;
+        const T hi = surface + zSigma * perDepth;
+        T f = freeAlong(s0, s1, lo, hi, invDQ);
+        const T t = c_.thickness * perDepth;
+        if (c_.thickness > 0.0f)  // VO §4.3: the occupancy shifted back by the thickness, complemented, added
           f += chord - freeAlong(s0, s1, lo + t, hi + t, invDQ);
-        freeLen = (1.0f - covered) * chord + covered * std::clamp(f, 0.0f, chord);
+        freeLen = (T(1) - covered) * chord + covered * std::clamp(f, T(0), chord);
         if (bent) {
-          Vec3 m = moment(s0, std::min(s1, surface));
-          if (c_.thickness > 0.0f) m += moment(std::max(s0, surface + t), s1);
-          freeMoment = freeMoment * (1.0f - covered) + m * covered;
+          V m = moment(s0, std::min(s1, surface));
+          if (c_.thickness > 0.0f) m = m + moment(std::max(s0, surface + t), s1);
+          freeMoment = freeMoment * (T(1) - covered) + m * T(covered);
         }
       }
-      freeSum += double(w_[k] * cosTheta) * double(freeLen);
-      chordSum += double(w_[k] * cosTheta) * double(chord);
-      if (bent) *bent += freeMoment * (w_[k] * cosTheta);
+      const T weight = T(w_[k]) * cosTheta;
+      freeSum += double(weight) * double(freeLen);
+      chordSum += double(weight) * double(chord);
+      if (bent) *bent += (freeMoment * weight).toFloat();
     }
     return chordSum > 0.0 ? float(freeSum / chordSum) : 1.0f;
   }
+
+  // A 3-vector of T for the chord geometry (chords).
+  template <class T>
+  struct V3 {
+    T x = 0, y = 0, z = 0;
+    V3() = default;
+    V3(T a, T b, T c) : x(a), y(b), z(c) {}
+    explicit V3(Vec3 v) : x(v.x), y(v.y), z(v.z) {}
+    V3 operator+(const V3& o) const { return {x + o.x, y + o.y, z + o.z}; }
+    V3 operator-(const V3& o) const { return {x - o.x, y - o.y, z - o.z}; }
+    V3 operator*(T s) const { return {x * s, y * s, z * s}; }
+    T dot(const V3& o) const { return x * o.x + y * o.y + z * o.z; }
+    T length() const { return std::sqrt(dot(*this)); }
+    Vec3 toFloat() const { return Vec3(float(x), float(y), float(z)); }
+  };
 
   // The weight of the volume element at s along a chord whose disk point
   // is dQ = 1 / invDQ from the camera, (1 + s / dQ)^2, integrated over [a, b]: exact
   // for the quadratic as (b - a)(A^2 + AB + B^2)/3, A and B its square
   // roots at the ends - no difference of cubes, which would cancel when
   // the chord is short against dQ.
-  static float weightedLength(float a, float b, float invDQ) {
-    const float A = 1.0f + a * invDQ, B = 1.0f + b * invDQ;
-    return (b - a) * (A * A + A * B + B * B) * (1.0f / 3.0f);
+  template <class T>
+  static T weightedLength(T a, T b, T invDQ) {
+    const T A = T(1) + a * invDQ, B = T(1) + b * invDQ;
+    return (b - a) * (A * A + A * B + B * B) * (T(1) / T(3));
   }
 
   // The weighted empty length of the chord [s0, s1] when the surface's
@@ -379,17 +419,18 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   // between); lo = hi is one surface at lo (line samples). The ramp's
   // integrand (hi - s)/(hi - lo) (1 + s/dQ)^2 is a cubic: Simpson's rule is
   // exact for it.
-  static float freeAlong(float s0, float s1, float lo, float hi, float invDQ) {
-    float f = 0.0f;
-    const float e = std::min(s1, lo);
+  template <class T>
+  static T freeAlong(T s0, T s1, T lo, T hi, T invDQ) {
+    T f = 0;
+    const T e = std::min(s1, lo);
     if (e > s0) f += weightedLength(s0, e, invDQ);
-    const float a = std::max(s0, lo), b = std::min(s1, hi);
+    const T a = std::max(s0, lo), b = std::min(s1, hi);
     if (b > a && hi > lo) {
-      const auto g = [&](float s) {
-        const float w = 1.0f + s * invDQ;
+      const auto g = [&](T s) {
+        const T w = T(1) + s * invDQ;
         return (hi - s) / (hi - lo) * w * w;
       };
-      f += (b - a) * (1.0f / 6.0f) * (g(a) + 4.0f * g(0.5f * (a + b)) + g(b));
+      f += (b - a) * (T(1) / T(6)) * (g(a) + T(4) * g(T(0.5) * (a + b)) + g(b));
     }
     return f;
   }
