@@ -138,6 +138,13 @@ RenderSettings passSettings(int w, int h, int spp, uint32_t seed) {
   return s;
 }
 
+std::unique_ptr<Integrator> makeIntegrator(const std::string& name, const std::vector<std::string>& params) {
+  const IntegratorDescriptor& d = IntegratorRegistry::instance().find(name);
+  ParamSet p(d.params, d.name);
+  for (const auto& a : params) p.setAssignment(a);
+  return d.create(p);
+}
+
 Film renderWith(const Scene& scene, const Camera& camera, const std::string& integrator,
                 const std::vector<std::string>& params, const RenderSettings& settings, RenderStats* stats) {
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find(integrator);

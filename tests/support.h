@@ -89,6 +89,9 @@ SubdivisionCage planeCage(int n);
 // Settings for a pass-only render (no AOVs) of w x h pixels at spp.
 RenderSettings passSettings(int w, int h, int spp, uint32_t seed = 0);
 
+// The integrator `name` configured by "key=value" strings.
+std::unique_ptr<Integrator> makeIntegrator(const std::string& name, const std::vector<std::string>& params);
+
 // Renders with `integrator` configured by "key=value" strings.
 Film renderWith(const Scene& scene, const Camera& camera, const std::string& integrator,
                 const std::vector<std::string>& params, const RenderSettings& settings,

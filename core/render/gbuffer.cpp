@@ -18,7 +18,7 @@
 
 namespace obscura {
 
-ViewTransform viewTransform(const Camera& c, int w, int h) {
+ViewTransform viewTransform(const Camera& c, int w, int h, int originX, int originY) {
   ViewTransform v;
   v.toWorld = c.toWorld;
   v.origin = c.position();
@@ -30,7 +30,66 @@ ViewTransform viewTransform(const Camera& c, int w, int h) {
   v.width = float(w), v.height = float(h);
   v.filmScaleX = 0.5f * v.width / v.tanHalfX;
   v.filmScaleY = 0.5f * v.height / v.tanHalfY;
+  v.centreX = 0.5f * v.width - float(originX);
+  v.centreY = 0.5f * v.height - float(originY);
   return v;
+}
+
+int guardBandCap(int w, int h) { return std::max(16, (std::max(w, h) + 7) / 8); }
+
+namespace {
+// floor(a / b) for b > 0.
+int floorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+}  // namespace
+
+LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene& scene, const Camera& camera,
+                            int w, int h, const PixelRect& window) {
+  const ScreenSpaceIntegrator::GuardBand gb = integrator.guardBand();
+  LayerGeometry L;
+  if (gb.pixels >= 0) {
+    L.band = gb.pixels;
+  } else if (gb.reach > 0.0) {
+    // R projected at the smallest depth a point of the scene's bounds can
+    // have in view: the bounds' distance from the camera times the cosine
+    // of the view's half diagonal (depth = distance x cos(angle off axis)).
+    const Bounds3& b = scene.bounds();
+    const Vec3 p = camera.position();
+    double d2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      const double e = std::max({double(b.lo[a]) - p[a], 0.0, double(p[a]) - b.hi[a]});
+      d2 += e * e;
+    }
+    const double tanHalfY = std::tan(0.5 * double(camera.yfov)), aspect = double(w) / double(h);
+    const double cosDiag = 1.0 / std::sqrt(1.0 + tanHalfY * tanHalfY * (1.0 + aspect * aspect));
+    const double depth = std::sqrt(d2) * cosDiag, filmScale = 0.5 * double(h) / tanHalfY;
+    const double px = depth > 0.0 ? gb.reach * filmScale / depth : kInfinity;
+    const int cap = guardBandCap(w, h);
+    // (An empty scene's bounds are infinitely far: px = 0, one pixel.)
+    L.band = px < double(cap) ? int(std::ceil(px)) + 1 : cap;
+  }
+  // The moments' levels: with a band, blocks no larger than it; without,
+  // the whole image's pyramid, as before there was a band.
+  int align = 4, extra = 0;
+  if (integrator.needsDepthMoments()) {
+    if (L.band > 0) {
+      int top = 0;
+      while ((2 << top) <= L.band) ++top;  // 2^top <= band
+      L.momentLevels = top + 1;
+      align = std::max(align, 1 << top);
+      extra = top > 0 ? 1 << (top - 1) : 0;
+    } else {
+      L.momentLevels = 1 + int(std::ceil(std::log2(double(std::max(w, h)))));
+    }
+  }
+  // No band: the window is the frame (no --region), the layer the image.
+  const int margin = L.band > 0 ? L.band + extra + (integrator.interleaveFilterTolerance() > 0.0f ? 2 : 0) : 0;
+  L.originX = L.band > 0 ? floorDiv(window.x0 - margin, align) * align : window.x0;
+  L.originY = L.band > 0 ? floorDiv(window.y0 - margin, align) * align : window.y0;
+  L.width = window.x1 + margin - L.originX;
+  L.height = window.y1 + margin - L.originY;
+  L.shaded = {window.x0 - L.originX, window.y0 - L.originY, window.x1 - L.originX, window.y1 - L.originY};
+  L.image = {-L.originX, -L.originY, w - L.originX, h - L.originY};
+  return L;
 }
 namespace {
 
@@ -62,8 +121,11 @@ void parallelRows(int height, F&& f) {
 
 }  // namespace
 
-uint64_t screenSpaceWorkingBytes(int w, int h) {
-  const uint64_t n = uint64_t(w) * uint64_t(h);
+uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band) {
+  // The layer: the window and on each side the band, half a block (<= half
+  // the band), the filter's 2 pixels and the alignment (< the band, or 4).
+  const uint64_t margin = 2 * (uint64_t(band) + uint64_t(band) / 2 + 2 + std::max<uint64_t>(4, uint64_t(band)));
+  const uint64_t n = (uint64_t(window.width()) + margin) * (uint64_t(window.height()) + margin);
   const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) +
                               sizeof(std::array<float, 2>) + 2 * sizeof(uint32_t));
   const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
@@ -76,13 +138,11 @@ uint64_t screenSpaceWorkingBytes(int w, int h) {
 
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
                         uint32_t sampleIndex, bool albedo, GBufferLayer& g, uint64_t& cameraRays) {
-  const size_t n = size_t(s.width) * size_t(s.height);
-  g.width = s.width;
-  g.height = s.height;
+  const size_t n = size_t(g.width) * size_t(g.height);
   // The layer's replicate and index within it (include/obscura/sampler.h sampleStream):
   // the ray-traced loop's for the same sample.
   g.sampleIndex = sampleStream(0, sampleIndex).index;
-  g.view = viewTransform(camera, s.width, s.height);
+  g.view = viewTransform(camera, s.width, s.height, g.originX, g.originY);
   g.depth.resize(n);
   g.position.resize(n);
   g.normal.resize(n);
@@ -98,15 +158,15 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   g.imageKey = sampleStream(sampler.pixelKey(~0U, ~0U), sampleIndex).key;
   tbb::enumerable_thread_specific<IntersectBatch> batches;
   tbb::enumerable_thread_specific<uint64_t> rays(0);
-  parallelRows(s.height, [&](int y0, int y1) {
+  parallelRows(g.height, [&](int y0, int y1) {
     IntersectBatch& cam = batches.local();
     cam.reserve(kChunk);
     // Chunks of kRowBand x 64 pixels, pushed in 4 x 4 blocks: the stream's
     // packets of 16 rays are then squares of neighbouring pixels, more
     // coherent than 16 along a row (the layer does not depend on the order).
     size_t order[kChunk];
-    for (int xb = 0; xb < s.width; xb += kChunk / kRowBand) {
-      const int xe = std::min(s.width, xb + int(kChunk) / kRowBand);
+    for (int xb = 0; xb < g.width; xb += kChunk / kRowBand) {
+      const int xe = std::min(g.width, xb + int(kChunk) / kRowBand);
       size_t n = 0;
       for (int bx = xb; bx < xe; bx += 4)
         for (int y = y0; y < y1; ++y)
@@ -114,7 +174,10 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
       cam.clear();
       for (size_t l = 0; l < n; ++l) {
         const size_t i = order[l];
-        const int px = int(i % size_t(s.width)), py = int(i / size_t(s.width));
+        // Image coordinates: negative or beyond the image in the band, where
+        // the film extends (the key of pixel (-1, -1) is the image key's, at
+        // other dimensions: harmless).
+        const int px = int(i % size_t(g.width)) + g.originX, py = int(i / size_t(g.width)) + g.originY;
         // The ray-traced loop's camera ray of (pixel, sample index):
         // the same key, filter dimension and film position.
         const uint32_t key = sampleStream(sampler.pixelKey(uint32_t(px), uint32_t(py)), sampleIndex).key;
@@ -153,11 +216,11 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
         // pixel (depth along a ray is monotone between corners of a plane
         // not crossing the eye, so the corners bound it).
         float slack = 0.0f;
-        const int px = int(i % size_t(s.width)), py = int(i / size_t(s.width));
+        const int px = int(i % size_t(g.width)), py = int(i / size_t(g.width));
         for (int c = 0; c < 4; ++c) {
           const float cx = float(px + (c & 1)), cy = float(py + (c >> 1));
-          const float a = (cx - 0.5f * g.view.width) / g.view.filmScaleX;
-          const float b = (0.5f * g.view.height - cy) / g.view.filmScaleY;
+          const float a = (cx - g.view.centreX) / g.view.filmScaleX;
+          const float b = (g.view.centreY - cy) / g.view.filmScaleY;
           const float den = ng.x * a + ng.y * b - ng.z;
           const float z = den != 0.0f ? dot(ng, v) / den : -1.0f;
           slack = z > 0.0f ? std::max(slack, std::abs(z - g.depth[i])) : kInfinity;
@@ -175,8 +238,7 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   for (uint64_t r : rays) cameraRays += r;
 }
 
-void buildDepthMoments(GBufferLayer& g) {
-  const int levels = 1 + int(std::ceil(std::log2(double(std::max(g.width, g.height)))));
+void buildDepthMoments(GBufferLayer& g, int levels) {
   g.moments.resize(size_t(std::max(levels, 1)));
   DepthMoments& base = g.moments[0];
   base.width = g.width, base.height = g.height;
@@ -237,11 +299,15 @@ void buildDepthMoments(GBufferLayer& g) {
 
 void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float tolerance, int y0, int y1,
                          SampleEstimate* out) {
-  const int w = g.width, h = g.height;
+  // Neighbours within the image (a region's layer holds the estimates of
+  // those around it: layerGeometry's margin), never beyond it.
+  const int nx0 = std::max(0, g.image.x0), ny0 = std::max(0, g.image.y0);
+  const int nx1 = std::min(g.width, g.image.x1) - 1, ny1 = std::min(g.height, g.image.y1) - 1;
+  const int w = g.shaded.width();
   for (int y = y0; y < y1; ++y) {
-    for (int x = 0; x < w; ++x) {
+    for (int x = g.shaded.x0; x < g.shaded.x1; ++x) {
       const size_t c = g.index(x, y);
-      SampleEstimate& o = out[size_t(y - y0) * size_t(w) + size_t(x)];
+      SampleEstimate& o = out[size_t(y - y0) * size_t(w) + size_t(x - g.shaded.x0)];
       if (!g.covered(c)) {
         o = in[c];
         continue;
@@ -249,8 +315,8 @@ void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float 
       const float z = g.depth[c], limit = tolerance * z;
       Vec3 num(0, 0, 0), den(0, 0, 0), bent(0, 0, 0);
       int count = 0;
-      for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 2); ++yy)
-        for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 2); ++xx) {
+      for (int yy = std::max(ny0, y - 1); yy <= std::min(ny1, y + 2); ++yy)
+        for (int xx = std::max(nx0, x - 1); xx <= std::min(nx1, x + 2); ++xx) {
           const size_t j = g.index(xx, yy);
           // Uncovered neighbours have depth inf and fail the test.
           if (!(std::abs(g.depth[j] - z) <= limit)) continue;
@@ -277,7 +343,15 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   if (wantAlbedo)  // decode once, up front: the loops never throw or block
     for (const auto& t : scene.textures) t->decode();
 
-  Film film(s.width, s.height, s.aovs, s.albedoAov);
+  // The window (the frame or the --region) and the layers around it, with
+  // their guard band (layerGeometry).
+  const PixelRect window = renderWindow(s);
+  const LayerGeometry geometry = layerGeometry(integrator, scene, camera, s.width, s.height, window);
+  if (hasRegion(s) && geometry.band == 0 && integrator.guardBand().reach != 0.0)
+    throw Error("--region: this screen-space pass has no guard band (guard-band=0, or a plugin that states no "
+                "reach), so its pixels near the region's edges would read what the full frame's do not; give it a "
+                "band or render the full frame");
+  Film film(window, s.width, s.height, s.aovs, s.albedoAov);
   const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
   const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
   addLightingPlanes(film, s);
@@ -287,8 +361,11 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   std::optional<CryptomatteFilm> crypto;  // its own pass, after the layers
   if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
-  const size_t n = size_t(s.width) * size_t(s.height);
-  // Whole-image state: the pixel sums, one layer (and its estimates when
+  // The window's pixels: sums[k], k = (y - window.y0) w + (x - window.x0)
+  // for image pixel (x, y), layer pixel (x - originX, y - originY).
+  const size_t n = window.size();
+  const int ww = window.width();
+  // Whole-window state: the pixel sums, one layer (and its estimates when
   // the integrator interleaves). The sums are float and
   // the AOVs' only kept when written: each sums at most spp values in
   // [0, 1] (relative rounding below spp 2^-24), and at 1920x1080 every byte
@@ -303,10 +380,23 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       bentSums(light.bent ? n : 0);  // e0=bent: SampleEstimate::bent (world space)
   LargeVector<float> depthSums(s.aovs ? n : 0);
   GBufferLayer g;
-  // The layer's estimates as a whole image only for the depth-aware filter;
+  g.width = geometry.width, g.height = geometry.height;
+  g.originX = geometry.originX, g.originY = geometry.originY;
+  g.band = geometry.band;
+  g.shaded = geometry.shaded, g.image = geometry.image;
+  const auto layerIndex = [&](size_t k) {
+    return g.index(g.shaded.x0 + int(k % size_t(ww)), g.shaded.y0 + int(k / size_t(ww)));
+  };
+  // The layer's estimates as a whole layer only for the depth-aware filter
+  // (estimated over the window and its neighbours in the image: `estimated`);
   // otherwise each tile's go from a per-thread buffer into the sums.
   const float tolerance = integrator.interleaveFilterTolerance();
-  LargeVector<SampleEstimate> est(tolerance > 0.0f ? n : 0);
+  LargeVector<SampleEstimate> est(tolerance > 0.0f ? size_t(g.width) * size_t(g.height) : 0);
+  PixelRect estimated = g.shaded;
+  if (tolerance > 0.0f) {
+    estimated = {std::max({g.shaded.x0 - 1, g.image.x0, 0}), std::max({g.shaded.y0 - 1, g.image.y0, 0}),
+                 std::min({g.shaded.x1 + 2, g.image.x1, g.width}), std::min({g.shaded.y1 + 2, g.image.y1, g.height})};
+  }
   tbb::enumerable_thread_specific<std::vector<SampleEstimate>> tileBuffers, rowBuffers;
   tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
 
@@ -316,7 +406,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
   // none is left. Each layer is traced for the whole image, so a round is
   // the same layers for every running pixel.
   std::optional<SampleSchedule> schedule;
-  if (adaptiveSampling(s)) schedule.emplace(PixelRect{0, 0, s.width, s.height}, s, true);
+  if (adaptiveSampling(s)) schedule.emplace(window, s, true);
   std::vector<float> error(schedule ? n : 0);
   // The pass's standard error at pixel i from the layer sums
   // (core/render/pixel_sums.h), and with `n` samples taken its composited error,
@@ -349,41 +439,44 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
       auto t = std::chrono::steady_clock::now();
       renderGBufferLayer(scene, tracer, camera, s, uint32_t(si), wantAlbedo, g, cameraRays);
-      if (integrator.needsDepthMoments()) buildDepthMoments(g);
+      if (integrator.needsDepthMoments()) buildDepthMoments(g, geometry.momentLevels);
       stats.gbufferSeconds += secondsSince(t);
 
-      // A pixel's estimate of this layer into its sums (and the AOVs').
-      const auto accumulate = [&](size_t i, const SampleEstimate& e) {
-        if (schedule && uint32_t(si) >= schedule->target(i)) return;  // stopped
+      // Window pixel k's (layer pixel i's) estimate of this layer into its
+      // sums (and the AOVs').
+      const auto accumulate = [&](size_t k, size_t i, const SampleEstimate& e) {
+        if (schedule && uint32_t(si) >= schedule->target(k)) return;  // stopped
         if ((si & 1) == 0) {
-          LayerSums& h = evenSums[i];
+          LayerSums& h = evenSums[k];
           h.num += e.num, h.den += e.den, h.hits += 1;
         }
-        LayerSums& p = sums[i];
+        LayerSums& p = sums[k];
         p.num += e.num;
         p.den += e.den;
         p.hits += 1;
-        if (wantAlbedo) albedoSums[i] += g.albedo[i];
-        if (light.bent) bentSums[i] += e.bent;
-        if (wantE0) e0Sums[i] += light.env->irradianceOverPi(normalize(g.view.vectorToWorld(g.normal[i])));
+        if (wantAlbedo) albedoSums[k] += g.albedo[i];
+        if (light.bent) bentSums[k] += e.bent;
+        if (wantE0) e0Sums[k] += light.env->irradianceOverPi(normalize(g.view.vectorToWorld(g.normal[i])));
         if (s.aovs) {
           // The ray-traced loop's AOVs: world normal, camera-plane depth.
-          normalSums[i] += g.view.vectorToWorld(g.normal[i]);
-          depthSums[i] += g.depth[i];
+          normalSums[k] += g.view.vectorToWorld(g.normal[i]);
+          depthSums[k] += g.depth[i];
         }
       };
       t = std::chrono::steady_clock::now();
-      const int tiles = PixelRect::tileCount(kScreenSpaceTile, s.width, s.height);
+      // Tiles of the estimated pixels, in layer coordinates.
+      const int tiles = PixelRect::tileCount(kScreenSpaceTile, estimated.width(), estimated.height());
       tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
         std::unique_ptr<IntegratorContext>& ctx = contexts.local();
         if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer, s.environment->view());
         std::vector<SampleEstimate>& out = tileBuffers.local();
         out.resize(size_t(kScreenSpaceTile) * size_t(kScreenSpaceTile));
         for (int t = r.begin(); t != r.end(); ++t) {
-          const PixelRect tile = PixelRect::tile(t, kScreenSpaceTile, s.width, s.height);
+          PixelRect tile = PixelRect::tile(t, kScreenSpaceTile, estimated.width(), estimated.height());
+          tile.x0 += estimated.x0, tile.x1 += estimated.x0, tile.y0 += estimated.y0, tile.y1 += estimated.y0;
           std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1), Vec3(0, 0, 0)});
           integrator.estimateTile(g, tile, *ctx, out.data());
-          // Filtered layers go to the whole-image estimates (the filter
+          // Filtered layers go to the whole-layer estimates (the filter
           // reads neighbours across tiles); the others straight to the sums.
           for (int y = tile.y0; y < tile.y1; ++y)
             for (int x = tile.x0; x < tile.x1; ++x) {
@@ -391,7 +484,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
               if (tolerance > 0.0f)
                 est[i] = out[tile.offset(x, y)];
               else if (g.covered(i))
-                accumulate(i, out[tile.offset(x, y)]);
+                accumulate(size_t(y - g.shaded.y0) * size_t(ww) + size_t(x - g.shaded.x0), i, out[tile.offset(x, y)]);
             }
         }
       });
@@ -399,19 +492,22 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
 
       if (tolerance > 0.0f) {
         t = std::chrono::steady_clock::now();
-        parallelRows(s.height, [&](int y0, int y1) {
+        parallelRows(window.height(), [&](int r0, int r1) {
           std::vector<SampleEstimate>& out = rowBuffers.local();
-          out.resize(size_t(y1 - y0) * size_t(s.width));
-          depthAwareBoxFilter(g, est.data(), tolerance, y0, y1, out.data());
-          for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i)
-            if (g.covered(i)) accumulate(i, out[i - g.index(0, y0)]);
+          out.resize(size_t(r1 - r0) * size_t(ww));
+          depthAwareBoxFilter(g, est.data(), tolerance, g.shaded.y0 + r0, g.shaded.y0 + r1, out.data());
+          for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k) {
+            const size_t i = layerIndex(k);
+            if (g.covered(i)) accumulate(k, i, out[k - size_t(r0) * size_t(ww)]);
+          }
         });
         stats.filterSeconds += secondsSince(t);
       }
       progress.advance(1);
       if (schedule && uint32_t(si + 1) == schedule->maxTarget()) {  // a round ends
-        parallelRows(s.height, [&](int y0, int y1) {
-          for (size_t i = g.index(0, y0), e = g.index(0, y1); i < e; ++i) error[i] = pixelError(i, schedule->target(i));
+        parallelRows(window.height(), [&](int r0, int r1) {
+          for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k)
+            error[k] = pixelError(k, schedule->target(k));
         });
         const uint64_t planned = schedule->next(error.data());
         const double seconds = secondsSince(t0);
@@ -425,8 +521,7 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       }
     }
     // The shared resolution (core/render/pixel_sums.h) from these sums.
-    const auto pixelSums = [&](int y, int x) {
-      const size_t i = size_t(y) * size_t(s.width) + size_t(x);
+    const auto pixelSums = [&](size_t i) {
       PixelSums p{};
       p.num.add(sums[i].num);
       p.den.add(sums[i].den);
@@ -437,12 +532,12 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
       if (light.bent) p.bent.add(bentSums[i]);
       return p;
     };
-    parallelRows(s.height, [&](int y0, int y1) {
-      for (int y = y0; y < y1; ++y)
-        for (int x = 0; x < s.width; ++x) {
-          const size_t i = size_t(y) * size_t(s.width) + size_t(x);
+    parallelRows(window.height(), [&](int r0, int r1) {
+      for (int y = window.y0 + r0; y < window.y0 + r1; ++y)
+        for (int x = window.x0; x < window.x1; ++x) {
+          const size_t i = size_t(y - window.y0) * size_t(ww) + size_t(x - window.x0);
           const int spp = schedule ? int(schedule->taken(i)) : s.spp;
-          resolvePixelSums(pixelSums(y, x), spp, integrator, wantAlbedo, light, film, x, y);
+          resolvePixelSums(pixelSums(i), spp, integrator, wantAlbedo, light, film, x, y);
           if (errorPlane >= 0) film.at(errorPlane, x, y) = writtenError(pixelError(i), film, x, y);
           if (sppPlane >= 0) film.at(sppPlane, x, y) = float(spp);
         }

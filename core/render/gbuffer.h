@@ -41,19 +41,46 @@ inline void cameraSampleFilm(PixelFilter filter, const Sampler::Seeds2& filterSe
   cameraFilmPosition(filter, Sampler::get2D(filterSeeds, si), px, py, fx, fy);
 }
 
-// The view transform of camera c for a w x h image.
-ViewTransform viewTransform(const Camera& c, int w, int h);
+// The view transform of camera c for a w x h image, onto a layer whose
+// pixel (0, 0) is image pixel (originX, originY).
+ViewTransform viewTransform(const Camera& c, int w, int h, int originX = 0, int originY = 0);
 
-// Builds g.moments from g.depth (parallel over rows; the caller's TBB arena).
-void buildDepthMoments(GBufferLayer& g);
+// The guard band's default cap for a w x h image: 1/8 of the larger side,
+// at least 16 pixels (docs/screen_space.md "Guard band").
+int guardBandCap(int w, int h);
 
-// An upper bound of the bytes renderScreenSpace keeps for a w x h image
-// besides the film: one layer with every optional array (albedo, moments),
-// the per-pixel sums and the estimates (kept whole for the filter).
-uint64_t screenSpaceWorkingBytes(int w, int h);
+// Where a screen-space pass's layers lie (GBufferLayer's band, origin,
+// size, shaded and image rectangles) for a render of `window` (the frame or
+// the region) of a w x h image: the band from the integrator's guardBand()
+// (the default: its reach projected from the point of the scene's bounds
+// nearest the camera, capped); around the window the band, plus for depth
+// moments half the coarsest block (vo's area samples read a block whose
+// centre is in the band), plus 2 pixels for the interleave filter's
+// neighbours; the origin rounded down to a multiple of 4 and of the
+// coarsest block. Depends on the whole image, never on the window's place,
+// so a region's layer holds what the full frame's holds around it.
+struct LayerGeometry {
+  int band = 0, momentLevels = 0;
+  int originX = 0, originY = 0, width = 0, height = 0;
+  PixelRect shaded, image;
+};
+LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene& scene, const Camera& camera,
+                            int w, int h, const PixelRect& window);
 
-// Renders layer s of an image into g (parallel over rows; the caller's TBB
-// arena). Counts camera rays into `cameraRays`.
+// Builds g.moments from g.depth: `levels` levels (level 0 = the pixels),
+// each block of level l aligned to image pixels 2^l apart (parallel over
+// rows; the caller's TBB arena).
+void buildDepthMoments(GBufferLayer& g, int levels);
+
+// An upper bound of the bytes renderScreenSpace keeps besides the film for
+// a render of `window` with a guard band of at most `band` pixels: one layer
+// with every optional array (albedo, moments), the per-pixel sums and the
+// estimates (kept whole for the filter).
+uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band);
+
+// Renders layer s into g, whose geometry (band, origin, size, rectangles)
+// is set (parallel over rows; the caller's TBB arena). Counts camera rays
+// into `cameraRays`.
 struct RenderSettings;
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
                         uint32_t sampleIndex, bool albedo, GBufferLayer& g, uint64_t& cameraRays);
@@ -64,7 +91,9 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
 // from its own by at most `tolerance` x its depth. A 4x4 window holds every
 // one of the 16 interleaved sample sets once, so inside a surface the
 // filtered value uses 16x the samples; across a depth edge nothing is mixed.
-// Rows [y0, y1) of `out` from the whole of `in`.
+// Layer rows [y0, y1) of g.shaded into `out` (g.shaded's width per row),
+// from `in`, the whole layer's estimates (those of g.shaded and its
+// neighbours in the image).
 void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float tolerance, int y0, int y1,
                          SampleEstimate* out);
 

@@ -592,9 +592,9 @@ void checkRegion(const PixelRect& r, int width, int height) {
 }
 
 void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace) {
-  if (hasRegion(s) && anyScreenSpace)
-    throw Error("--region: not available with a screen-space pass (it reads neighbouring pixels of the G-buffer); "
-                "render the full frame");
+  // --region with a screen-space pass: its layers carry a guard band, so
+  // its pixels read what the full frame's do (renderScreenSpace refuses a
+  // pass without one).
   // A G-buffer holds one instant of the scene per pixel layer, and its
   // passes compare depths across pixels: samples at different times in the
   // shutter would be compared as if they were one surface.
@@ -926,8 +926,6 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     if (passes[k].layer.empty()) throw Error("every pass but the first needs a layer name");
   stats = {};
   const auto screenSpace = [&](size_t k) { return passes[k].integrator->screenSpace(); };
-  // A screen-space pass reads its neighbours in the G-buffer: a region's
-  // pixels would differ from the full render's near the region's edges.
   const bool anyScreenSpace =
       std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.integrator->screenSpace() != nullptr; });
   checkRegionPasses(s, anyScreenSpace);

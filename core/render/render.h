@@ -79,9 +79,9 @@ inline PixelRect renderWindow(const RenderSettings& s) { return hasRegion(s) ? s
 // Throws obscura::Error naming --region unless `r` is a non-empty window
 // inside a width x height frame.
 void checkRegion(const PixelRect& r, int width, int height);
-// Throws naming --region if s has one and a pass is screen-space: such a
-// pass reads its neighbours in the G-buffer, so a region's pixels near its
-// edges would differ from the full render's.
+// Throws naming --shutter if s has motion blur and a pass is screen-space
+// (a G-buffer holds one instant). (--region works with screen-space passes:
+// their guard band, core/render/gbuffer.h layerGeometry.)
 void checkRegionPasses(const RenderSettings& s, bool anyScreenSpace);
 // Throws naming --no-albedo if s denoises a primary pass whose W depends on
 // the pixel's albedo (multibounce) without the albedo AOV: the filter is

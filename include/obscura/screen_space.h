@@ -34,8 +34,11 @@ struct ViewTransform {
   Vec3 origin;             // camera position (world)
   Vec3 row0, row1, row2;   // rows of the world-to-view rotation
   float tanHalfX, tanHalfY;
-  float width, height;
+  float width, height;           // the image's size (the whole frame, pixels)
   float filmScaleX, filmScaleY;  // film pixels per unit of x/-z and y/-z
+  // Where the optical axis meets the layer: the image's centre in layer
+  // pixels (GBufferLayer::originX, originY shift the layer off the image).
+  float centreX, centreY;
   // (Made by the core from the camera: viewTransform, core/render/gbuffer.h.)
   Vec3 pointToView(Vec3 p) const {
     const Vec3 d = p - origin;
@@ -44,11 +47,12 @@ struct ViewTransform {
   Vec3 vectorToView(Vec3 v) const { return {dot(row0, v), dot(row1, v), dot(row2, v)}; }
   Vec3 pointToWorld(Vec3 v) const { return toWorld.point(v); }
   Vec3 vectorToWorld(Vec3 v) const { return toWorld.vector(v); }
-  // Film position of a view-space point in front of the camera (z < 0).
+  // Layer position (film pixels) of a view-space point in front of the
+  // camera (z < 0).
   void project(Vec3 v, float& fx, float& fy) const {
     const float inv = 1.0f / -v.z;
-    fx = 0.5f * width + v.x * inv * filmScaleX;
-    fy = 0.5f * height - v.y * inv * filmScaleY;
+    fx = centreX + v.x * inv * filmScaleX;
+    fy = centreY - v.y * inv * filmScaleY;
   }
 };
 
@@ -67,8 +71,24 @@ struct DepthMoments {
 // One G-buffer layer: camera sample `sampleIndex` of every pixel, in view
 // space, structure of arrays (the screen-space loops read `depth` at
 // scattered pixels; keeping it alone keeps those reads in cache).
+//
+// The guard band (docs/screen_space.md "Guard band"): the layer holds the
+// pixels the pass shades (`shaded`: the frame, or the render's --region)
+// and a margin around them - beyond the image's edges too, where the
+// camera's film extends - so that sample points that project just off the
+// frame read real depth. A pixel's samples read the layer only within
+// `band` pixels of it (screen_space::ReadWindow), so a region's pixels read
+// exactly what the full frame's read and regions merge bit for bit.
+// Layer pixel (x, y) is image pixel (x + originX, y + originY); originX and
+// originY are multiples of 4 (the interleaving pattern's period: x & 3 in
+// layer and image coordinates agree) and, with depth moments, of the
+// coarsest moment level's block.
 struct GBufferLayer {
-  int width = 0, height = 0;
+  int width = 0, height = 0;  // the layer's size: shaded pixels and margins
+  int originX = 0, originY = 0;
+  int band = 0;               // reads within this many pixels of the shaded pixel (Chebyshev)
+  PixelRect shaded;           // the pixels estimated, layer coordinates
+  PixelRect image;            // the whole image, layer coordinates (may reach beyond the layer)
   uint32_t sampleIndex = 0;
   ViewTransform view;
   LargeVector<float> depth;        // view depth -z of the visible point; +inf where nothing was hit
@@ -101,6 +121,7 @@ struct GBufferLayer {
   // (ScreenSpaceIntegrator::needsDepthMoments).
   std::vector<DepthMoments> moments;
   bool covered(size_t i) const { return depth[i] < kInfinity; }
+  bool inImage(int x, int y) const { return x >= image.x0 && y >= image.y0 && x < image.x1 && y < image.y1; }
   size_t index(int x, int y) const { return size_t(y) * size_t(width) + size_t(x); }
 };
 
@@ -128,6 +149,17 @@ class ScreenSpaceIntegrator : public Integrator {
   virtual float interleaveFilterTolerance() const { return 0.0f; }
   // true: the core builds each layer's depth moments (GBufferLayer::moments).
   virtual bool needsDepthMoments() const { return false; }
+  // The guard band's size (GBufferLayer): `pixels` >= 0 as given, or -1 for
+  // the core's default from `reach`, the farthest distance from a shaded
+  // point (scene units) at which the pass reads the depth buffer - R
+  // projected from the scene's nearest point, capped (docs/screen_space.md
+  // "Guard band"). reach 0: the pass reads no neighbour; -1 (the default):
+  // unknown - no band, and no --region.
+  struct GuardBand {
+    double reach = -1.0;
+    int pixels = -1;
+  };
+  virtual GuardBand guardBand() const { return {}; }
 };
 
 // The side of the core's screen-space tiles (pixels).

@@ -18,8 +18,13 @@ std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefaul
       {.name = "depth", .type = ParamType::Enum, .defaultValue = "gbuffer", .choices = {"gbuffer", "traced"},
        .doc = "gbuffer: z* read from the depth buffer; traced: the camera ray through each sample point traced "
               "(the same estimator without the depth buffer's discretization)"},
+      {.name = "guard-band", .type = ParamType::Int, .defaultValue = "-1", .min = -1, .max = 4096,
+       .doc = "pixels of G-buffer rendered around the frame (or region), and how far from its pixel a sample reads "
+              "the depth buffer; -1: R's projected size from the scene's nearest point, at most 1/8 of the larger "
+              "image side (min 16); 0: none (reads anywhere in the frame, nothing beyond; no --region)"},
   };
 }
+
 
 // Compiled twice (AVX2, baseline): 8 points per instruction where the CPU
 // has AVX2, without requiring it of the build.
@@ -33,8 +38,9 @@ __attribute__((target_clones("avx2", "default"))) void projectOffsets(const Poin
   // Everything in locals, the conditions as selects: the loop vectorizes.
   const float sx = f.s.x, sy = f.s.y, sz = f.s.z, tx = f.t.x, ty = f.t.y, tz = f.t.z;
   const float nx = f.n.x, ny = f.n.y, nz = f.n.z;
-  const float cx = pr.cx, cy = pr.cy, scaleX = pr.sx, scaleY = pr.sy, w = pr.w, h = pr.h;
-  const float wMax = pr.w - 1.0f, hMax = pr.h - 1.0f;
+  const float cx = pr.cx, cy = pr.cy, scaleX = pr.sx, scaleY = pr.sy;
+  const float x0 = pr.window.x0, y0 = pr.window.y0, x1 = pr.window.x1, y1 = pr.window.y1;
+  const float wMax = x1 - 1.0f, hMax = y1 - 1.0f;
   const uint32_t width = pr.width;
   for (int k = 0; k < count; ++k) {
     float x = sx * ox[k] + tx * oy[k] + nx * oz[k];
@@ -49,12 +55,12 @@ __attribute__((target_clones("avx2", "default"))) void projectOffsets(const Poin
     const float d = -(P.z + z);
     const float inv = 1.0f / d;
     const float fx = cx + (P.x + x) * inv * scaleX, fy = cy - (P.y + y) * inv * scaleY;
-    const bool inside = (d > 0.0f) & (fx >= 0.0f) & (fy >= 0.0f) & (fx < w) & (fy < h);
+    const bool inside = (d > 0.0f) & (fx >= x0) & (fy >= y0) & (fx < x1) & (fy < y1);
     // Clamped before the conversion so that no lane converts an
-    // out-of-range float (undefined; NaN compares false and clamps to 0);
-    // the clamp changes no valid pixel.
-    const float cxl = std::min(std::max(0.0f, fx), wMax);  // max(0, NaN) = 0
-    const float cyl = std::min(std::max(0.0f, fy), hMax);
+    // out-of-range float (undefined; NaN compares false and clamps to the
+    // window's x0, y0); the clamp changes no valid pixel.
+    const float cxl = std::min(std::max(x0, fx), wMax);  // max(x0, NaN) = x0
+    const float cyl = std::min(std::max(y0, fy), hMax);
     pixel[k] = uint32_t(int32_t(cyl)) * width + uint32_t(int32_t(cxl));
     depth[k] = inside ? d : -1.0f;
   }

@@ -27,9 +27,24 @@ enum class DepthSource { GBuffer, Traced, None };
 // empty: a fraction ~1.5 kDepthBias z / R of a ball's points at depth z.
 constexpr float kDepthBias = 2e-6f;
 
-// Parameters shared by both integrators: count, interleave, filter-depth, depth.
+// Parameters shared by both integrators: count, interleave, filter-depth,
+// depth, guard-band.
 std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefault, const std::string& interleaveDefault);
 DepthSource depthSourceFromParams(const ParamSet& p);
+
+// Where pixel (x, y)'s samples may read the layer (GBufferLayer: the guard
+// band): layer film positions [x0, x1) x [y0, y1) - within g.band pixels of
+// the pixel, or with no band (guard-band=0) the whole layer, the image.
+// A read outside it knows nothing: no occluder, as off the image.
+struct ReadWindow {
+  float x0, y0, x1, y1;
+  bool contains(float fx, float fy) const { return fx >= x0 && fy >= y0 && fx < x1 && fy < y1; }
+};
+inline ReadWindow readWindow(const GBufferLayer& g, int x, int y) {
+  if (g.band <= 0) return {0.0f, 0.0f, float(g.width), float(g.height)};
+  return {float(std::max(0, x - g.band)), float(std::max(0, y - g.band)), float(std::min(g.width, x + g.band + 1)),
+          float(std::min(g.height, y + g.band + 1))};
+}
 
 // The random numbers that rotate pixel (x, y)'s sample set in layer g.
 // With interleaving (AT §4.2) they depend only on (x mod 4, y mod 4) and the
@@ -101,13 +116,13 @@ inline Frame uniformRotation(Vec3 u) {
   return f;
 }
 
-// The pixel (x, y) a view-space point projects to; false when the point is
-// behind the camera or off the image.
-inline bool pixelOf(const GBufferLayer& g, Vec3 q, int& x, int& y) {
+// The layer pixel (x, y) a view-space point projects to; false when the
+// point is behind the camera or outside the read window.
+inline bool pixelOf(const GBufferLayer& g, Vec3 q, const ReadWindow& w, int& x, int& y) {
   if (!(q.z < 0.0f)) return false;
   float fx, fy;
   g.view.project(q, fx, fy);
-  if (!(fx >= 0.0f && fy >= 0.0f && fx < float(g.width) && fy < float(g.height))) return false;
+  if (!w.contains(fx, fy)) return false;
   x = int(fx), y = int(fy);
   return true;
 }
@@ -137,21 +152,21 @@ inline bool decidedByStoredDepth(const std::array<float, 2>& ds, float depthQ) {
 // z* from the z-buffer: the depth, along the camera ray through q, of the
 // surface stored at the pixel q projects to - that pixel's plane met by the
 // ray (GBufferLayer::plane), or its stored depth when the ray runs along the
-// plane; +inf when q is behind the camera, off the image, or over the
-// background (no occluder known there).
+// plane; +inf when q is behind the camera, outside the read window, or over
+// the background (no occluder known there).
 // Without `exact` (enough to classify q as in front or behind, and for the
 // thresholds of the silhouette rule and the thickness model, which move by
 // at most the pixel's depth range) a q far from the pixel's surface gets the
 // stored depth; line samples, which place the surface on their chord, ask
 // for the plane always.
-inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
+inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact, const ReadWindow& w) {
   if (!(q.z < 0.0f)) return kInfinity;
   // The ray through q is depth x (a, b, -1).
   const float inv = 1.0f / -q.z;
   const float a = q.x * inv, b = q.y * inv;
-  const float fx = 0.5f * g.view.width + a * g.view.filmScaleX;
-  const float fy = 0.5f * g.view.height - b * g.view.filmScaleY;
-  if (!(fx >= 0.0f && fy >= 0.0f && fx < float(g.width) && fy < float(g.height))) return kInfinity;
+  const float fx = g.view.centreX + a * g.view.filmScaleX;
+  const float fy = g.view.centreY - b * g.view.filmScaleY;
+  if (!w.contains(fx, fy)) return kInfinity;
   const size_t j = g.index(int(fx), int(fy));
   const std::array<float, 2> ds = g.depthSlack[j];
   if (!exact && decidedByStoredDepth(ds, -q.z)) return ds[0];
@@ -163,17 +178,18 @@ inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact) {
 // offset reflected into the half-space c . o >= 0 first (c = 0: no
 // reflection; vo's normal clamp, VO §4.4), onto the layer:
 // depth[k] = their view depth, or -1 where the point is behind the camera or
-// off the image; pixel[k] = the index of the pixel it falls in (valid where
-// depth[k] > 0). The screen-space loops' arithmetic, written branch-free over
+// outside the read window; pixel[k] = the index of the pixel it falls in
+// (valid where depth[k] > 0). The screen-space loops' arithmetic, written branch-free over
 // arrays so that it vectorizes (compiled for AVX2 and baseline, picked at
 // load time); the depth-buffer reads that follow are scattered and stay
 // scalar.
 struct PointProjection {
-  float cx, cy, sx, sy, w, h;  // film centre, film pixels per unit x/-z and y/-z, film size
+  float cx, cy, sx, sy;  // the optical axis on the layer, film pixels per unit x/-z and y/-z
+  ReadWindow window;     // the pixel's (set per pixel)
   uint32_t width;
   explicit PointProjection(const GBufferLayer& g)
-      : cx(0.5f * g.view.width), cy(0.5f * g.view.height), sx(g.view.filmScaleX), sy(g.view.filmScaleY),
-        w(float(g.width)), h(float(g.height)), width(uint32_t(g.width)) {}
+      : cx(g.view.centreX), cy(g.view.centreY), sx(g.view.filmScaleX), sy(g.view.filmScaleY),
+        window{0.0f, 0.0f, float(g.width), float(g.height)}, width(uint32_t(g.width)) {}
 };
 void projectOffsets(const PointProjection& pr, Vec3 P, const Frame& f, Vec3 c, const float* ox, const float* oy,
                     const float* oz, int count, float* depth, uint32_t* pixel);
@@ -206,10 +222,12 @@ inline void prefetchAt(const LargeVector<T>& a, const uint32_t* pixels, size_t n
 class PixelPoints {
  public:
   PixelPoints(const GBufferLayer& g, size_t perPixel)
-      : pr_(g), n_(perPixel), depth_(size_t(kPipelineSlots) * perPixel), pixel_(size_t(kPipelineSlots) * perPixel) {}
-  // Slot b: P + o_k for the offsets (ox, oy, oz) in frame f, reflected by c.
-  void project(int b, Vec3 P, const Frame& f, Vec3 c, const float* ox, const float* oy, const float* oz) {
+      : g_(g), pr_(g), n_(perPixel), depth_(size_t(kPipelineSlots) * perPixel), pixel_(size_t(kPipelineSlots) * perPixel) {}
+  // Slot b: P + o_k for the offsets (ox, oy, oz) in frame f, reflected by
+  // c, read from layer pixel (x, y) (its read window).
+  void project(int b, int x, int y, Vec3 P, const Frame& f, Vec3 c, const float* ox, const float* oy, const float* oz) {
     this->P[b] = P, this->f[b] = f, this->c[b] = c;
+    pr_.window = readWindow(g_, x, y);
     projectOffsets(pr_, P, f, c, ox, oy, oz, int(n_), depth(b), pixels(b));
   }
   float* depth(int b) { return depth_.data() + size_t(b) * n_; }
@@ -219,6 +237,7 @@ class PixelPoints {
   Frame f[kPipelineSlots];
 
  private:
+  const GBufferLayer& g_;
   PointProjection pr_;
   size_t n_;
   std::vector<float> depth_;
@@ -280,9 +299,12 @@ class DepthLookup {
   // `exact`: see zBufferDepth.
   DepthLookup(DepthSource src, size_t capacity, bool exact) : src_(src), exact_(exact), q_(capacity), z_(capacity) {}
   void clear() { n_ = 0; }
+  // The read window of the pixel whose points come next (forEachPixelRun
+  // sets it); the traced twin traces every point, wherever it projects.
+  void setWindow(const ReadWindow& w) { window_ = w; }
   void push(const GBufferLayer& g, Vec3 q) {
     q_[n_] = q;
-    if (src_ == DepthSource::GBuffer) z_[n_] = zBufferDepth(g, q, exact_);
+    if (src_ == DepthSource::GBuffer) z_[n_] = zBufferDepth(g, q, exact_, window_);
     ++n_;
   }
   size_t size() const { return n_; }
@@ -311,6 +333,7 @@ class DepthLookup {
  private:
   DepthSource src_;
   bool exact_;
+  ReadWindow window_{0.0f, 0.0f, 0.0f, 0.0f};
   std::vector<Vec3> q_;
   std::vector<float> z_;
   size_t n_ = 0;
@@ -330,7 +353,10 @@ void forEachPixelRun(const GBufferLayer& g, const PixelRect& tile, size_t perPix
       const int xe = std::min(tile.x1, xr + kRun);
       look.clear();
       for (int x = xr; x < xe; ++x)
-        if (g.covered(g.index(x, y))) push(g.index(x, y), x, y);
+        if (g.covered(g.index(x, y))) {
+          look.setWindow(readWindow(g, x, y));
+          push(g.index(x, y), x, y);
+        }
       if (look.size() == 0) continue;
       look.run(g, ctx);
       size_t at = 0;

@@ -57,6 +57,7 @@ struct SsatConfig {
   bool interleave = true;
   float filterDepth = 0.02f;
   DepthSource depth = DepthSource::GBuffer;
+  int guardBand = -1;  // guard-band: pixels, -1 auto
 };
 
 class ZBufferTransfer final : public ScreenSpaceIntegrator {
@@ -91,6 +92,8 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
   }
 
   float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
+  // Test points reach the membership's radius (the rule's R).
+  GuardBand guardBand() const override { return {.reach = zero_ ? 0.0 : double(ruleR_), .pixels = c_.guardBand}; }
 
   void estimateTile(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx, SampleEstimate* out) const override {
     if (zero_) {  // R = 0: nothing but the surface occludes (the limit R -> 0+): W = 1
@@ -120,7 +123,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
       forEachPixelPipelined(
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
-            pts.project(b, g.position[i], frameOf(i, x, y), Vec3(0, 0, 0), sx, sy, sz);
+            pts.project(b, x, y, g.position[i], frameOf(i, x, y), Vec3(0, 0, 0), sx, sy, sz);
             prefetchAt(g.depthSlack, pts.pixels(b), perPixel);
           },
           [&](size_t, int x, int y, int b) {
@@ -132,10 +135,10 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
             tally(
                 g,
                 [&](size_t m) {
-                  // Off the image or behind the camera (depth -1): no occluder known.
+                  // Outside the read window or behind the camera (depth -1): no occluder known.
                   return depth[m] > 0.0f ? zStarAt(g, pixel[m], depth[m], false, [&] { return point(m); }) : kInfinity;
                 },
-                [&](size_t m) { return depth[m]; }, point, dir, f, out[tile.offset(x, y)]);
+                [&](size_t m) { return depth[m]; }, point, dir, f, readWindow(g, x, y), out[tile.offset(x, y)]);
           });
       return;
     }
@@ -153,7 +156,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
       const Frame f = c_.bent ? frameOf(i, x, y) : Frame{};
       tally(
           g, [&](size_t m) { return look.z(at + m); }, [&](size_t m) { return -look.q(at + m).z; },
-          [&](size_t m) { return look.q(at + m); }, dir, f, o);
+          [&](size_t m) { return look.q(at + m); }, dir, f, readWindow(g, x, y), o);
     };
     forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
   }
@@ -165,7 +168,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
   // sample k's direction in the pixel's frame f (view space).
   template <class ZStar, class DepthOf, class Point>
   void tally(const GBufferLayer& g, ZStar&& zStar, DepthOf&& depthOf, Point&& point, const Vec3* dir, const Frame& f,
-             SampleEstimate& o) const {
+             const ReadWindow& window, SampleEstimate& o) const {
     Vec3 open(0, 0, 0), closedAlbedo(0, 0, 0), bent(0, 0, 0);
     if (c_.steps == 1) {
       // One test point per sample (the default): inside or not as a
@@ -178,7 +181,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         const float behind = depthOf(size_t(k)) - z;
         const bool inside = (behind > kDepthBias * z) & (!c_.silhouette | (behind < ruleR_));
         openCount += !inside;
-        if (c_.albedo && inside) closedAlbedo += albedoAt(g, point(size_t(k)));
+        if (c_.albedo && inside) closedAlbedo += albedoAt(g, point(size_t(k)), window);
         if (c_.bent && !inside) bent += dir[k];
       }
       open = Vec3(float(openCount), float(openCount), float(openCount));
@@ -198,7 +201,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         open += Vec3(1, 1, 1);
         if (c_.bent) bent += dir[k];
       } else if (c_.albedo)
-        closedAlbedo += albedoAt(g, point(size_t(inside)));
+        closedAlbedo += albedoAt(g, point(size_t(inside)), window);
     }
     if (c_.bent) o.bent = g.view.vectorToWorld(f.toWorld(bent));
     const float n = float(c_.count);
@@ -211,12 +214,13 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
   }
 
   // The albedo of the pixel a test point projects to (the occluder's, as the
-  // paper approximates it). From the z-buffer an off-image point is never
-  // inside; the traced twin can find one inside off the image, where no
-  // pixel holds an albedo: black (0), the obscurance's occluder.
-  static Vec3 albedoAt(const GBufferLayer& g, Vec3 q) {
+  // paper approximates it). From the z-buffer a point outside the read
+  // window is never inside; the traced twin can find one inside there,
+  // where no pixel's albedo may be read: black (0), the obscurance's
+  // occluder.
+  static Vec3 albedoAt(const GBufferLayer& g, Vec3 q, const ReadWindow& window) {
     int x, y;
-    if (g.albedo.empty() || !pixelOf(g, q, x, y)) return Vec3(0, 0, 0);
+    if (g.albedo.empty() || !pixelOf(g, q, window, x, y)) return Vec3(0, 0, 0);
     return g.albedo[g.index(x, y)];
   }
 
@@ -270,6 +274,7 @@ IntegratorDescriptor ssatDescriptor() {
     c.interleave = p.getEnum("interleave") == "on";
     c.filterDepth = float(p.getFloat("filter-depth"));
     c.depth = depthSourceFromParams(p);
+    c.guardBand = p.getInt("guard-band");
     return std::make_unique<ZBufferTransfer>(mu, c);
   };
   return d;

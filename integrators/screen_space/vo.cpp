@@ -77,6 +77,7 @@ struct VoConfig {
   bool interleave = false;
   float filterDepth = 0.02f;
   DepthSource depth = DepthSource::GBuffer;
+  int guardBand = -1;  // guard-band: pixels, -1 auto
 };
 
 class VolumetricObscurance final : public ScreenSpaceIntegrator {
@@ -102,6 +103,8 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
 
   float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
   bool needsDepthMoments() const override { return c_.samples == VoSamples::Area; }
+  // Reads reach R (or R2) from the pixel's point.
+  GuardBand guardBand() const override { return {.reach = std::max(c_.R, c_.R2), .pixels = c_.guardBand}; }
 
   void estimateTile(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx, SampleEstimate* out) const override {
     const int radii = c_.R2 > 0.0f ? 2 : 1;
@@ -140,7 +143,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       forEachPixelPipelined(
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
-            pts.project(b, g.position[i], pixelFrame(g, i, x, y, rotations),
+            pts.project(b, x, y, g.position[i], pixelFrame(g, i, x, y, rotations),
                         c_.normalClamp ? g.normal[i] : Vec3(0, 0, 0), ox, oy, oz);
             prefetchAt(g.depthSlack, pts.pixels(b), perPixel);
           },
@@ -159,7 +162,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
                   if (on < 0.0f) o = o - clamp * (2.0f * on);
                   return o;
                 };
-                // Behind the camera or off the image (depth -1): no occluder known.
+                // Behind the camera or outside the read window (depth -1): no occluder known.
                 if (!(depth[m] > 0.0f) ||
                     !occupied(depth[m], zStarAt(g, pixel[m], depth[m], false, [&] { return P + offset(); }),
                               c_.thickness)) {
@@ -187,7 +190,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       forEachPixelPipelined(
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
-            pts.project(b, g.position[i], pixelFrame(g, i, x, y, rotations), Vec3(0, 0, 0), ox, oy, oz);
+            pts.project(b, x, y, g.position[i], pixelFrame(g, i, x, y, rotations), Vec3(0, 0, 0), ox, oy, oz);
             prefetchAt(g.plane, pts.pixels(b), perPixel);  // the exact read: the plane only
           },
           [&](size_t i, int x, int y, int b) {
@@ -200,7 +203,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
               return evaluate(
                   g, i, q,
                   [&](int k) {
-                    // Off the image or behind the camera (depth -1): no occluder known.
+                    // Outside the read window or behind the camera (depth -1): no occluder known.
                     const float d = depth[first + k];
                     if (!(d > 0.0f)) return kInfinity;
                     return zStarAt(g, pixel[first + k], d, true, [&] { return q(k); });
@@ -293,7 +296,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     // pixels (VO §4.2: one log per pixel, the cells' share precomputed).
     int level = 0;
     if (c_.samples == VoSamples::Area) {
-      const float pixelSize = 2.0f * g.view.tanHalfY * g.depth[i] / float(g.height);
+      const float pixelSize = 2.0f * g.view.tanHalfY * g.depth[i] / g.view.height;
       const float span = 2.0f * R / std::sqrt(float(c_.count)) / pixelSize;
       level = span > 1.0f ? int(std::lround(std::log2(span))) : 0;
       level = std::min(level, int(g.moments.size()) - 1);
@@ -315,6 +318,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   float chords(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, int level, Vec3* bent) const {
     using V = V3<T>;
     const Vec3 P = g.position[i], n = g.normal[i];
+    const ReadWindow window = readWindow(g, int(i % size_t(g.width)), int(i / size_t(g.width)));
     double freeSum = 0.0, chordSum = 0.0;  // over the chords: double for either T
     const V Pd(P), nd(n);
     const T lengthP = Pd.length();
@@ -356,7 +360,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
       const T perDepth = dQ / -Q0.z;
       float covered = 1.0f, zMean = c_.samples == VoSamples::Area ? kInfinity : zStar(k), zSigma = 0.0f;
-      if (c_.samples == VoSamples::Area) depthModel(g, level, q(k), covered, zMean, zSigma);
+      if (c_.samples == VoSamples::Area) depthModel(g, level, q(k), window, covered, zMean, zSigma);
       T freeLen = chord;
       // The first moment of the segment [a, b] of the chord about P (bent), / R^2.
       const auto moment = [&](T a, T b) {
@@ -436,14 +440,22 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   }
 
   // Area samples: the depth moments at the texel of `level` that Q0
-  // projects to: coverage, mean depth, standard deviation. Off the image:
-  // nothing known (no occluder).
-  static void depthModel(const GBufferLayer& g, int level, Vec3 Q0, float& covered, float& mean, float& sigma) {
+  // projects to: coverage, mean depth, standard deviation. Outside the
+  // read window, or a texel whose block's centre is (its block may reach
+  // half a block beyond the window: the layer's margin holds it): nothing
+  // known (no occluder).
+  static void depthModel(const GBufferLayer& g, int level, Vec3 Q0, const ReadWindow& window, float& covered,
+                         float& mean, float& sigma) {
     covered = 0.0f, mean = kInfinity, sigma = 0.0f;
     int x, y;
-    if (!pixelOf(g, Q0, x, y)) return;
+    if (!pixelOf(g, Q0, window, x, y)) return;
     const DepthMoments& m = g.moments[size_t(level)];
-    const size_t j = size_t(y >> level) * size_t(m.width) + size_t(x >> level);
+    const int bx = x >> level, by = y >> level;
+    if (g.band > 0 && level > 0) {
+      const float half = float(1 << (level - 1));
+      if (!window.contains(float(bx << level) + half, float(by << level) + half)) return;
+    }
+    const size_t j = size_t(by) * size_t(m.width) + size_t(bx);
     covered = m.coverage[j];
     if (covered > 0.0f) mean = m.mean[j], sigma = std::sqrt(m.variance[j]);
   }
@@ -495,6 +507,7 @@ IntegratorDescriptor voDescriptor() {
     c.interleave = p.getEnum("interleave") == "on";
     c.filterDepth = float(p.getFloat("filter-depth"));
     c.depth = depthSourceFromParams(p);
+    c.guardBand = p.getInt("guard-band");
     if (c.samples == VoSamples::Area && c.depth == DepthSource::Traced)
       throw Error("integrator 'vo': samples=area reads the depth buffer's mip-mapped moments; depth=traced applies "
                   "to point and line samples");
