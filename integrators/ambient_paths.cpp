@@ -21,6 +21,7 @@ struct PathState {
   bool self;         // this bounce's direction is below x's geometric plane
   float pdfB;        // this bounce's cosine density at its direction (MIS)
   Rgb light;         // the light sample's contribution if its ray is open (MIS)
+  size_t envTexel;   // the texel of this bounce's direction, if it escapes (lit)
 };
 
 // Per-thread storage that keeps its memory between batches: the hot loop
@@ -29,6 +30,8 @@ struct Scratch {
   std::vector<PathState> paths;
   std::vector<Rgb> num, den;  // per camera hit
   std::vector<Vec3> bent;     // per camera hit: bounce 0's open directions, weighted by mu
+  std::vector<Sample2> lightU;                // per path: the light draw's sample (MIS)
+  std::vector<EnvironmentView::Draw> draws;  // per path: the light draw's stages (MIS)
 };
 thread_local Scratch tlsScratch;
 
@@ -112,10 +115,23 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
       // contribution in p.light, zeroed if its ray is blocked. The cosine
       // batch above is traced already: the batches are separate buffers.
       OcclusionBatch& shadow = ctx.occlusionBatch(s.paths.size());
-      for (PathState& p : s.paths) {
+      // The draws in stages over the batch (EnvironmentView::Draw): their
+      // cache misses in the map's tables overlap.
+      const size_t n = s.paths.size();
+      s.lightU.resize(n);
+      s.draws.resize(n);
+      for (size_t r = 0; r < n; ++r) {
+        const PathState& p = s.paths[r];
+        s.lightU[r] = Sampler::get2D(p.x.pixelKey, p.x.sampleIndex, dim + 3);
+        env.drawRow(s.lightU[r], s.draws[r]);
+      }
+      for (size_t r = 0; r < n; ++r) env.drawStart(s.draws[r]);
+      for (size_t r = 0; r < n; ++r) env.drawColumn(s.lightU[r], s.draws[r]);
+      for (size_t r = 0; r < n; ++r) {
+        PathState& p = s.paths[r];
         float pl = 0.0f;
         Vec3 L;
-        const Vec3 w = env.sample(Sampler::get2D(p.x.pixelKey, p.x.sampleIndex, dim + 3), pl, L);
+        const Vec3 w = env.drawDirection(s.lightU[r], s.draws[r], pl, L);
         const float cosTheta = dot(w, p.x.ns);
         p.light = splat(0.0);
         if (!(pl > 0.0f) || !(cosTheta > 0.0f) || intoSurface(p.x, w)) {
@@ -134,6 +150,17 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
       for (size_t r = 0; r < s.paths.size(); ++r)
         if (shadow.occluded(r)) s.paths[r].light = splat(0.0);
     }
+
+    // The texels of the directions that reach the environment (m > 0
+    // below), prefetched all at once: one cache miss each in the map, and
+    // in this loop they overlap (docs/math.md §14.3, "Cost").
+    if (lit)
+      for (size_t r = 0; r < s.paths.size(); ++r) {
+        PathState& p = s.paths[r];
+        if (p.self || (batch.hit(r) && estimator != Estimator::Distance)) continue;
+        p.envTexel = env.texelIndex(batch.dir(r));
+        env.prefetch(p.envTexel);
+      }
 
     // Paths that go on are compacted to the front, in order.
     size_t kept = 0;
@@ -158,7 +185,7 @@ void AmbientPaths::estimateGroup(std::span<const SurfaceHit> hits, IntegratorCon
         Vec3 L(0, 0, 0);
         if (m > 0.0) {
           float pl = 0.0f;
-          L = env.radianceAndPdf(batch.dir(r), pl);
+          L = env.radianceAndPdfAt(p.envTexel, pl);
           if (mis) wb = powerHeuristic(p.pdfB, pl);
         }
         const double Lc[3] = {double(L.x), double(L.y), double(L.z)};

@@ -232,6 +232,73 @@ TEST(EnvironmentSampling, DensityIsTheSamplersProbability) {
   EXPECT_LT(chi2, (cells - 1) + 5 * std::sqrt(2.0 * (cells - 1)));
 }
 
+TEST(EnvironmentSampling, GuidedWalkIsTheBinarySearch) {
+  // The guide only chooses where the walk starts (docs/math.md §14.3,
+  // "Cost"): from any start the walk ends on the binary search's step, for
+  // every x - the CDF's own values and their neighbours, the guide's slot
+  // bounds, zero-width steps, a CDF whose last steps round to 1, a black
+  // row's all-zero CDF.
+  std::vector<std::vector<float>> cdfs;
+  cdfs.push_back({0.0f, 0.25f, 0.25f, 0.25f, 0.5f, 1.0f});
+  cdfs.push_back({0.0f, 0.0f, 0.0f, 1.0f});
+  cdfs.push_back({0.0f, 0.0f, 0.0f, 0.0f, 0.0f});
+  cdfs.push_back({0.0f, 1e-9f, 0.5f, 1.0f, 1.0f, 1.0f});
+  std::vector<float> ragged{0.0f};
+  for (uint32_t k = 1; k < 300; ++k) ragged.push_back(ragged.back() + float((k * 40503u) % 7 == 0 ? 0 : (k * 2654435761u) % 1000));
+  for (float& c : ragged) c /= ragged.back();
+  ragged.back() = 1.0f;
+  cdfs.push_back(ragged);
+  for (const std::vector<float>& cdf : cdfs) {
+    const uint32_t n = uint32_t(cdf.size() - 1);
+    for (const uint32_t size : {1u, 3u, n / 4 + 1, n, 4 * n + 1}) {
+      std::vector<uint32_t> guide(size);
+      EnvironmentView::buildGuide(cdf.data(), n, size, guide.data());
+      std::vector<float> xs{0.0f, std::nextafter(1.0f, 0.0f)};
+      for (const float c : cdf)
+        for (const float x : {std::nextafter(c, 0.0f), c, std::nextafter(c, 1.0f)}) xs.push_back(x);
+      for (uint32_t k = 0; k <= size; ++k) {
+        const float b = float(k) / float(size);
+        for (const float x : {std::nextafter(b, 0.0f), b, std::nextafter(b, 1.0f)}) xs.push_back(x);
+      }
+      for (int k = 0; k < 4096; ++k) xs.push_back(Sampler::get2D(3, uint32_t(k), 0).u);
+      for (const float x : xs) {
+        if (!(x >= 0.0f && x < 1.0f)) continue;
+        ASSERT_EQ(EnvironmentView::guidedStep(cdf.data(), n, guide.data(), size, x),
+                  EnvironmentView::searchStep(cdf.data(), n, x))
+            << "n " << n << " guide " << size << " x " << x;
+      }
+    }
+  }
+  // On a map, staged draws land on the texels the binary searches give.
+  const uint32_t W = 64, H = 32;
+  std::vector<float> rgb(size_t(W) * H * 3, 0.0f);
+  for (size_t t = 0; t < rgb.size(); ++t) rgb[t] = (t / 3) % 5 == 0 ? 0.0f : float((t * 40503u) % 97) / 10.0f;
+  for (uint32_t i = 0; i < W; ++i)
+    for (int c = 0; c < 3; ++c) rgb[3 * (size_t(5) * W + i) + size_t(c)] = 0.0f;  // a black row
+  for (int c = 0; c < 3; ++c) rgb[3 * (size_t(9) * W + 40) + size_t(c)] = 1e5f;  // a sun
+  const auto env = Environment::fromTexels(rgb, W, H, {}, "sun");
+  const EnvironmentView& v = env->view();
+  for (uint32_t k = 0; k < (1u << 16); ++k) {
+    const Sample2 u = Sampler::get2D(11, k, 5);
+    EnvironmentView::Draw d;
+    v.drawRow(u, d);
+    v.drawStart(d);
+    v.drawColumn(u, d);
+    const uint32_t j = EnvironmentView::searchStep(v.rowCdf, H, u.v);
+    ASSERT_EQ(d.j, j) << k;
+    ASSERT_EQ(d.i, EnvironmentView::searchStep(v.columnCdf + size_t(j) * (W + 1), W, u.u)) << k;
+    float staged = 0, whole = 0;
+    Vec3 Ls, Lw;
+    const Vec3 ws = v.drawDirection(u, d, staged, Ls), ww = v.sample(u, whole, Lw);
+    ASSERT_TRUE(ws.x == ww.x && ws.y == ww.y && ws.z == ww.z && staged == whole && Ls.x == Lw.x) << k;
+    float looked = 0;
+    const Vec3 L = v.radianceAndPdfAt(v.texelIndex(ws), looked);
+    float direct = 0;
+    const Vec3 L2 = v.radianceAndPdf(ws, direct);
+    ASSERT_TRUE(L.x == L2.x && looked == direct) << k;
+  }
+}
+
 // A horizontal square y = 0 (normal +Y) and a camera looking down at it.
 struct OpenPlane {
   Scene scene;

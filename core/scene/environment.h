@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <obscura/environment.h>
+#include <obscura/large_vector.h>
 
 namespace obscura {
 
@@ -83,7 +84,13 @@ class Environment {
 
   struct Pyramid;
   EnvironmentOptions options_;
-  std::vector<float> texels_, rowCdf_, columnCdf_, rowSolidAngle_, rowCos_, irradiance_;
+  // The tables a light draw or a lookup reads at random (tens of MiB for a
+  // 2048 x 1024 map) on huge pages: a random read through 4 KiB pages
+  // misses the TLB as well as the caches (docs/math.md §14.3, "Cost").
+  LargeVector<float> texels_, columnCdf_;
+  LargeVector<uint32_t> columnGuide_;
+  std::vector<float> rowCdf_, rowSolidAngle_, rowCos_, irradiance_;
+  std::vector<uint32_t> rowGuide_;
   std::unique_ptr<Pyramid> pyramid_;
   EnvironmentView view_;
   std::string hash_;

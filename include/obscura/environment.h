@@ -88,6 +88,14 @@ struct EnvironmentView {
   // radiance (a black map cannot be sampled and needs no sampling).
   const float* rowCdf = nullptr;
   const float* columnCdf = nullptr;
+  // Guide tables (docs/math.md §14.3, "Cost"): rowGuide has rowGuideSize
+  // entries, columnGuide height rows of columnGuideSize; entry k of a CDF's
+  // guide is the step pick() returns for x = k / size, where the search for
+  // any x in [k, k + 1) / size starts. Only a start: the walk from it gives
+  // the binary search's answer exactly, wherever it starts.
+  const uint32_t* rowGuide = nullptr;
+  const uint32_t* columnGuide = nullptr;
+  uint32_t rowGuideSize = 1, columnGuideSize = 1;
   const float* rowSolidAngle = nullptr;
   const float* rowCos = nullptr;  // height + 1 entries: cos(pi j / height), the rows' bounds
   bool samplable = false;
@@ -143,10 +151,20 @@ struct EnvironmentView {
   }
   // L(w) and pdf(w) with one texel lookup (a cosine direction's escape
   // under MIS needs both).
-  Vec3 radianceAndPdf(Vec3 w, float& density) const {
+  Vec3 radianceAndPdf(Vec3 w, float& density) const { return radianceAndPdfAt(texelIndex(w), density); }
+  // The same in two steps, for a batch of lookups: texelIndex() of each
+  // direction with prefetch() of its texel first, then
+  // radianceAndPdfAt() of each - the texel array is far larger than the
+  // caches, and the lookups' misses overlap instead of following one
+  // another (docs/math.md §14.3, "Cost").
+  size_t texelIndex(Vec3 w) const {
     uint32_t i = 0, j = 0;
     if (!constant) texelOf(w, i, j);
-    const float* t = texels + 4 * (size_t(j) * width + i);
+    return size_t(j) * width + i;
+  }
+  void prefetch(size_t texel) const { prefetchLine(texels + 4 * texel); }
+  Vec3 radianceAndPdfAt(size_t texel, float& density) const {
+    const float* t = texels + 4 * texel;
     density = t[3];
     return {t[0], t[1], t[2]};
   }
@@ -154,9 +172,37 @@ struct EnvironmentView {
   // density and the radiance of the texel it lies in (the one drawn, not a
   // lookup of the direction, which could round into a neighbour).
   Vec3 sample(Sample2 s, float& density, Vec3& L) const {
-    const uint32_t j = pick(rowCdf, height, s.v);
+    Draw d;
+    drawRow(s, d);
+    drawStart(d);
+    drawColumn(s, d);
+    return drawDirection(s, d, density, L);
+  }
+  // sample() in stages, for a batch of draws: each stage of every draw,
+  // then the next. A stage prefetches what the next one reads - the column
+  // guide's entry, the column CDF where the walk starts, the texel - so
+  // the batch's cache misses overlap (docs/math.md §14.3, "Cost"). The
+  // same arithmetic as sample(): the same direction, bit for bit.
+  struct Draw {
+    uint32_t j = 0;  // the row
+    uint32_t i = 0;  // the column guide's slot, then the walk's start, then the column
+  };
+  void drawRow(Sample2 s, Draw& d) const {
+    d.j = guidedPick(rowCdf, height, rowGuide, rowGuideSize, s.v);
+    d.i = guideSlot(columnGuideSize, s.u);
+    prefetchLine(columnGuide + size_t(d.j) * columnGuideSize + d.i);
+  }
+  void drawStart(Draw& d) const {
+    d.i = columnGuide[size_t(d.j) * columnGuideSize + d.i];
+    prefetchLine(columnCdf + size_t(d.j) * (width + 1) + d.i);
+  }
+  void drawColumn(Sample2 s, Draw& d) const {
+    d.i = walk(columnCdf + size_t(d.j) * (width + 1), width, d.i, s.u);
+    prefetch(size_t(d.j) * width + d.i);
+  }
+  Vec3 drawDirection(Sample2 s, const Draw& d, float& density, Vec3& L) const {
+    const uint32_t i = d.i, j = d.j;
     const float* c = columnCdf + size_t(j) * (width + 1);
-    const uint32_t i = pick(c, width, s.u);
     // Uniform in solid angle within the texel: phi uniform, cos theta uniform.
     const float fu = remap(c, i, s.u), fv = remap(rowCdf, j, s.v);
     const float phi = ((float(i) + fu) / float(width) - 0.5f) * (2.0f * kPi);
@@ -220,6 +266,44 @@ struct EnvironmentView {
     const float* k = std::upper_bound(cdf, cdf + n + 1, x);
     return uint32_t(std::clamp<ptrdiff_t>(k - cdf - 1, 0, ptrdiff_t(n) - 1));
   }
+  // pick(cdf, n, x) from the guide's start (cdf non-decreasing, 0 ... 1):
+  // down while cdf[i] > x, then up while cdf[i + 1] <= x - the largest i
+  // < n with cdf[i] <= x, as upper_bound finds it. The guide makes the walk
+  // n / size + 1 steps on average over x, one or two cache lines of the CDF
+  // instead of the binary search's log2(n) scattered ones (docs/math.md
+  // §14.3, "Cost").
+  static uint32_t guidedPick(const float* cdf, uint32_t n, const uint32_t* guide, uint32_t size, float x) {
+    return walk(cdf, n, guide[guideSlot(size, x)], x);
+  }
+  static uint32_t guideSlot(uint32_t size, float x) {
+    return std::min(size - 1, uint32_t(std::max(0.0f, x * float(size))));
+  }
+  static uint32_t walk(const float* cdf, uint32_t n, uint32_t i, float x) {
+    while (i > 0 && cdf[i] > x) --i;
+    while (i + 1 < n && cdf[i + 1] <= x) ++i;
+    return i;
+  }
+  template <class T>
+  static void prefetchLine(const T* p) {
+#if defined(__GNUC__)
+    __builtin_prefetch(p);
+#else
+    (void)p;
+#endif
+  }
+
+ public:
+  // The guide of a CDF of n steps with `size` entries (built with the
+  // tables; public for the tests).
+  static void buildGuide(const float* cdf, uint32_t n, uint32_t size, uint32_t* guide) {
+    for (uint32_t k = 0; k < size; ++k) guide[k] = pick(cdf, n, float(k) / float(size));
+  }
+  static uint32_t searchStep(const float* cdf, uint32_t n, float x) { return pick(cdf, n, x); }
+  static uint32_t guidedStep(const float* cdf, uint32_t n, const uint32_t* guide, uint32_t size, float x) {
+    return guidedPick(cdf, n, guide, size, x);
+  }
+
+ private:
   static float remap(const float* cdf, uint32_t k, float x) {
     const float w = cdf[k + 1] - cdf[k];
     return w > 0.0f ? std::clamp((x - cdf[k]) / w, 0.0f, 0.99999994f) : 0.5f;
