@@ -276,7 +276,13 @@ double creaseVo(double h, double R) {
   return (2.0 + 3.0 * eta - eta * eta * eta) / 4.0;
 }
 
-CreaseCentres creaseCentres(const Crease& c, int w, int h, double R) {
+double creaseCosine(double h, double R) {
+  const double eta = std::min(h / R, 1.0);
+  return 1.0 - (std::acos(eta) - eta * std::sqrt(1.0 - eta * eta)) / 3.14159265358979323846;
+}
+
+CreaseCentres creaseCentres(const Crease& c, int w, int h, double R, double (*closedForm)(double, double),
+                            double slope) {
   CreaseCentres out;
   for (int y = 1; y + 1 < h; ++y)
     for (int x = 1; x + 1 < w; ++x) {
@@ -285,8 +291,8 @@ CreaseCentres creaseCentres(const Crease& c, int w, int h, double R) {
           p.x > 1.5 * R || std::abs(p.y) > 1.0f)
         continue;
       out.pixels.emplace_back(x, y);
-      out.V.push_back(creaseVo(p.x, R));
-      out.footprint += 3.0 / (4.0 * R) * (std::abs(px.x - p.x) + std::abs(py.x - p.x)) / 2.0;
+      out.V.push_back(closedForm(p.x, R));
+      out.footprint += slope / R * (std::abs(px.x - p.x) + std::abs(py.x - p.x)) / 2.0;
     }
   out.footprint /= double(std::max<size_t>(1, out.pixels.size()));
   return out;

@@ -177,18 +177,28 @@ struct Crease {
 // eta = min(h / R, 1).
 double creaseVo(double h, double R);
 
+// The cosine-weighted visibility within R (`ao distance=R`, and `gtao`'s
+// horizon estimator, which is exact here) at a floor point at distance h
+// from the wall: the wall occludes the directions that meet it within R,
+// -w_x > h / R, whose cosine-weighted share is the projected disk's segment
+// beyond eta = min(h / R, 1) over pi:
+//   v = 1 - (acos eta - eta sqrt(1 - eta^2)) / pi,   |dv/dh| <= 2 / (pi R).
+double creaseCosine(double h, double R);
+
 // The crease's floor pixels near the wall (h < 1.5 R, |y| < 1) whose right
-// and lower neighbours see the floor too, V = creaseVo(h, R) at each centre,
-// and the mean over them of the pixel-footprint bound: a pixel averages V
-// over its area, where h varies by up to |dh/dx| + |dh/dy| between pixel
-// centres, and |dV/dh| <= 3 / (4R), so a pixel may differ from V at its
-// centre by 3 / (4R) (|dh/dx| + |dh/dy|) / 2.
+// and lower neighbours see the floor too, V = closedForm(h, R) at each
+// centre (default creaseVo), and the mean over them of the pixel-footprint
+// bound: a pixel averages V over its area, where h varies by up to |dh/dx|
+// + |dh/dy| between pixel centres, and |dV/dh| <= slope / R (creaseVo: 3/4;
+// creaseCosine: 2/pi), so a pixel may differ from V at its centre by
+// slope / R (|dh/dx| + |dh/dy|) / 2.
 struct CreaseCentres {
   std::vector<std::pair<int, int>> pixels;
   std::vector<double> V;
   double footprint = 0.0;
 };
-CreaseCentres creaseCentres(const Crease& c, int w, int h, double R);
+CreaseCentres creaseCentres(const Crease& c, int w, int h, double R, double (*closedForm)(double, double) = creaseVo,
+                            double slope = 0.75);
 
 // --- files ------------------------------------------------------------------
 

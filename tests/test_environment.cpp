@@ -523,6 +523,8 @@ TEST(EnvironmentShading, ScreenSpaceAndContainmentBentNormalsOnTheCrease) {
       {"ssat", {"distance=0.5", "falloff=step", "silhouette=false", "interleave=off", "depth=traced"}, false},
       {"obscurance", {"distance=0.5", "falloff=step", "rays=16"}, false},
       {"containment", {"map=" + flat, "distance=0.5", "falloff=step", "rays=16"}, false},
+      {"gtao", {"radius=0.5", "interleave=off"}, false},
+      {"gtao", {"radius=0.5", "interleave=off", "depth=traced"}, false},
   };
   for (const auto& pass : passes) {
     const auto expected = [&](double h) {

@@ -3,8 +3,7 @@
 // frame, so a wall just off the image's edge occludes the edge's pixels as
 // the traced twin says; without the band (guard-band=0) they read no
 // occluder, as before the band existed. A region of a screen-space render
-// is the same pixels of the full render, bit for bit, and a multi-pass
-// render's screen-space layers are their solo renders.
+// is the same pixels of the full render, bit for bit.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -53,6 +52,7 @@ const std::vector<std::pair<std::string, std::vector<std::string>>>& edgePasses(
       {"vo", {"samples=line", "radius=1"}},
       {"vo", {"samples=point", "radius=1"}},
       {"ssat", {"distance=1", "silhouette=false", "interleave=off"}},
+      {"gtao", {"radius=1", "interleave=off"}},
   };
   return passes;
 }
@@ -143,6 +143,8 @@ TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
       {"vo", {"samples=line", "radius=0.7", "depth=traced", "interleave=on"}},
       {"ssat", {"distance=1"}},
       {"ssat", {"distance=1", "albedo=true", "steps=2", "guard-band=5"}},
+      {"gtao", {"radius=1"}},
+      {"gtao", {"radius=0.5", "depth=traced", "e0=normal"}},
   };
   for (const auto& [integ, params] : passes) {
     RenderSettings st = passSettings(W, H, 3, 7);

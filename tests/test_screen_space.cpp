@@ -435,6 +435,8 @@ const std::vector<std::pair<std::string, std::vector<std::string>>>& allConfigs(
       {"ssat", {}},
       {"ssat", {"albedo=true", "interleave=off", "steps=2"}},
       {"ssat", {"falloff=exponential", "distance=inf", "silhouette=false", "depth=traced"}},
+      {"gtao", {}},
+      {"gtao", {"interleave=off", "depth=traced", "e0=bent", "steps=3", "slices=2"}},
   };
   return c;
 }
@@ -451,7 +453,7 @@ TEST(ScreenSpaceExtremes, FiniteAndInUnitInterval) {
   for (const auto& [name, base] : allConfigs())
     for (const char* r : {"1e-6", "1", "1e6"}) {
       std::vector<std::string> p = base;
-      const bool vo = name == "vo";
+      const bool vo = name == "vo" || name == "gtao";  // (their radius is `radius`)
       bool hasDistance = false;
       for (const auto& q : p) hasDistance |= q.rfind("distance=", 0) == 0;
       if (vo) p.push_back(std::string("radius=") + r);

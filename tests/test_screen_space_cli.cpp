@@ -1,5 +1,5 @@
 // The screen-space integrators from the command line (issue 12's "done
-// when"): every option of `vo` and `ssat` renders the bundled scene, the
+// when"): every option of `vo`, `ssat` and `gtao` renders the bundled scene, the
 // third-party glTF scenes render with them, and `compare` runs them beside
 // `ao` and `gi`. Each output is a finished EXR whose pass is finite and in
 // [0, 1] wherever the pixel is covered.
@@ -17,7 +17,7 @@ namespace {
 
 const std::string kDefaultScene = sourcePath("scenes/default.gltf");
 
-// Each option of both integrators away from its default at least once (the
+// Each option of the integrators away from its default at least once (the
 // defaults themselves are the first of each list).
 const std::vector<std::vector<std::string>> kConfigs = {
     {"-i", "vo"},
@@ -34,6 +34,9 @@ const std::vector<std::vector<std::string>> kConfigs = {
     {"-i", "ssat", "-p", "falloff=exponential", "-p", "sigma=3", "-p", "distance=inf"},
     {"-i", "ssat", "-p", "interleave=off", "-p", "count=7", "-p", "filter-depth=0"},
     {"-i", "ssat", "-p", "depth=traced", "-p", "albedo=true"},
+    {"-i", "gtao"},
+    {"-i", "gtao", "-p", "radius=0.3", "-p", "slices=2", "-p", "steps=16", "-p", "multibounce=on"},
+    {"-i", "gtao", "-p", "interleave=off", "-p", "filter-depth=0", "-p", "depth=traced", "-p", "e0=bent"},
 };
 
 std::string describe(const std::vector<std::string>& args) {

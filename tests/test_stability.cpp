@@ -158,6 +158,8 @@ TEST(Stability, ScreenSpaceRadiusOverItsWholeRange) {
         {"vo", {"samples=line", "radius=" + r, "depth=traced"}},
         {"ssat", {"distance=" + r, "e0=bent"}},
         {"ssat", {"distance=" + r, "falloff=linear", "steps=2", "albedo=true"}},
+        {"gtao", {"radius=" + r, "e0=bent"}},
+        {"gtao", {"radius=" + r, "depth=traced", "multibounce=on"}},
     };
     for (const Config& c : configs) {
       const Film f = renderWith(scene, cam, c.integrator, c.params, st);

@@ -1,4 +1,4 @@
-// What the screen-space integrators (`vo`, `ssat`) share: the per-pixel
+// What the screen-space integrators (`vo`, `ssat`, `gtao`) share: the per-pixel
 // rotation of their sample sets (random, or the 4x4 interleaved pattern of
 // AT §4.2), and the one lookup both estimators are built on - the depth z*
 // of the first surface on the camera ray through a view-space point q - read
@@ -27,7 +27,7 @@ enum class DepthSource { GBuffer, Traced, None };
 // empty: a fraction ~1.5 kDepthBias z / R of a ball's points at depth z.
 constexpr float kDepthBias = 2e-6f;
 
-// Parameters shared by both integrators: count, interleave, filter-depth,
+// Parameters shared by the integrators: count, interleave, filter-depth,
 // depth, guard-band.
 std::vector<ParamSpec> sharedParams(const std::string& countDoc, int countDefault, const std::string& interleaveDefault);
 DepthSource depthSourceFromParams(const ParamSet& p);
@@ -159,7 +159,10 @@ inline bool decidedByStoredDepth(const std::array<float, 2>& ds, float depthQ) {
 // at most the pixel's depth range) a q far from the pixel's surface gets the
 // stored depth; line samples, which place the surface on their chord, ask
 // for the plane always.
-inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact, const ReadWindow& w) {
+// `normal`, if not null, receives the stored plane's normal there (view
+// space; zero where nothing is known), for gtao's same-plane test.
+inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact, const ReadWindow& w, Vec3* normal = nullptr) {
+  if (normal) *normal = Vec3(0, 0, 0);
   if (!(q.z < 0.0f)) return kInfinity;
   // The ray through q is depth x (a, b, -1).
   const float inv = 1.0f / -q.z;
@@ -168,6 +171,7 @@ inline float zBufferDepth(const GBufferLayer& g, Vec3 q, bool exact, const ReadW
   const float fy = g.view.centreY - b * g.view.filmScaleY;
   if (!w.contains(fx, fy)) return kInfinity;
   const size_t j = g.index(int(fx), int(fy));
+  if (normal) *normal = Vec3(g.plane[j][0], g.plane[j][1], g.plane[j][2]);
   const std::array<float, 2> ds = g.depthSlack[j];
   if (!exact && decidedByStoredDepth(ds, -q.z)) return ds[0];
   return planeDepth(g, j, a, b);
@@ -294,26 +298,31 @@ constexpr int kPixelRun = 64;
 // push, no second pass), or by tracing the camera ray through each point
 // (closest hit; z* = the hit's depth, +inf on a miss) in one stream at
 // run(). Fixed capacity, allocated once per use: nothing allocates per point.
+// With `normals`, also the unit normal (view space) of the surface found:
+// the stored plane's, or the traced hit's geometric normal; zero where
+// nothing was found.
 class DepthLookup {
  public:
   // `exact`: see zBufferDepth.
-  DepthLookup(DepthSource src, size_t capacity, bool exact) : src_(src), exact_(exact), q_(capacity), z_(capacity) {}
-  void clear() { n_ = 0; }
+  DepthLookup(DepthSource src, size_t capacity, bool exact, bool normals = false)
+      : src_(src), exact_(exact), q_(capacity), z_(capacity), n_(normals ? capacity : 0) {}
+  void clear() { size_ = 0; }
   // The read window of the pixel whose points come next (forEachPixelRun
   // sets it); the traced twin traces every point, wherever it projects.
   void setWindow(const ReadWindow& w) { window_ = w; }
   void push(const GBufferLayer& g, Vec3 q) {
-    q_[n_] = q;
-    if (src_ == DepthSource::GBuffer) z_[n_] = zBufferDepth(g, q, exact_, window_);
-    ++n_;
+    q_[size_] = q;
+    if (src_ == DepthSource::GBuffer)
+      z_[size_] = zBufferDepth(g, q, exact_, window_, n_.empty() ? nullptr : &n_[size_]);
+    ++size_;
   }
-  size_t size() const { return n_; }
+  size_t size() const { return size_; }
   // Traced: fills z(i) for every pushed point (the z-buffer's are filled).
   void run(const GBufferLayer& g, IntegratorContext& ctx) {
     if (src_ != DepthSource::Traced) return;
-    IntersectBatch& b = ctx.intersectBatch(n_);
+    IntersectBatch& b = ctx.intersectBatch(size_);
     const Vec3 org = g.view.origin;
-    for (size_t i = 0; i < n_; ++i) {
+    for (size_t i = 0; i < size_; ++i) {
       const Vec3 d = g.view.vectorToWorld(q_[i]);
       const float len = length(d);
       if (q_[i].z < 0.0f && len > 0.0f)
@@ -322,13 +331,21 @@ class DepthLookup {
         b.push(org, Vec3(0, 0, -1), kInfinity, 0.0f);
     }
     ctx.trace(b);
-    for (size_t i = 0; i < n_; ++i) {
+    SurfaceHit h;
+    for (size_t i = 0; i < size_; ++i) {
       const float len = length(q_[i]);
       z_[i] = b.hit(i) && len > 0.0f ? b.t(i) * (-q_[i].z / len) : kInfinity;
+      if (n_.empty()) continue;
+      n_[i] = Vec3(0, 0, 0);
+      if (z_[i] < kInfinity) {
+        ctx.surfaceAt(b, i, false, 0, 0, h);
+        n_[i] = g.view.vectorToView(h.ng);
+      }
     }
   }
   float z(size_t i) const { return z_[i]; }
   const Vec3& q(size_t i) const { return q_[i]; }
+  const Vec3& normal(size_t i) const { return n_[i]; }
 
  private:
   DepthSource src_;
@@ -336,7 +353,8 @@ class DepthLookup {
   ReadWindow window_{0.0f, 0.0f, 0.0f, 0.0f};
   std::vector<Vec3> q_;
   std::vector<float> z_;
-  size_t n_ = 0;
+  std::vector<Vec3> n_;
+  size_t size_ = 0;
 };
 
 // The pixels of `tile` in runs along its rows, so that the lookups of a
