@@ -27,6 +27,7 @@
 #include "core/render/render.h"
 #include "app/options.h"
 #include "app/compare.h"
+#include "app/fit.h"
 #include "app/interrupt.h"
 #include "app/merge.h"
 #include "app/render_setup.h"
@@ -415,6 +416,24 @@ int main(int argc, char** argv) {
   addSceneOptions(compare, cmp);
   compare->add_option("--plugin", cmp.plugins, "Load an integrator plugin; repeatable");
 
+  // obscura fit: the improved-AO fit on the user's scenes (app/fit.h, docs/math.md §6).
+  FitArgs fitArgs;
+  CLI::App* fit = app.add_subcommand("fit", "Fit the improved-AO mapping's F0 and F1 to renders of scenes (for multibounce mapping=fitted)");
+  fit->option_defaults()->always_capture_default();
+  fit->add_option("scenes", fitArgs.scenes, "glTF 2.0 scenes whose pixels are pooled; default: the bundled scene");
+  fit->add_option("-o,--output", fitArgs.output, "Coefficients file to write (.json, atomically)")->required();
+  fit->add_option("--histogram", fitArgs.histogram, "Also write the pooled histogram and the curves as CSV");
+  fit->add_option("--bins", fitArgs.bins, "AO bins of the histogram (in [3, 100000])");
+  fit->add_option("--res", fitArgs.res, "Resolution WIDTHxHEIGHT of every scene's render");
+  fit->add_option("--spp", fitArgs.spp, "Camera samples per pixel");
+  fit->add_option("--rays", fitArgs.rays, "Rays (paths) per camera sample of each of the three passes");
+  fit->add_option("--camera", fitArgs.camera, "Camera name or index in each file, or 'auto' (default: the first camera, else auto)");
+  fit->add_option("--threads", fitArgs.threads, "Worker threads (0 = all cores)");
+  fit->add_option("--seed", fitArgs.seed, "Sampling seed");
+  fit->add_flag("-q,--quiet", fitArgs.quiet, "No progress (the coefficients still go to stdout)");
+  fit->add_flag("--robust", fitArgs.robust, "Watertight Embree traversal");
+  addSceneOptions(fit, fitArgs);
+
   std::string mergeOutput;
   std::vector<std::string> mergeTiles;
   CLI::App* merge = app.add_subcommand("merge", "Assemble region renders (render --region) into the full frame");
@@ -473,6 +492,10 @@ int main(int argc, char** argv) {
       return runRender(r);
     }
     if (compare->parsed()) return runCompare(cmp, interrupt::flag());
+    if (fit->parsed()) {
+      if (fitArgs.scenes.empty()) fitArgs.scenes = {OBSCURA_DEFAULT_SCENE};
+      return runFit(fitArgs, interrupt::flag());
+    }
     if (info->parsed()) return runInfo(infoArgs);
     if (sky->parsed()) return runSky(skyArgs);
     if (merge->parsed()) {

@@ -6,7 +6,12 @@
 // - gtao: the cosine-weighted visibility v = (1/pi) Int V cos+ dw, estimated
 //   with directions ~ cos(theta)/pi (the `ao` integrator's sequence);
 // - improved: the uniform solid-angle visibility alpha = Int V dw / 2 pi,
-//   estimated with directions uniform over the hemisphere.
+//   estimated with directions uniform over the hemisphere (pushUniformRays);
+// - fitted: the same function with the coefficients of a file `fit=FILE`
+//   that `obscura fit` wrote (integrators/iao_fit.h, docs/math.md §6
+//   "Fitting F0 and F1"), read once when the integrator is created; with the
+//   published coefficients it is `improved` bit for bit (one evaluation,
+//   fittedMultiBounce, serves both).
 // The mappings are nonlinear, so they are applied once per pixel to the
 // converged AO value and the pixel's mean albedo (Integrator::resolvePixel),
 // not per camera sample: mapping a noisy one-ray estimate would be biased.
@@ -18,46 +23,42 @@
 #include <limits>
 
 #include <obscura/plugin.h>
+#include "integrators/uniform_rays.h"
 #include "integrators/falloff.h"
+#include <obscura/error.h>
+#include "integrators/iao_fit.h"
 #include "integrators/multibounce_mapping.h"
 
 namespace obscura {
 namespace {
 
-enum class Mapping { Gtao, Improved };
+enum class Mapping { Gtao, Improved, Fitted };
 
 class MultiBounce final : public Integrator {
  public:
-  MultiBounce(Mapping mapping, float R, uint32_t rays, LobeControls lobe)
-      : mapping_(mapping), R_(R), rays_(rays), lobe_(lobe) {}
+  MultiBounce(Mapping mapping, ImprovedFit fit, float R, uint32_t rays, LobeControls lobe)
+      : mapping_(mapping), fit_(fit), R_(R), rays_(rays), lobe_(lobe) {}
 
   void estimate(std::span<const SurfaceHit> hits, IntegratorContext& ctx, SampleEstimate* out) const override {
     OcclusionBatch& batch = ctx.occlusionBatch(hits.size() * rays_);
-    if (mapping_ == Mapping::Gtao) {
+    if (mapping_ == Mapping::Gtao)
       pushCosineRays(hits, rays_, R_, lobe_, batch);
-    } else {
-      for (const SurfaceHit& h : hits) {
-        const Frame frame = lobe_.at(h).frame;
-        for (uint32_t k = 0; k < rays_; ++k) {
-          const Sample2 s = Sampler::get2D(h.pixelKey, h.sampleIndex * rays_ + k, kFirstIntegratorDim);
-          const Vec3 w = frame.toWorld(squareToUniformCone(s.u, s.v, lobe_.cosThetaMax));
-          batch.push(spawnOrigin(h, w), w, lobe_.tnear, R_, h);
-        }
-      }
-    }
+    else
+      pushUniformRays(hits, rays_, R_, lobe_, batch);
     ctx.trace(batch);
     writeMeanVisibility(hits, batch, rays_, lobe_, out);
   }
 
   Vec3 resolvePixel(Vec3 W, Vec3 albedo) const override {
     const auto map = [&](float v, float rho) {
-      return float(mapping_ == Mapping::Gtao ? gtaoMultiBounce(v, rho) : improvedMultiBounce(v, rho));
+      return float(mapping_ == Mapping::Gtao ? gtaoMultiBounce(v, rho) : fittedMultiBounce(v, rho, fit_));
     };
     return Vec3(map(W.x, albedo.x), map(W.y, albedo.y), map(W.z, albedo.z));
   }
 
  private:
   Mapping mapping_;
+  ImprovedFit fit_;  // improved: the published coefficients
   float R_;
   uint32_t rays_;
   LobeControls lobe_;
@@ -66,10 +67,14 @@ class MultiBounce final : public Integrator {
 IntegratorDescriptor multibounceDescriptor() {
   IntegratorDescriptor d;
   d.name = "multibounce";
-  d.doc = "Multi-bounce AO: AO mapped per pixel with its albedo to predict further bounces (GTAO or improved-AO fit).";
+  d.doc = "Multi-bounce AO: AO mapped per pixel with its albedo to predict further bounces (GTAO, or the improved-AO "
+          "fit: published or made by 'obscura fit').";
   d.params = {
-      {.name = "mapping", .type = ParamType::Enum, .defaultValue = "gtao", .choices = {"gtao", "improved"},
-       .doc = "gtao: Jimenez et al. 2016 on cosine-weighted AO; improved: improved-AO fit on uniform AO"},
+      {.name = "mapping", .type = ParamType::Enum, .defaultValue = "gtao", .choices = {"gtao", "improved", "fitted"},
+       .doc = "gtao: Jimenez et al. 2016 on cosine-weighted AO; improved: improved-AO fit on uniform AO; fitted: the "
+              "improved-AO form with the coefficients of fit=FILE"},
+      {.name = "fit", .type = ParamType::String, .defaultValue = "",
+       .doc = "mapping=fitted: the coefficients file 'obscura fit' writes (JSON: F0.scale, F0.exponent, F1.A, F1.B)"},
       {.name = "distance", .type = ParamType::Float, .defaultValue = "inf", .min = 0.0, .max = 1e308,
        .allowInfinity = true, .doc = "R of the AO: occluders farther than this do not count; inf = any hit occludes"},
       {.name = "rays", .type = ParamType::Int, .defaultValue = "1", .min = 1, .max = 65536,
@@ -79,8 +84,23 @@ IntegratorDescriptor multibounceDescriptor() {
   d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.needs = [](const ParamSet&) { return IntegratorNeeds{.albedo = true, .pixelAlbedo = true}; };
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
-    const Mapping m = p.getEnum("mapping") == "gtao" ? Mapping::Gtao : Mapping::Improved;
-    return std::make_unique<MultiBounce>(m, toRayDistance(p.getFloat("distance")), uint32_t(p.getInt("rays")),
+    const std::string& name = p.getEnum("mapping");
+    const Mapping m = name == "gtao" ? Mapping::Gtao : name == "improved" ? Mapping::Improved : Mapping::Fitted;
+    const std::string& file = p.getString("fit");
+    if (m == Mapping::Fitted && file.empty())
+      throw Error("integrator 'multibounce': parameter 'fit' (a coefficients file from 'obscura fit') is required with "
+                  "mapping=fitted");
+    if (m != Mapping::Fitted && !file.empty())
+      throw Error("integrator 'multibounce': parameter 'fit' is read only with mapping=fitted, not mapping=" + name);
+    ImprovedFit fit;  // the published coefficients
+    if (m == Mapping::Fitted) {
+      try {
+        fit = readImprovedFit(file);
+      } catch (const Error& e) {
+        throw Error(std::string("integrator 'multibounce': parameter 'fit': ") + e.what());
+      }
+    }
+    return std::make_unique<MultiBounce>(m, fit, toRayDistance(p.getFloat("distance")), uint32_t(p.getInt("rays")),
                                          lobeFromParams(p, p.getFloat("distance")));
   };
   return d;
