@@ -138,7 +138,7 @@ int runRender(const RenderArgs& args) {
     RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
     checkOutputPaths(fa.output, fa.preview, fa.scene);
-    checkFilmMemory(fa, s, screenSpaceBandBound(setups, s.width, s.height), args.passes.size());
+    checkFilmMemory(fa, s, screenSpaceBound(setups, s.width, s.height), args.passes.size());
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");

@@ -146,15 +146,16 @@ bool anyScreenSpace(const std::vector<PassSetup>& setups) {
   return std::any_of(setups.begin(), setups.end(), [](const PassSetup& p) { return p.desc->kind == IntegratorKind::ScreenSpace; });
 }
 
-int screenSpaceBandBound(const std::vector<PassSetup>& setups, int w, int h) {
-  int band = -1;
+ScreenSpaceBound screenSpaceBound(const std::vector<PassSetup>& setups, int w, int h) {
+  ScreenSpaceBound bound;
   for (const PassSetup& p : setups) {
     const ScreenSpaceIntegrator* ss = p.integrator->screenSpace();
     if (!ss) continue;
     const ScreenSpaceIntegrator::GuardBand gb = ss->guardBand();
-    band = std::max(band, gb.pixels >= 0 ? gb.pixels : guardBandCap(w, h));
+    bound.band = std::max(bound.band, gb.pixels >= 0 ? gb.pixels : guardBandCap(w, h));
+    ++bound.passes;
   }
-  return band;
+  return bound;
 }
 
 RenderSettings renderSettings(const RenderArgs& args) {
@@ -198,7 +199,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   return s;
 }
 
-void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, int screenSpaceBand, size_t layers) {
+void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBound screenSpace, size_t layers) {
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer
@@ -208,7 +209,7 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, int screenSpa
   const PixelRect win = renderWindow(s);
   const uint64_t need = filmBytes(win.width(), win.height(), s.aovs, s.albedoAov) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
                         (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
-                        (screenSpaceBand >= 0 ? screenSpaceWorkingBytes(win, screenSpaceBand) : 0) +
+                        (screenSpace.band >= 0 ? screenSpaceWorkingBytes(win, screenSpace.band, screenSpace.passes) : 0) +
                         cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
                         // Adaptive sampling keeps every pixel's sums across rounds (core/render/render.cpp);
                         // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and

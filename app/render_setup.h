@@ -67,8 +67,13 @@ std::vector<PassSetup> passSetups(const RenderArgs& a);
 bool anyScreenSpace(const std::vector<PassSetup>& setups);
 // The widest guard band (pixels) the screen-space passes can have in a
 // w x h render - each pass's guard-band, or the automatic band's cap -,
-// or -1 without a screen-space pass (core/render/gbuffer.h layerGeometry).
-int screenSpaceBandBound(const std::vector<PassSetup>& setups, int w, int h);
+// or -1 without a screen-space pass (core/render/gbuffer.h layerGeometry),
+// and how many screen-space passes share the layer loop.
+struct ScreenSpaceBound {
+  int band = -1;
+  int passes = 0;
+};
+ScreenSpaceBound screenSpaceBound(const std::vector<PassSetup>& setups, int w, int h);
 
 // The render settings of `a` (every option checked, in the order the CLI
 // always checked them); throws obscura::Error naming the option.
@@ -85,9 +90,9 @@ void checkOutputPaths(const std::string& output, const std::string& preview, con
 // Refuses a render whose film (and what the render keeps beside it: a
 // screen-space pass's G-buffer, Cryptomatte, adaptive sums, the denoiser's
 // planes, the preview's bytes) would need more memory than the system has
-// available. `layers`: the --pass layers; `screenSpaceBand`:
-// screenSpaceBandBound. Names --res.
-void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, int screenSpaceBand, size_t layers);
+// available. `layers`: the --pass layers; `screenSpace`:
+// screenSpaceBound. Names --res.
+void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBound screenSpace, size_t layers);
 
 // --checkpoint SECONDS (a.checkpoint) and the passes it allows, for the
 // checkpoint file `file`; throws naming --checkpoint.

@@ -1,7 +1,7 @@
 // Several passes from one render (core/render/render.h, docs/production.md "Several passes in
 // one render"): each pass in a combined render equals the same pass rendered
 // alone, bit for bit - the ray-traced passes share one walk over the camera
-// samples, a screen-space pass runs its own G-buffer loop - and the CLI's
+// samples, the screen-space passes one G-buffer layer per sample - and the CLI's
 // --pass/--primary write one layer per pass with every pass's parameters in
 // the header.
 #include <gtest/gtest.h>
@@ -10,6 +10,7 @@
 
 #include <obscura/error.h>
 #include "core/load/gltf_loader.h"
+#include "core/render/gbuffer.h"
 #include "core/render/render.h"
 #include "tests/support.h"
 
@@ -101,6 +102,64 @@ TEST_F(MultiPass, ScreenSpacePrimary) {
   RenderSettings s = passSettings(40, 24, 2, 3);
   s.aovs = true;
   checkCombinedEqualsSolo(*scene_, cam_, {{"vo", "vo", {}}, {"ao", "ao", {}}, {"ssat", "ssat", {}}}, s);
+}
+
+// Screen-space passes share one G-buffer layer per camera sample
+// (core/render/gbuffer.cpp renderScreenSpace): each reads it within its own
+// guard band and moment levels, so each layer still equals its solo render
+// bit for bit - passes with different bands (one fixed at 5 pixels, one
+// without a band, which reads the image alone), depth moments of two band
+// widths, the interleave filter, albedo, a traced twin, gtao - under a
+// ray-traced primary and a screen-space one, and with adaptive sampling,
+// where each pass keeps its own schedule.
+TEST_F(MultiPass, ScreenSpacePassesShareOneLayerAndEqualTheirSoloRenders) {
+  const std::vector<PassConfig> screenSpace = {
+      {"vo_area", "vo", {"samples=area", "radius=1"}},
+      {"vo_small", "vo", {"samples=area", "radius=0.2", "guard-band=5"}},
+      {"vo_il", "vo", {"samples=point", "interleave=on", "radius=0.5"}},
+      {"ssat", "ssat", {"albedo=true", "distance=0.7"}},
+      {"vo_none", "vo", {"guard-band=0"}},
+      {"gtao", "gtao", {"radius=0.6"}},
+      {"twin", "vo", {"depth=traced", "radius=0.7"}},
+  };
+  RenderSettings s = passSettings(44, 26, 3, 5);
+  s.aovs = true;
+  checkCombinedEqualsSolo(*scene_, cam_, screenSpace, s);
+  std::vector<PassConfig> rayTracedFirst = {{"ao", "ao", {"distance=2"}}};
+  rayTracedFirst.insert(rayTracedFirst.end(), screenSpace.begin(), screenSpace.end());
+  checkCombinedEqualsSolo(*scene_, cam_, rayTracedFirst, s);
+  RenderSettings adaptive = passSettings(44, 26, 16, 5);
+  adaptive.targetError = 0.05f;
+  adaptive.minSpp = 4;
+  checkCombinedEqualsSolo(*scene_, cam_, {screenSpace[0], screenSpace[2], screenSpace[3]}, adaptive);
+}
+
+// One layer, not one per pass: the camera rays of passes sharing a layer
+// are those of the widest pass's layer alone (the layers here nest: the
+// widest contains each other's, asserted from layerGeometry).
+TEST_F(MultiPass, ScreenSpacePassesTraceOneLayerOfCameraRays) {
+  const std::vector<PassConfig> configs = {
+      {"wide", "vo", {"samples=area", "radius=1"}},
+      {"narrow", "vo", {"radius=0.3"}},
+      {"ssat", "ssat", {"distance=0.5"}},
+  };
+  const RenderSettings s = passSettings(40, 24, 2, 1);
+  std::vector<Built> built;
+  std::vector<RenderPass> passes;
+  for (const PassConfig& c : configs) built.push_back(build(c));
+  for (size_t k = 0; k < configs.size(); ++k) passes.push_back({built[k].integrator.get(), built[k].needs, configs[k].layer});
+  const PixelRect frame{0, 0, s.width, s.height};
+  const LayerGeometry wide = layerGeometry(*built[0].integrator->screenSpace(), *scene_, cam_, s.width, s.height, frame);
+  for (size_t k = 1; k < built.size(); ++k) {
+    const LayerGeometry g = layerGeometry(*built[k].integrator->screenSpace(), *scene_, cam_, s.width, s.height, frame);
+    ASSERT_LE(wide.originX, g.originX);
+    ASSERT_LE(wide.originY, g.originY);
+    ASSERT_GE(wide.originX + wide.width, g.originX + g.width);
+    ASSERT_GE(wide.originY + wide.height, g.originY + g.height);
+  }
+  RenderStats stats;
+  render(*scene_, cam_, passes, s, stats);
+  EXPECT_EQ(stats.rays.camera, uint64_t(s.spp) * uint64_t(wide.width) * uint64_t(wide.height));
 }
 
 // Thread count and tile size do not change a combined render.

@@ -121,7 +121,7 @@ void parallelRows(int height, F&& f) {
 
 }  // namespace
 
-uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band) {
+uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band, int passes) {
   // The layer: the window and on each side the band, half a block (<= half
   // the band), the filter's 2 pixels and the alignment (< the band, or 4).
   const uint64_t margin = 2 * (uint64_t(band) + uint64_t(band) / 2 + 2 + std::max<uint64_t>(4, uint64_t(band)));
@@ -131,9 +131,12 @@ uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band) {
   const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
   // Sums: num, den, hits (twice: the whole pixel's and the even layers'),
   // the AOVs' albedo, normal and depth, E0 and the bent normal.
+  // Each pass of the shared layer loop keeps its own, and a film of its
+  // own beside the output's (at most 16 planes with its AOVs).
   const uint64_t layerSums = 2 * sizeof(Vec3) + sizeof(uint32_t);
-  return layer + moments +
-         n * (2 * layerSums + 4 * sizeof(Vec3) + sizeof(float) + sizeof(SampleEstimate));
+  const uint64_t perPass = n * (2 * layerSums + 4 * sizeof(Vec3) + sizeof(float) + sizeof(SampleEstimate)) +
+                           uint64_t(window.size()) * 16 * sizeof(float);
+  return layer + moments + uint64_t(std::max(1, passes)) * perPass;
 }
 
 void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& camera, const RenderSettings& s,
@@ -334,84 +337,72 @@ void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float 
   }
 }
 
-Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpaceIntegrator& integrator,
-                       const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
-                       const std::atomic<bool>* cancel) {
-  const RenderSettings s = withEnvironment(settings);
-  // render() has checked the settings (it is the one entry point).
-  const bool wantAlbedo = needs.albedo || (s.aovs && s.albedoAov);
-  if (wantAlbedo)  // decode once, up front: the loops never throw or block
-    for (const auto& t : scene.textures) t->decode();
+namespace {
 
-  // The window (the frame or the --region) and the layers around it, with
-  // their guard band (layerGeometry).
-  const PixelRect window = renderWindow(s);
-  const LayerGeometry geometry = layerGeometry(integrator, scene, camera, s.width, s.height, window);
-  if (hasRegion(s) && geometry.band == 0 && integrator.guardBand().reach != 0.0)
-    throw Error("--region: this screen-space pass has no guard band (guard-band=0, or a plugin that states no "
-                "reach), so its pixels near the region's edges would read what the full frame's do not; give it a "
-                "band or render the full frame");
-  Film film(window, s.width, s.height, s.aovs, s.albedoAov);
-  const int errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
-  const int sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
-  addLightingPlanes(film, s);
-  const PixelLighting light{.env = &s.environment->view(), .shading = integrator.shading(), .bent = needs.bentE0,
-                            .plane = film.find(kLightingPlane)};
-  const bool wantE0 = light.wantsE0() && film.hasAlbedo();
-  const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
-  std::optional<CryptomatteFilm> crypto;  // its own pass, after the layers
-  if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
-  // The window's pixels: sums[k], k = (y - window.y0) w + (x - window.x0)
-  // for image pixel (x, y), layer pixel (x - originX, y - originY).
-  const size_t n = window.size();
-  const int ww = window.width();
-  // Whole-window state: the pixel sums, one layer (and its estimates when
-  // the integrator interleaves). The sums are float and
-  // the AOVs' only kept when written: each sums at most spp values in
-  // [0, 1] (relative rounding below spp 2^-24), and at 1920x1080 every byte
-  // per pixel is 2 MB to fault in and clear.
+// One screen-space pass of a shared layer loop: its integrator, settings,
+// film and sums, and where its reads may go in the shared layer (its own
+// guard band and moment levels: layerGeometry for it alone).
+struct ScreenSpacePass {
+  const ScreenSpaceIntegrator* integrator = nullptr;
+  IntegratorNeeds needs;
+  RenderSettings s;
+  int band = 0, momentLevels = 0;
+  bool wantAlbedo = false, wantE0 = false;
+  PixelLighting light;
+  Film film;
+  int errorPlane = -1, sppPlane = -1;
+  std::optional<CryptomatteFilm> crypto;
   struct LayerSums {
     Vec3 num{0, 0, 0}, den{0, 0, 0};
     uint32_t hits = 0;
   };
-  // Allocated here, zeroed in parallel in the arena below.
-  LargeVector<LayerSums> sums(n), evenSums(n);  // evenSums: the even layers' (docs/math.md §13)
-  LargeVector<Vec3> albedoSums(wantAlbedo ? n : 0), normalSums(s.aovs ? n : 0), e0Sums(wantE0 ? n : 0),
-      bentSums(light.bent ? n : 0);  // e0=bent: SampleEstimate::bent (world space)
-  LargeVector<float> depthSums(s.aovs ? n : 0);
-  GBufferLayer g;
-  g.width = geometry.width, g.height = geometry.height;
-  g.originX = geometry.originX, g.originY = geometry.originY;
-  g.band = geometry.band;
-  g.shaded = geometry.shaded, g.image = geometry.image;
-  const auto layerIndex = [&](size_t k) {
-    return g.index(g.shaded.x0 + int(k % size_t(ww)), g.shaded.y0 + int(k / size_t(ww)));
-  };
+  // The window's pixels: sums[k], k = (y - window.y0) w + (x - window.x0)
+  // for image pixel (x, y). Allocated here, zeroed in parallel in the arena.
+  // The sums are float and the AOVs' only kept when written: each sums at
+  // most spp values in [0, 1] (relative rounding below spp 2^-24), and at
+  // 1920x1080 every byte per pixel is 2 MB to fault in and clear.
+  LargeVector<LayerSums> sums, evenSums;  // evenSums: the even layers' (docs/math.md §13)
+  LargeVector<Vec3> albedoSums, normalSums, e0Sums, bentSums;  // bent: SampleEstimate::bent (world space)
+  LargeVector<float> depthSums;
   // The layer's estimates as a whole layer only for the depth-aware filter
   // (estimated over the window and its neighbours in the image: `estimated`);
   // otherwise each tile's go from a per-thread buffer into the sums.
-  const float tolerance = integrator.interleaveFilterTolerance();
-  LargeVector<SampleEstimate> est(tolerance > 0.0f ? size_t(g.width) * size_t(g.height) : 0);
-  PixelRect estimated = g.shaded;
-  if (tolerance > 0.0f) {
-    estimated = {std::max({g.shaded.x0 - 1, g.image.x0, 0}), std::max({g.shaded.y0 - 1, g.image.y0, 0}),
-                 std::min({g.shaded.x1 + 2, g.image.x1, g.width}), std::min({g.shaded.y1 + 2, g.image.y1, g.height})};
-  }
-  tbb::enumerable_thread_specific<std::vector<SampleEstimate>> tileBuffers, rowBuffers;
-  tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
-
-  Progress progress("render", uint64_t(s.spp), s.progress);
-  // Adaptive sampling (core/render/adaptive.h): after each round of layers, the
-  // pixels whose error is small enough stop accumulating; the loop ends when
-  // none is left. Each layer is traced for the whole image, so a round is
-  // the same layers for every running pixel.
+  float tolerance = 0.0f;
+  LargeVector<SampleEstimate> est;
+  PixelRect estimated;
+  // Adaptive sampling (core/render/adaptive.h): after each round of layers,
+  // the pixels whose error is small enough stop accumulating; the pass is
+  // done when none is left.
   std::optional<SampleSchedule> schedule;
-  if (adaptiveSampling(s)) schedule.emplace(window, s, true);
-  std::vector<float> error(schedule ? n : 0);
-  // The pass's standard error at pixel i from the layer sums
-  // (core/render/pixel_sums.h), and with `n` samples taken its composited error,
-  // what the schedule decides on.
-  const auto pixelError = [&](size_t i, uint32_t n = 0) {
+  std::vector<float> error;
+  bool done = false;
+  RenderStats stats;
+
+  ScreenSpacePass(const Scene& scene, const Camera& camera, const ScreenSpaceIntegrator& ssi, const IntegratorNeeds& nd,
+                  const RenderSettings& settings, const PixelRect& window)
+      : integrator(&ssi), needs(nd), s(withEnvironment(settings)), film(window, s.width, s.height, s.aovs, s.albedoAov) {
+    wantAlbedo = needs.albedo || (s.aovs && s.albedoAov);
+    errorPlane = s.aovs ? film.addPlane(kErrorPlane) : -1;
+    sppPlane = s.aovs ? film.addPlane(kSppPlane) : -1;
+    addLightingPlanes(film, s);
+    light = PixelLighting{.env = &s.environment->view(), .shading = ssi.shading(), .bent = needs.bentE0,
+                          .plane = film.find(kLightingPlane)};
+    wantE0 = light.wantsE0() && film.hasAlbedo();
+    if (s.cryptomatte.any()) crypto.emplace(scene, s.cryptomatte, s.spp, film);
+    const size_t n = window.size();
+    sums.resize(n), evenSums.resize(n);
+    albedoSums.resize(wantAlbedo ? n : 0), normalSums.resize(s.aovs ? n : 0), e0Sums.resize(wantE0 ? n : 0);
+    bentSums.resize(light.bent ? n : 0), depthSums.resize(s.aovs ? n : 0);
+    tolerance = ssi.interleaveFilterTolerance();
+    if (adaptiveSampling(s)) schedule.emplace(window, s, true), error.resize(n);
+    const LayerGeometry own = layerGeometry(ssi, scene, camera, s.width, s.height, window);
+    band = own.band, momentLevels = own.momentLevels;
+  }
+
+  // The pass's standard error at window pixel i from the layer sums
+  // (core/render/pixel_sums.h), and with `n` samples taken its composited
+  // error, what the schedule decides on.
+  float pixelError(size_t i, uint32_t n = 0) const {
     const LayerSums& p = sums[i];
     const LayerSums& h = evenSums[i];
     Sum3 num, den;
@@ -419,144 +410,287 @@ Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpa
     HalfSums even;
     even.num.add(h.num), even.den.add(h.den), even.hits = h.hits;
     const Vec3 albedo = wantAlbedo && p.hits ? albedoSums[i] * (1.0f / float(p.hits)) : Vec3(1, 1, 1);
-    return n ? compositedError(num, den, p.hits, even, integrator, albedo, n)
-             : standardError(num, den, p.hits, even, integrator, albedo);
+    return n ? compositedError(num, den, p.hits, even, *integrator, albedo, n)
+             : standardError(num, den, p.hits, even, *integrator, albedo);
+  }
+
+  // The shared resolution (core/render/pixel_sums.h) from these sums.
+  PixelSums pixelSums(size_t i) const {
+    PixelSums p{};
+    p.num.add(sums[i].num);
+    p.den.add(sums[i].den);
+    p.hits = sums[i].hits;
+    if (wantAlbedo) p.albedo.add(albedoSums[i]);
+    if (s.aovs) p.N.add(normalSums[i]), p.Z = double(depthSums[i]);
+    if (wantE0) p.e0.add(e0Sums[i]);
+    if (light.bent) p.bent.add(bentSums[i]);
+    return p;
+  }
+};
+
+// The layer's moments cut to `levels` while a pass reads them (a pass
+// whose band is narrower than another's reads the levels a solo render
+// builds, no coarser), given back after.
+class MomentLevels {
+ public:
+  MomentLevels(GBufferLayer& g, int levels) : g_(g) {
+    for (size_t l = size_t(levels); l < g.moments.size(); ++l) kept_.push_back(std::move(g.moments[l]));
+    g.moments.resize(std::min(g.moments.size(), size_t(levels)));
+  }
+  ~MomentLevels() {
+    for (auto& m : kept_) g_.moments.push_back(std::move(m));
+  }
+
+ private:
+  GBufferLayer& g_;
+  std::vector<DepthMoments> kept_;
+};
+
+// The layer loop of a group of screen-space passes that share one layer
+// per camera sample (renderScreenSpace).
+void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<ScreenSpacePass*> passes,
+                        const PixelRect& window, RenderStats& stats, const std::atomic<bool>* cancel) {
+  const RenderSettings& s = passes[0]->s;
+  for (const ScreenSpacePass* p : passes)
+    if (p->wantAlbedo)  // decode once, up front: the loops never throw or block
+      for (const auto& t : scene.textures) t->decode();
+  // The shared layer covers every pass's: the widest margin, the coarsest
+  // alignment, the most moment levels (layerGeometry of the union).
+  LayerGeometry geometry;
+  for (const ScreenSpacePass* p : passes) {
+    const LayerGeometry own = layerGeometry(*p->integrator, scene, camera, s.width, s.height, window);
+    if (p == passes[0]) {
+      geometry = own;
+      continue;
+    }
+    const int x0 = std::min(geometry.originX, own.originX), y0 = std::min(geometry.originY, own.originY);
+    geometry.width = std::max(geometry.originX + geometry.width, own.originX + own.width) - x0;
+    geometry.height = std::max(geometry.originY + geometry.height, own.originY + own.height) - y0;
+    geometry.originX = x0, geometry.originY = y0;
+    geometry.band = std::max(geometry.band, own.band);
+    geometry.momentLevels = std::max(geometry.momentLevels, own.momentLevels);
+  }
+  const bool anyMoments = std::any_of(passes.begin(), passes.end(), [](const ScreenSpacePass* p) {
+    return p->integrator->needsDepthMoments();
+  });
+  const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
+  const int ww = window.width();
+  GBufferLayer g;
+  g.width = geometry.width, g.height = geometry.height;
+  g.originX = geometry.originX, g.originY = geometry.originY;
+  g.band = geometry.band;
+  g.shaded = {window.x0 - g.originX, window.y0 - g.originY, window.x1 - g.originX, window.y1 - g.originY};
+  g.image = {-g.originX, -g.originY, s.width - g.originX, s.height - g.originY};
+  const auto layerIndex = [&](size_t k) {
+    return g.index(g.shaded.x0 + int(k % size_t(ww)), g.shaded.y0 + int(k / size_t(ww)));
   };
-  stats = {};
+  for (ScreenSpacePass* p : passes) {
+    p->estimated = g.shaded;
+    if (p->tolerance > 0.0f) {
+      p->est.resize(size_t(g.width) * size_t(g.height));
+      p->estimated = {std::max({g.shaded.x0 - 1, g.image.x0, 0}), std::max({g.shaded.y0 - 1, g.image.y0, 0}),
+                      std::min({g.shaded.x1 + 2, g.image.x1, g.width}),
+                      std::min({g.shaded.y1 + 2, g.image.y1, g.height})};
+    }
+  }
+  tbb::enumerable_thread_specific<std::vector<SampleEstimate>> tileBuffers, rowBuffers;
+  tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
+
+  // One bar for the group: it counts layers (with adaptive sampling, those
+  // taken and those the passes' forecasts say are still to come).
+  Progress progress("render", uint64_t(s.spp), s.progress);
   uint64_t cameraRays = 0;
   const auto t0 = std::chrono::steady_clock::now();
   const int threads = s.threads > 0 ? s.threads : tbb::this_task_arena::max_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    parallelFill(sums, LayerSums{});
-    parallelFill(evenSums, LayerSums{});
-    parallelFill(albedoSums, Vec3(0, 0, 0));
-    parallelFill(normalSums, Vec3(0, 0, 0));
-    parallelFill(e0Sums, Vec3(0, 0, 0));
-    parallelFill(bentSums, Vec3(0, 0, 0));
-    parallelFill(depthSums, 0.0f);
+    for (ScreenSpacePass* p : passes) {
+      parallelFill(p->sums, ScreenSpacePass::LayerSums{});
+      parallelFill(p->evenSums, ScreenSpacePass::LayerSums{});
+      parallelFill(p->albedoSums, Vec3(0, 0, 0));
+      parallelFill(p->normalSums, Vec3(0, 0, 0));
+      parallelFill(p->e0Sums, Vec3(0, 0, 0));
+      parallelFill(p->bentSums, Vec3(0, 0, 0));
+      parallelFill(p->depthSums, 0.0f);
+    }
     for (int si = 0; si < s.spp; ++si) {
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
+      // The layer holds what the passes still running read (a layer's
+      // pixels do not depend on which arrays it fills).
+      bool running = false, wantAlbedo = false, wantMoments = false;
+      for (const ScreenSpacePass* p : passes) {
+        if (p->done) continue;
+        running = true;
+        wantAlbedo = wantAlbedo || p->wantAlbedo;
+        wantMoments = wantMoments || p->integrator->needsDepthMoments();
+      }
+      if (!running) break;
       auto t = std::chrono::steady_clock::now();
       renderGBufferLayer(scene, tracer, camera, s, uint32_t(si), wantAlbedo, g, cameraRays);
-      if (integrator.needsDepthMoments()) buildDepthMoments(g, geometry.momentLevels);
+      if (anyMoments && wantMoments) buildDepthMoments(g, geometry.momentLevels);
       stats.gbufferSeconds += secondsSince(t);
 
-      // Window pixel k's (layer pixel i's) estimate of this layer into its
-      // sums (and the AOVs').
-      const auto accumulate = [&](size_t k, size_t i, const SampleEstimate& e) {
-        if (schedule && uint32_t(si) >= schedule->target(k)) return;  // stopped
-        if ((si & 1) == 0) {
-          LayerSums& h = evenSums[k];
-          h.num += e.num, h.den += e.den, h.hits += 1;
-        }
-        LayerSums& p = sums[k];
-        p.num += e.num;
-        p.den += e.den;
-        p.hits += 1;
-        if (wantAlbedo) albedoSums[k] += g.albedo[i];
-        if (light.bent) bentSums[k] += e.bent;
-        if (wantE0) e0Sums[k] += light.env->irradianceOverPi(normalize(g.view.vectorToWorld(g.normal[i])));
-        if (s.aovs) {
-          // The ray-traced loop's AOVs: world normal, camera-plane depth.
-          normalSums[k] += g.view.vectorToWorld(g.normal[i]);
-          depthSums[k] += g.depth[i];
-        }
-      };
-      t = std::chrono::steady_clock::now();
-      // Tiles of the estimated pixels, in layer coordinates.
-      const int tiles = PixelRect::tileCount(kScreenSpaceTile, estimated.width(), estimated.height());
-      tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
-        std::unique_ptr<IntegratorContext>& ctx = contexts.local();
-        if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer, s.environment->view());
-        std::vector<SampleEstimate>& out = tileBuffers.local();
-        out.resize(size_t(kScreenSpaceTile) * size_t(kScreenSpaceTile));
-        for (int t = r.begin(); t != r.end(); ++t) {
-          PixelRect tile = PixelRect::tile(t, kScreenSpaceTile, estimated.width(), estimated.height());
-          tile.x0 += estimated.x0, tile.x1 += estimated.x0, tile.y0 += estimated.y0, tile.y1 += estimated.y0;
-          std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1), Vec3(0, 0, 0)});
-          integrator.estimateTile(g, tile, *ctx, out.data());
-          // Filtered layers go to the whole-layer estimates (the filter
-          // reads neighbours across tiles); the others straight to the sums.
-          for (int y = tile.y0; y < tile.y1; ++y)
-            for (int x = tile.x0; x < tile.x1; ++x) {
-              const size_t i = g.index(x, y);
-              if (tolerance > 0.0f)
-                est[i] = out[tile.offset(x, y)];
-              else if (g.covered(i))
-                accumulate(size_t(y - g.shaded.y0) * size_t(ww) + size_t(x - g.shaded.x0), i, out[tile.offset(x, y)]);
-            }
-        }
-      });
-      stats.screenSpaceSeconds += secondsSince(t);
-
-      if (tolerance > 0.0f) {
+      for (ScreenSpacePass* pass : passes) {
+        if (pass->done) continue;
+        ScreenSpacePass& p = *pass;
+        const ScreenSpaceIntegrator& integrator = *p.integrator;
+        // The pass reads as a solo render's layer lets it: its own band
+        // and moment levels.
+        g.band = p.band;
+        const MomentLevels levels(g, p.momentLevels);
+        // Window pixel k's (layer pixel i's) estimate of this layer into its
+        // sums (and the AOVs').
+        const auto accumulate = [&](size_t k, size_t i, const SampleEstimate& e) {
+          if (p.schedule && uint32_t(si) >= p.schedule->target(k)) return;  // stopped
+          if ((si & 1) == 0) {
+            ScreenSpacePass::LayerSums& h = p.evenSums[k];
+            h.num += e.num, h.den += e.den, h.hits += 1;
+          }
+          ScreenSpacePass::LayerSums& q = p.sums[k];
+          q.num += e.num;
+          q.den += e.den;
+          q.hits += 1;
+          if (p.wantAlbedo) p.albedoSums[k] += g.albedo[i];
+          if (p.light.bent) p.bentSums[k] += e.bent;
+          if (p.wantE0) p.e0Sums[k] += p.light.env->irradianceOverPi(normalize(g.view.vectorToWorld(g.normal[i])));
+          if (p.s.aovs) {
+            // The ray-traced loop's AOVs: world normal, camera-plane depth.
+            p.normalSums[k] += g.view.vectorToWorld(g.normal[i]);
+            p.depthSums[k] += g.depth[i];
+          }
+        };
         t = std::chrono::steady_clock::now();
-        parallelRows(window.height(), [&](int r0, int r1) {
-          std::vector<SampleEstimate>& out = rowBuffers.local();
-          out.resize(size_t(r1 - r0) * size_t(ww));
-          depthAwareBoxFilter(g, est.data(), tolerance, g.shaded.y0 + r0, g.shaded.y0 + r1, out.data());
-          for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k) {
-            const size_t i = layerIndex(k);
-            if (g.covered(i)) accumulate(k, i, out[k - size_t(r0) * size_t(ww)]);
+        // Tiles of the estimated pixels, in layer coordinates.
+        const PixelRect& estimated = p.estimated;
+        const int tiles = PixelRect::tileCount(kScreenSpaceTile, estimated.width(), estimated.height());
+        tbb::parallel_for(tbb::blocked_range<int>(0, tiles, 1), [&](const tbb::blocked_range<int>& r) {
+          std::unique_ptr<IntegratorContext>& ctx = contexts.local();
+          if (!ctx) ctx = std::make_unique<IntegratorContext>(scene, tracer, s.environment->view());
+          std::vector<SampleEstimate>& out = tileBuffers.local();
+          out.resize(size_t(kScreenSpaceTile) * size_t(kScreenSpaceTile));
+          for (int t = r.begin(); t != r.end(); ++t) {
+            PixelRect tile = PixelRect::tile(t, kScreenSpaceTile, estimated.width(), estimated.height());
+            tile.x0 += estimated.x0, tile.x1 += estimated.x0, tile.y0 += estimated.y0, tile.y1 += estimated.y0;
+            std::fill_n(out.begin(), tile.size(), SampleEstimate{Vec3(0, 0, 0), Vec3(1, 1, 1), Vec3(0, 0, 0)});
+            integrator.estimateTile(g, tile, *ctx, out.data());
+            // Filtered layers go to the whole-layer estimates (the filter
+            // reads neighbours across tiles); the others straight to the sums.
+            for (int y = tile.y0; y < tile.y1; ++y)
+              for (int x = tile.x0; x < tile.x1; ++x) {
+                const size_t i = g.index(x, y);
+                if (p.tolerance > 0.0f)
+                  p.est[i] = out[tile.offset(x, y)];
+                else if (g.covered(i))
+                  accumulate(size_t(y - g.shaded.y0) * size_t(ww) + size_t(x - g.shaded.x0), i, out[tile.offset(x, y)]);
+              }
           }
         });
-        stats.filterSeconds += secondsSince(t);
+        stats.screenSpaceSeconds += secondsSince(t);
+
+        if (p.tolerance > 0.0f) {
+          t = std::chrono::steady_clock::now();
+          parallelRows(window.height(), [&](int r0, int r1) {
+            std::vector<SampleEstimate>& out = rowBuffers.local();
+            out.resize(size_t(r1 - r0) * size_t(ww));
+            depthAwareBoxFilter(g, p.est.data(), p.tolerance, g.shaded.y0 + r0, g.shaded.y0 + r1, out.data());
+            for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k) {
+              const size_t i = layerIndex(k);
+              if (g.covered(i)) accumulate(k, i, out[k - size_t(r0) * size_t(ww)]);
+            }
+          });
+          stats.filterSeconds += secondsSince(t);
+        }
+        if (p.schedule && uint32_t(si + 1) == p.schedule->maxTarget()) {  // a round ends
+          parallelRows(window.height(), [&](int r0, int r1) {
+            for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k)
+              p.error[k] = p.pixelError(k, p.schedule->target(k));
+          });
+          const uint64_t planned = p.schedule->next(p.error.data());
+          const double seconds = secondsSince(t0);
+          if (planned && s.timeLimit > 0.0 &&
+              seconds + seconds / double(p.schedule->total()) * double(planned) > s.timeLimit)
+            p.schedule->dropPlan();
+          p.done = !p.schedule->planned();
+        }
       }
+      g.band = geometry.band;
       progress.advance(1);
-      if (schedule && uint32_t(si + 1) == schedule->maxTarget()) {  // a round ends
-        parallelRows(window.height(), [&](int r0, int r1) {
-          for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k)
-            error[k] = pixelError(k, schedule->target(k));
-        });
-        const uint64_t planned = schedule->next(error.data());
-        const double seconds = secondsSince(t0);
-        if (planned && s.timeLimit > 0.0 &&
-            seconds + seconds / double(schedule->total()) * double(planned) > s.timeLimit)
-          schedule->dropPlan();
-        // The bar counts layers: those taken and those the forecast says
-        // are still to come (the bar ends full when the rounds end early).
-        progress.setTotal(schedule->planned() ? schedule->expectedMaxTarget() : progress.done());
-        if (!schedule->planned()) break;
+      if (passes[0]->schedule) {
+        // The bar's total: the layers taken and the most any pass's
+        // forecast says are still to come (it ends full when the rounds
+        // end early).
+        uint64_t total = progress.done();
+        for (const ScreenSpacePass* p : passes)
+          if (!p->done) total = std::max<uint64_t>(total, p->schedule->expectedMaxTarget());
+        progress.setTotal(total);
       }
     }
-    // The shared resolution (core/render/pixel_sums.h) from these sums.
-    const auto pixelSums = [&](size_t i) {
-      PixelSums p{};
-      p.num.add(sums[i].num);
-      p.den.add(sums[i].den);
-      p.hits = sums[i].hits;
-      if (wantAlbedo) p.albedo.add(albedoSums[i]);
-      if (s.aovs) p.N.add(normalSums[i]), p.Z = double(depthSums[i]);
-      if (wantE0) p.e0.add(e0Sums[i]);
-      if (light.bent) p.bent.add(bentSums[i]);
-      return p;
-    };
-    parallelRows(window.height(), [&](int r0, int r1) {
-      for (int y = window.y0 + r0; y < window.y0 + r1; ++y)
-        for (int x = window.x0; x < window.x1; ++x) {
-          const size_t i = size_t(y - window.y0) * size_t(ww) + size_t(x - window.x0);
-          const int spp = schedule ? int(schedule->taken(i)) : s.spp;
-          resolvePixelSums(pixelSums(i), spp, integrator, wantAlbedo, light, film, x, y);
-          if (errorPlane >= 0) film.at(errorPlane, x, y) = writtenError(pixelError(i), film, x, y);
-          if (sppPlane >= 0) film.at(sppPlane, x, y) = float(spp);
-        }
-    });
-    if (crypto && !(cancel && cancel->load(std::memory_order_relaxed)))
-      renderCryptomatteSamples(scene, tracer, camera, s, *crypto, cameraRays);
+    for (ScreenSpacePass* pass : passes) {
+      ScreenSpacePass& p = *pass;
+      parallelRows(window.height(), [&](int r0, int r1) {
+        for (int y = window.y0 + r0; y < window.y0 + r1; ++y)
+          for (int x = window.x0; x < window.x1; ++x) {
+            const size_t i = size_t(y - window.y0) * size_t(ww) + size_t(x - window.x0);
+            const int spp = p.schedule ? int(p.schedule->taken(i)) : s.spp;
+            resolvePixelSums(p.pixelSums(i), spp, *p.integrator, p.wantAlbedo, p.light, p.film, x, y);
+            if (p.errorPlane >= 0) p.film.at(p.errorPlane, x, y) = writtenError(p.pixelError(i), p.film, x, y);
+            if (p.sppPlane >= 0) p.film.at(p.sppPlane, x, y) = float(spp);
+          }
+      });
+      if (p.crypto && !(cancel && cancel->load(std::memory_order_relaxed)))
+        renderCryptomatteSamples(scene, tracer, camera, p.s, *p.crypto, cameraRays);
+    }
   });
   stats.seconds = secondsSince(t0);
   progress.finish();
-  stats.meanSpp = schedule ? schedule->meanSpp() : double(s.spp);
-  stats.rounds = schedule ? schedule->rounds() : 1;
   stats.rays.camera = cameraRays;
   for (const auto& ctx : contexts) {
     if (!ctx) continue;
     stats.rays.occlusion += ctx->counters.occlusion;
     stats.rays.closest += ctx->counters.closest;
   }
+  for (ScreenSpacePass* p : passes) {
+    p->stats.meanSpp = p->schedule ? p->schedule->meanSpp() : double(s.spp);
+    p->stats.rounds = p->schedule ? p->schedule->rounds() : 1;
+  }
+}
+
+}  // namespace
+
+std::vector<Film> renderScreenSpace(const Scene& scene, const Camera& camera, std::span<const ScreenSpaceJob> jobs,
+                                    RenderStats& stats, const std::atomic<bool>* cancel) {
+  stats = {};
+  if (jobs.empty()) return {};
+  // render() has checked the settings (it is the one entry point). The
+  // window (the frame or the --region) is the same for every job.
+  const PixelRect window = renderWindow(jobs[0].settings);
+  std::vector<std::unique_ptr<ScreenSpacePass>> passes;
+  for (const ScreenSpaceJob& j : jobs) {
+    passes.push_back(std::make_unique<ScreenSpacePass>(scene, camera, *j.integrator, j.needs, j.settings, window));
+    if (hasRegion(passes.back()->s) && passes.back()->band == 0 && j.integrator->guardBand().reach != 0.0)
+      throw Error("--region: this screen-space pass has no guard band (guard-band=0, or a plugin that states no "
+                  "reach), so its pixels near the region's edges would read what the full frame's do not; give it a "
+                  "band or render the full frame");
+  }
+  // Two groups at most: the passes with a guard band share a layer that
+  // covers every one's band; those without one read the whole layer, which
+  // must then be the image alone (a band's margin would give them depths
+  // beyond it that a solo render's layer does not have).
+  for (const bool banded : {true, false}) {
+    std::vector<ScreenSpacePass*> group;
+    for (const auto& p : passes)
+      if ((p->band > 0) == banded) group.push_back(p.get());
+    if (group.empty() || (cancel && cancel->load())) continue;
+    RenderStats part;
+    renderSharedLayers(scene, camera, group, window, part, cancel);
+    addStats(stats, part);
+  }
+  // The first job's samples per pixel are the films'.
+  stats.meanSpp = passes[0]->stats.meanSpp, stats.rounds = passes[0]->stats.rounds;
   if (cancel && cancel->load()) stats.seconds = -1;
-  return film;
+  std::vector<Film> films;
+  for (auto& p : passes) films.push_back(std::move(p->film));
+  return films;
 }
 
 }  // namespace obscura

@@ -72,11 +72,12 @@ LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene
 // rows; the caller's TBB arena).
 void buildDepthMoments(GBufferLayer& g, int levels);
 
-// An upper bound of the bytes renderScreenSpace keeps besides the film for
-// a render of `window` with a guard band of at most `band` pixels: one layer
-// with every optional array (albedo, moments), the per-pixel sums and the
-// estimates (kept whole for the filter).
-uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band);
+// An upper bound of the bytes renderScreenSpace keeps besides the output
+// film for a render of `window` with a guard band of at most `band` pixels
+// and `passes` screen-space passes: one shared layer with every optional
+// array (albedo, moments) and, per pass, the per-pixel sums, the estimates
+// (kept whole for the filter) and the pass's own film.
+uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band, int passes = 1);
 
 // Renders layer s into g, whose geometry (band, origin, size, rectangles)
 // is set (parallel over rows; the caller's TBB arena). Counts camera rays

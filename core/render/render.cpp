@@ -8,6 +8,7 @@
 #include <cassert>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <optional>
 
@@ -845,17 +846,6 @@ void renderRayTraced(const Scene& scene, const Camera& camera, std::span<const P
   }
 }
 
-void addStats(RenderStats& total, const RenderStats& part) {
-  total.seconds += part.seconds;
-  total.rays.camera += part.rays.camera;
-  total.rays.occlusion += part.rays.occlusion;
-  total.rays.closest += part.rays.closest;
-  total.gbufferSeconds += part.gbufferSeconds;
-  total.screenSpaceSeconds += part.screenSpaceSeconds;
-  total.filterSeconds += part.filterSeconds;
-  // The primary pass's loop runs first: its samples per pixel are the film's.
-  if (total.meanSpp == 0) total.meanSpp = part.meanSpp, total.rounds = part.rounds, total.backgroundSpp = part.backgroundSpp;
-}
 
 void copyPlanes(const Film& from, int fromChannel, Film& to, int toChannel, int count) {
   const size_t n = size_t(from.width()) * size_t(from.height());
@@ -900,6 +890,18 @@ void denoisePrimary(Film& film, const IntegratorNeeds& needs, const uint32_t* ob
 
 }  // namespace
 
+void addStats(RenderStats& total, const RenderStats& part) {
+  total.seconds += part.seconds;
+  total.rays.camera += part.rays.camera;
+  total.rays.occlusion += part.rays.occlusion;
+  total.rays.closest += part.rays.closest;
+  total.gbufferSeconds += part.gbufferSeconds;
+  total.screenSpaceSeconds += part.screenSpaceSeconds;
+  total.filterSeconds += part.filterSeconds;
+  // The primary pass's loop runs first: its samples per pixel are the film's.
+  if (total.meanSpp == 0) total.meanSpp = part.meanSpp, total.rounds = part.rounds, total.backgroundSpp = part.backgroundSpp;
+}
+
 Film render(const Scene& scene, const Camera& camera, const Integrator& integrator, const IntegratorNeeds& needs,
             const RenderSettings& s, RenderStats& stats, const std::atomic<bool>* cancel) {
   const RenderPass pass{&integrator, needs, ""};
@@ -936,9 +938,28 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
     for (const auto& t : scene.dataTextures) t->decode();
 
-  // The film: the primary pass's loop fills R,G,B,A and the AOVs.
+  // The loops after the primary's leave the ID mattes to it.
+  RenderSettings others = s;
+  others.cryptomatte = {};
+  // Their films give only their R,G,B to a layer: no albedo AOV to look up.
+  others.albedoAov = false;
+  // The screen-space passes: one layer loop for all of them, sharing each
+  // G-buffer layer (core/render/gbuffer.cpp); the primary's first when it
+  // is one. Run first when the primary is one of them, after the
+  // ray-traced walk otherwise (the primary's loop gives the stats' spp).
+  std::vector<ScreenSpaceJob> jobs;
+  std::vector<size_t> jobOf(passes.size(), SIZE_MAX);
+  for (size_t k = 0; k < passes.size(); ++k)
+    if (screenSpace(k)) {
+      jobOf[k] = jobs.size();
+      jobs.push_back({screenSpace(k), passes[k].needs, k == 0 ? s : others});
+    }
+  std::vector<Film> screenSpaceFilms;
   RenderStats part;
-  Film film = screenSpace(0) ? renderScreenSpace(scene, camera, *screenSpace(0), passes[0].needs, s, part, cancel)
+  if (screenSpace(0)) screenSpaceFilms = renderScreenSpace(scene, camera, jobs, part, cancel);
+
+  // The film: the primary pass's loop fills R,G,B,A and the AOVs.
+  Film film = screenSpace(0) ? std::move(screenSpaceFilms[0])
                              : Film(renderWindow(s), s.width, s.height, s.aovs, s.albedoAov);
   if (!screenSpace(0) && s.aovs) film.addPlane(kErrorPlane), film.addPlane(kSppPlane);
   if (!screenSpace(0)) addLightingPlanes(film, s);
@@ -956,11 +977,6 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     return layer;
   };
   const std::vector<int> layer = addLayers(film);
-  // The loops after the primary's leave the ID mattes to it.
-  RenderSettings others = s;
-  others.cryptomatte = {};
-  // Their films give only their R,G,B to a layer: no albedo AOV to look up.
-  others.albedoAov = false;
 
   // The ray-traced passes: one shared walk over the camera samples.
   std::vector<size_t> rayTraced;
@@ -1004,14 +1020,14 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
     addStats(stats, part);
   }
 
-  // Every other screen-space pass: its own G-buffer loop, its R,G,B to its layer.
-  for (size_t k = 1; k < passes.size(); ++k) {
-    if (!screenSpace(k) || (cancel && cancel->load())) continue;
+  // Every other screen-space pass: its R,G,B to its layer.
+  if (!screenSpace(0) && !jobs.empty() && !(cancel && cancel->load())) {
     part = {};
-    const Film f = renderScreenSpace(scene, camera, *screenSpace(k), passes[k].needs, others, part, cancel);
-    copyPlanes(f, kR, film, layer[k], 3);
+    screenSpaceFilms = renderScreenSpace(scene, camera, jobs, part, cancel);
     addStats(stats, part);
   }
+  for (size_t k = 1; k < passes.size(); ++k)
+    if (jobOf[k] < screenSpaceFilms.size()) copyPlanes(screenSpaceFilms[jobOf[k]], kR, film, layer[k], 3);
   if (screenSpace(0) && layer[0] >= 0) copyPlanes(film, kR, film, layer[0], 3);
   if (cancel && cancel->load()) {
     stats.seconds = -1;

@@ -126,7 +126,8 @@ Film render(const Scene& scene, const Camera& camera, const Integrator& integrat
 // with a layer name also writes `<layer>.R/G/B` (premultiplied like R,G,B).
 // The ray-traced passes share one walk over the camera samples - camera
 // rays, surface hits, albedo and AOVs - each integrator estimating the same
-// batch of hits in turn; a screen-space pass runs its own G-buffer loop.
+// batch of hits in turn; the screen-space passes share one G-buffer layer
+// per camera sample (renderScreenSpace).
 // Each pass's values are bit-identical to the same pass rendered alone: the
 // integrators draw their samples from the sampler by pixel, sample and
 // dimension, never from a shared stream, and each pass's sums resolve with
@@ -140,10 +141,21 @@ void addLightingPlanes(Film& film, const RenderSettings& s);
 // s with its environment set: the constant sky when it has none.
 RenderSettings withEnvironment(const RenderSettings& s);
 
-// The layer loop render() runs for a screen-space integrator (core/render/gbuffer.h).
+// The layer loop render() runs for its screen-space passes
+// (core/render/gbuffer.h): one G-buffer layer per camera sample, shared by
+// every job (each reads it within its own guard band, so each film equals
+// the job's solo render bit for bit). One film per job, in order; the
+// first job's samples per pixel are stats'.
 class ScreenSpaceIntegrator;
-Film renderScreenSpace(const Scene& scene, const Camera& camera, const ScreenSpaceIntegrator& integrator,
-                       const IntegratorNeeds& needs, const RenderSettings& settings, RenderStats& stats,
-                       const std::atomic<bool>* cancel = nullptr);
+// Adds part's times and rays to total; the first part's samples per pixel
+// are total's.
+void addStats(RenderStats& total, const RenderStats& part);
+struct ScreenSpaceJob {
+  const ScreenSpaceIntegrator* integrator;
+  IntegratorNeeds needs;
+  RenderSettings settings;
+};
+std::vector<Film> renderScreenSpace(const Scene& scene, const Camera& camera, std::span<const ScreenSpaceJob> jobs,
+                                    RenderStats& stats, const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace obscura
