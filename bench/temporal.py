@@ -9,7 +9,7 @@ For each STEP (a run each, in OUT/stepSTEP):
    camera brought DOLLY units closer and trucking sideways, STEP scene units
    a frame over frames 0..FRAMES.
 2. For each seed in SEEDS, one `obscura render OUT/move.gltf --frames 0-FRAMES`
-   renders every pass of PASSES as a layer (`--pass`) into OUT/stepSTEP/seedS/f.####.exr
+   renders every pass of ROWS, TWINS and BAND as a layer (`--pass`) into OUT/stepSTEP/seedS/f.####.exr
    (RES, SPP camera samples = G-buffer layers, THREADS). The seed is the same for
    every frame of a --frames run (an image is a pure function of scene,
    settings and seed; the frame number does not enter the sampler), so each
@@ -67,7 +67,7 @@ RADIUS = os.environ.get("RADIUS", "0.5")
 
 
 def spec(s):
-    return s.replace("R", RADIUS)
+    return s.format(R=RADIUS)
 
 
 # (layer, integrator spec, traced twin's layer). A twin is a layer of its own,
@@ -77,36 +77,36 @@ def spec(s):
 # ray-traced passes, take 16 rays per camera sample: the screen-space passes'
 # 16 samples per pixel and layer.
 ROWS = [
-    ("vo_point", "vo:samples=point,interleave=off,radius=R", "vo_point_t"),
-    ("vo_point_il", "vo:samples=point,interleave=on,radius=R", "vo_point_il_t"),
-    ("vo_line", "vo:samples=line,interleave=off,radius=R", "vo_line_t"),
-    ("vo_line_il", "vo:samples=line,interleave=on,radius=R", "vo_line_il_t"),
-    ("vo_area", "vo:samples=area,interleave=off,radius=R", "vo_line_t"),
-    ("vo_area_il", "vo:samples=area,interleave=on,radius=R", "vo_line_il_t"),
-    ("vo_point12", "vo:samples=point,count=12,interleave=off,radius=R", None),
-    ("vo_line5", "vo:samples=line,count=5,interleave=off,radius=R", None),
-    ("ssat", "ssat:interleave=on,distance=R", "ssat_t"),
-    ("ssat_off", "ssat:interleave=off,distance=R", "ssat_off_t"),
-    ("gtao", "gtao:interleave=on,radius=R", "gtao_t"),
-    ("gtao_off", "gtao:interleave=off,radius=R", "gtao_off_t"),
-    ("ao", "ao:distance=R,rays=16", None),
-    ("obscurance", "obscurance:falloff=sqrt,distance=R,rays=16", None),
+    ("vo_point", "vo:samples=point,interleave=off,radius={R}", "vo_point_t"),
+    ("vo_point_il", "vo:samples=point,interleave=on,radius={R}", "vo_point_il_t"),
+    ("vo_line", "vo:samples=line,interleave=off,radius={R}", "vo_line_t"),
+    ("vo_line_il", "vo:samples=line,interleave=on,radius={R}", "vo_line_il_t"),
+    ("vo_area", "vo:samples=area,interleave=off,radius={R}", "vo_line_t"),
+    ("vo_area_il", "vo:samples=area,interleave=on,radius={R}", "vo_line_il_t"),
+    ("vo_point12", "vo:samples=point,count=12,interleave=off,radius={R}", None),
+    ("vo_line5", "vo:samples=line,count=5,interleave=off,radius={R}", None),
+    ("ssat", "ssat:interleave=on,distance={R}", "ssat_t"),
+    ("ssat_off", "ssat:interleave=off,distance={R}", "ssat_off_t"),
+    ("gtao", "gtao:interleave=on,radius={R}", "gtao_t"),
+    ("gtao_off", "gtao:interleave=off,radius={R}", "gtao_off_t"),
+    ("ao", "ao:distance={R},rays=16", None),
+    ("obscurance", "obscurance:falloff=sqrt,distance={R},rays=16", None),
 ]
 TWINS = [
-    ("vo_point_t", "vo:samples=point,interleave=off,radius=R,depth=traced"),
-    ("vo_point_il_t", "vo:samples=point,interleave=on,radius=R,depth=traced"),
-    ("vo_line_t", "vo:samples=line,interleave=off,radius=R,depth=traced"),
-    ("vo_line_il_t", "vo:samples=line,interleave=on,radius=R,depth=traced"),
-    ("ssat_t", "ssat:interleave=on,distance=R,depth=traced"),
-    ("ssat_off_t", "ssat:interleave=off,distance=R,depth=traced"),
-    ("gtao_t", "gtao:interleave=on,radius=R,depth=traced"),
-    ("gtao_off_t", "gtao:interleave=off,radius=R,depth=traced"),
+    ("vo_point_t", "vo:samples=point,interleave=off,radius={R},depth=traced"),
+    ("vo_point_il_t", "vo:samples=point,interleave=on,radius={R},depth=traced"),
+    ("vo_line_t", "vo:samples=line,interleave=off,radius={R},depth=traced"),
+    ("vo_line_il_t", "vo:samples=line,interleave=on,radius={R},depth=traced"),
+    ("ssat_t", "ssat:interleave=on,distance={R},depth=traced"),
+    ("ssat_off_t", "ssat:interleave=off,distance={R},depth=traced"),
+    ("gtao_t", "gtao:interleave=on,radius={R},depth=traced"),
+    ("gtao_off_t", "gtao:interleave=off,radius={R},depth=traced"),
 ]
 # The guard band: the default (-1) against none, at the border and inside.
 BAND = [
-    ("vo_line", "vo_line_nb", "vo:samples=line,interleave=off,radius=R,guard-band=0"),
-    ("ssat", "ssat_nb", "ssat:interleave=on,distance=R,guard-band=0"),
-    ("gtao", "gtao_nb", "gtao:interleave=on,radius=R,guard-band=0"),
+    ("vo_line", "vo_line_nb", "vo:samples=line,interleave=off,radius={R},guard-band=0"),
+    ("ssat", "ssat_nb", "ssat:interleave=on,distance={R},guard-band=0"),
+    ("gtao", "gtao_nb", "gtao:interleave=on,radius={R},guard-band=0"),
 ]
 
 
