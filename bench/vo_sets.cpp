@@ -33,7 +33,7 @@
 // --time: the optimiser's time per count (the median of --runs) against the
 // relaxed sets'; every run is a fresh optimisation (not the memoised one).
 //
-// Run:   build/bench/obscura_bench_vo_sets --figure4 > fig4.csv    (~2 min)
+// Run:   build/bench/obscura_bench_vo_sets --figure4 > fig4.csv    (~6 min on 2 busy cores)
 //        python3 bench/vo_sets_plot.py fig4.csv docs/vo_sample_sets.svg
 //        build/bench/obscura_bench_vo_sets --time --runs 3 --threads 2
 #include <CLI/CLI.hpp>
@@ -252,7 +252,7 @@ int timing(int runs, int threads) {
 int main(int argc, char** argv) {
   CLI::App app{"VO's sample sets: Figure 4 (variance against count) and the optimiser's cost"};
   bool fig4 = false, time = false;
-  int configs = 500, rotations = 256, maxLines = 20, maxPoints = 36, runs = 3, threads = 0;
+  int configs = 2000, rotations = 128, maxLines = 20, maxPoints = 36, runs = 3, threads = 0;
   app.add_flag("--figure4", fig4, "print the variance against count (CSV)");
   app.add_flag("--time", time, "time the generators");
   app.add_option("--configs", configs, "configurations per family (planes, creases)");
