@@ -35,6 +35,8 @@
 //
 // Run:   build/bench/obscura_bench_vo_sets --figure4 > fig4.csv    (~6 min on 2 busy cores)
 //        python3 bench/vo_sets_plot.py fig4.csv docs/vo_sample_sets.svg
+//        build/bench/obscura_bench_vo_sets --figure4 --seed 2 --max-lines 12 --max-points 14
+//                                     (other seeds of the sets, same configurations)
 //        build/bench/obscura_bench_vo_sets --time --runs 3 --threads 2
 #include <CLI/CLI.hpp>
 
@@ -166,7 +168,7 @@ Stats measure(const std::vector<Vec3>& pts, const std::vector<float>& w, bool li
   return st;
 }
 
-int figure4(int configsPerFamily, int rotations, int maxLines, int maxPoints) {
+int figure4(int configsPerFamily, int rotations, int maxLines, int maxPoints, uint32_t seed) {
   Rng rng{0xf164ULL};
   std::vector<Config> configs;
   for (int f = 0; f < 2; ++f)
@@ -205,7 +207,7 @@ int figure4(int configsPerFamily, int rotations, int maxLines, int maxPoints) {
     previous[0].clear(), previous[1].clear();
     for (int n = 2; n <= maxLines; ++n)
       for (bool opt : {false, true}) {
-        const DiskSet d = opt ? optimisedDiskSet(n, centre) : diskSet(n, centre);
+        const DiskSet d = opt ? optimisedDiskSet(n, centre, seed) : diskSet(n, centre, seed);
         std::vector<Vec3> p;
         for (int k = 0; k < n; ++k) p.emplace_back(d.x[k], d.y[k], 0.0f);
         row(centre ? "lines+centre" : "lines", n, opt ? "optimised" : "relaxed",
@@ -215,7 +217,7 @@ int figure4(int configsPerFamily, int rotations, int maxLines, int maxPoints) {
   previous[0].clear(), previous[1].clear();
   for (int n = 2; n <= maxPoints; ++n)
     for (bool opt : {false, true}) {
-      const BallSet b = opt ? optimisedBallSet(n) : ballSet(n);
+      const BallSet b = opt ? optimisedBallSet(n, seed) : ballSet(n, seed);
       row("points", n, opt ? "optimised" : "relaxed", measure(b.p, b.w, false, configs, rotations, 0x9017ULL),
           previous[opt]);
     }
@@ -253,16 +255,18 @@ int main(int argc, char** argv) {
   CLI::App app{"VO's sample sets: Figure 4 (variance against count) and the optimiser's cost"};
   bool fig4 = false, time = false;
   int configs = 2000, rotations = 128, maxLines = 20, maxPoints = 36, runs = 3, threads = 0;
+  uint32_t seed = 1;
   app.add_flag("--figure4", fig4, "print the variance against count (CSV)");
   app.add_flag("--time", time, "time the generators");
   app.add_option("--configs", configs, "configurations per family (planes, creases)");
   app.add_option("--rotations", rotations, "random rotations per configuration");
   app.add_option("--max-lines", maxLines, "largest line count");
   app.add_option("--max-points", maxPoints, "largest point count");
+  app.add_option("--seed", seed, "the sets' seed (vo uses 1)");
   app.add_option("--runs", runs, "timing runs (median)");
   app.add_option("--threads", threads, "optimiser threads (0: all)");
   CLI11_PARSE(app, argc, argv);
-  if (fig4) return figure4(configs, rotations, maxLines, maxPoints);
+  if (fig4) return figure4(configs, rotations, maxLines, maxPoints, seed);
   if (time) return timing(runs, threads);
   std::printf("%s", app.help().c_str());
   return 1;
