@@ -205,12 +205,13 @@ TEST(ScreenSpaceSets, OptimiserKeepsTheStartWithTheLeastShareError) {
 
 // The starts run in parallel; each depends only on its seed and the choice
 // on the errors (ties to the lowest index), so the set is the same bit for
-// bit whatever the threads, and the memoised sets equal a fresh run.
+// bit whatever the threads, and the memoised sets equal a fresh run. (An
+// arena wider than the machine only warns and runs narrower, so 1 and 2.)
 TEST(ScreenSpaceSets, OptimiserIsIndependentOfThreads) {
   for (bool disk : {false, true}) {
     const auto run = [&](int threads) { return disk ? optimiseDisk(10, true, 3, 8, threads) : optimiseBall(10, 3, 8, threads); };
     const OptimisedSet a = run(1);
-    for (int threads : {1, 2, 3}) {
+    for (int threads : {1, 2}) {
       const OptimisedSet b = run(threads);
       ASSERT_EQ(a.p.size(), b.p.size());
       for (size_t k = 0; k < a.p.size(); ++k) {
