@@ -242,6 +242,14 @@ TEST(ScreenSpaceVoLines, CreaseMatchesTheClosedForm) {
       RecordProperty(std::string("vo_line_crease_bias_") + (depth[6] == 'g' ? "gbuffer_" : "traced_") + (centre + 7),
                      std::to_string(m.mean));
     }
+  // The same with VO §4.5's optimised sets (sets=optimised): the closed form
+  // holds for any weighted disk set, so the same bound.
+  for (const char* centre : {"centre=true", "centre=false"}) {
+    const MeanSe m =
+        renderMean(c.scene, c.cam, {"samples=line", "radius=0.5", "depth=gbuffer", centre, "sets=optimised"}, w, h, cc.pixels, cc.V);
+    EXPECT_NEAR(m.mean, 0.0, 4 * m.se + cc.footprint) << "sets=optimised " << centre << " se " << m.se;
+    RecordProperty(std::string("vo_line_crease_bias_optimised_") + (centre + 7), std::to_string(m.mean));
+  }
   // (b)
   const auto pixels = creaseFloorPixels(c, w, h, R);
   ASSERT_GT(pixels.size(), 100u);

@@ -71,6 +71,7 @@ struct VoConfig {
   Combine combine = Combine::Product;
   int count = 16;
   bool centre = true;
+  bool optimisedSets = false;  // sets=optimised: VO §4.5's optimiser (sample_sets.h)
   bool normalClamp = true;
   bool bent = false;  // e0=bent: write SampleEstimate::bent
   float thickness = 0.0f;  // 0 = off (every point behind the surface is occupied)
@@ -84,7 +85,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
  public:
   explicit VolumetricObscurance(const VoConfig& c) : c_(c) {
     if (c_.samples == VoSamples::Point) {
-      const BallSet b = ballSet(c_.count);
+      const BallSet b = c_.optimisedSets ? optimisedBallSet(c_.count) : ballSet(c_.count);
       for (int k = 0; k < c_.count; ++k) px_.push_back(b.p[k].x), py_.push_back(b.p[k].y), pz_.push_back(b.p[k].z);
       w_ = b.w;
       for (int k = 0; k < c_.count; ++k) {
@@ -92,7 +93,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
         cube_.push_back(rad_[k] * rad_[k] * rad_[k]);
       }
     } else {
-      const DiskSet d = diskSet(c_.count, c_.centre);
+      const DiskSet d = c_.optimisedSets ? optimisedDiskSet(c_.count, c_.centre) : diskSet(c_.count, c_.centre);
       px_ = d.x, py_ = d.y;
       for (int k = 0; k < c_.count; ++k) {
         const float zs = std::sqrt(std::max(0.0f, 1.0f - d.x[k] * d.x[k] - d.y[k] * d.y[k]));
@@ -484,6 +485,10 @@ IntegratorDescriptor voDescriptor() {
        .doc = "how the two radii's values combine"},
       {.name = "centre", .type = ParamType::Bool, .defaultValue = "true",
        .doc = "line and area samples: the disk set includes the centre"},
+      {.name = "sets", .type = ParamType::Enum, .defaultValue = "relaxed", .choices = {"relaxed", "optimised"},
+       .doc = "sample sets: relaxed (one Poisson start, repulsion and Lloyd steps; ~10 ms) or optimised "
+              "(VO §4.5: 32 starts, boundary charge, 128^3/512^2 Voronoi grids; ~1 s at count 16, memoised "
+              "per process; docs/vo_sample_sets.md)"},
       {.name = "normal", .type = ParamType::Bool, .defaultValue = "true",
        .doc = "normal clamp: only the half-ball above the tangent plane (a plane gives 1; without: 1/2)"},
       {.name = "thickness", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
@@ -501,6 +506,7 @@ IntegratorDescriptor voDescriptor() {
     c.combine = p.getEnum("combine") == "min" ? Combine::Min : Combine::Product;
     c.count = p.getInt("count");
     c.centre = p.getBool("centre");
+    c.optimisedSets = p.getEnum("sets") == "optimised";
     c.normalClamp = p.getBool("normal");
     c.bent = bentE0Requested(p);
     c.thickness = float(p.getFloat("thickness"));
