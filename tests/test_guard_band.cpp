@@ -131,7 +131,9 @@ bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 // Four regions of uneven sizes covering the frame (none aligned to 4 or to
 // the 64-pixel tiles): each equals the full render's pixels, every channel,
 // bit for bit - points, lines, areas (depth moments), interleaving with its
-// filter, ssat with albedo, the traced twin.
+// filter, ssat with albedo and with the occluders' radiance (whose
+// occluder estimates read within the shaded pixel's window), the traced
+// twin.
 TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
   const WallOffScreen s;
   const int W = WallOffScreen::kW, H = WallOffScreen::kH;
@@ -143,6 +145,8 @@ TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
       {"vo", {"samples=line", "radius=0.7", "depth=traced", "interleave=on"}},
       {"ssat", {"distance=1"}},
       {"ssat", {"distance=1", "albedo=true", "steps=2", "guard-band=5"}},
+      {"ssat", {"distance=1", "albedo=true", "occluder=radiance", "guard-band=5"}},
+      {"ssat", {"distance=0.7", "albedo=true", "occluder=radiance", "depth=traced", "interleave=off"}},
       {"gtao", {"radius=1"}},
       {"gtao", {"radius=0.5", "depth=traced", "e0=normal"}},
   };
