@@ -1,6 +1,8 @@
 // `ssat`'s variants from the ambient-transfer paper beyond [AT 9]: the
 // occluding pixel's radiance in place of its albedo (end of AT §4.1,
-// occluder=radiance; docs/math.md §9, the pixel's radiance).
+// occluder=radiance; docs/math.md §9, the pixel's radiance), and the
+// combination of the depth buffer for other objects with a height field for
+// the surface's own detail (AT §6, map=; docs/math.md §9).
 //
 // Tolerances: replicate renders (seeds 1..16) are independent, so the mean
 // over them of an image statistic has the standard error of their spread
@@ -16,6 +18,7 @@
 
 #include <obscura/error.h>
 #include "core/render/gbuffer.h"
+#include "core/subd/subdivision.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -66,17 +69,17 @@ int surfaceAtFilm(const RasterCamera& rc, double fx, double fy, double p[3]) {
   return which;
 }
 
-// The floor pixels of the crease near the wall (x < 1.2, |y| < 1.5) whose
+// The floor pixels of the crease near the wall (x < xMax, |y| < 1.5) whose
 // whole footprint sees the floor (its four corners do, and the floor's
 // image is convex).
-std::vector<std::pair<int, int>> floorPixels(const RasterCamera& rc, int w, int h) {
+std::vector<std::pair<int, int>> floorPixels(const RasterCamera& rc, int w, int h, double xMax = 1.2) {
   std::vector<std::pair<int, int>> out;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       bool floor = true;
       double p[3];
       for (int k = 0; k < 4 && floor; ++k)
-        floor = surfaceAtFilm(rc, x + (k & 1), y + (k >> 1), p) == 0 && p[0] < 1.2 && std::abs(p[1]) < 1.5;
+        floor = surfaceAtFilm(rc, x + (k & 1), y + (k >> 1), p) == 0 && p[0] < xMax && std::abs(p[1]) < 1.5;
       if (floor) out.emplace_back(x, y);
     }
   return out;
@@ -275,6 +278,200 @@ TEST(SsatRadiance, BlackOccludersGiveTheObscuranceBitForBit) {
     EXPECT_GT(darker, 20u) << depth;  // the comparison covered occluded pixels
   }
   EXPECT_THROW(renderWith(c.scene, c.cam, "ssat", {"occluder=radiance"}, passSettings(4, 4, 1)), Error);
+  // Nor is it combined with a height field (map=).
+  const std::string ripples = writeRipples(tempDir("ssat_radiance_map"));
+  EXPECT_THROW(renderWith(c.scene, c.cam, "ssat", {"albedo=true", "occluder=radiance", "map=" + ripples},
+                          passSettings(4, 4, 1)),
+               Error);
+}
+
+// --- the depth buffer with a height field (map=, AT §6) ---------------------------
+
+// The floor of the crease with texture coordinates uv = (x, y) (dP/du = +x,
+// dP/dv = +y, N = +z: the field's frame is the world's), a ripple map along
+// u - h = 0.5 + 0.5 cos(2 pi P u), P = 4 periods a unit, so d = scale (h -
+// 1/2) has wavelength 1/4 - and the wall x = 0 (or none).
+struct RippledCrease {
+  Crease c;  // (its camera)
+  Scene scene;
+  std::string map;
+  static constexpr double kPeriods = 4.0;
+  explicit RippledCrease(bool wall) {
+    // 1024 float texels a unit of u: bilinear interpolation errs by at most
+    // (1/1024)^2/8 (2 pi 4)^2 0.5 = 3.8e-5 of the unit height.
+    map = writeHeightMap(tempDir("ssat_field") + "/ripples.exr", 1024, 4,
+                         [](double u, double) { return 0.5 + 0.5 * std::cos(2 * kPiD * kPeriods * u); });
+    scene.addWorldPrimitive({{0, -10, 0}, {10, -10, 0}, {10, 10, 0}, {0, 10, 0}}, {0, 1, 2, 0, 2, 3}, {},
+                            {0, -10, 10, -10, 10, 10, 0, 10}, -1);
+    if (wall) scene.addWorldPrimitive({{0, -10, 0}, {0, 10, 0}, {0, 10, 10}, {0, -10, 10}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+    scene.commit();
+  }
+};
+
+// The combination's expectation at the floor pixels, without the renderer:
+// the rule of AT §6 as docs/math.md §9 states it, for the step membership
+// (every sample's r = R) and the traced containment (exact here). A floor
+// point P (the pixel's camera sample, uniform over the pixel) is shaded at
+// x = P + N d(uv), the lobe cosine about the displaced normal
+// n_d = normalize(-dd/du, -dd/dv, 1) (central differences one texel apart,
+// the map's own bilinear samples), and a sample w is open iff at each
+// t = R j/m (j = 1..m)
+//   - x + w t is above the field: d0 + t w_z >= d(u + t w_x, v + t w_y), and
+//   - w points below the macro plane (w_z <= 0: no depth test), or P + w t
+//     is not behind the wall (its x >= 0; such a point has z > 0, so the
+//     camera ray meets the wall first iff x < 0).
+// `wall` false: the field alone; `field` false: the depth buffer alone
+// (d = 0, n_d = N). Returns the mean over pixels and its Monte Carlo
+// standard error (K draws a pixel; pixels independent).
+MeanSe fieldReference(const RippledCrease& rc0, int w, int h, const std::vector<std::pair<int, int>>& pixels,
+                      double R, int m, double scale, bool field, bool wall, int K) {
+  const RasterCamera rc(rc0.c.cam, w, h);
+  const HeightMap map(rc0.map);
+  const auto d = [&](double u, double v) { return field ? scale * (map.sample(u, v) - 0.5) : 0.0; };
+  const double du = 1.0 / map.width(), dv = 1.0 / map.height();
+  std::mt19937_64 rng(777);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  double sum = 0.0, var = 0.0;
+  for (auto [px, py] : pixels) {
+    double s = 0.0, s2 = 0.0;
+    for (int k = 0; k < K; ++k) {
+      double P[3];
+      surfaceAtFilm(rc, px + u01(rng), py + u01(rng), P);
+      const double u = P[0], v = P[1], d0 = d(u, v);
+      const double gu = (d(u + du, v) - d(u - du, v)) / (2 * du), gv = (d(u, v + dv) - d(u, v - dv)) / (2 * dv);
+      double n[3] = {-gu, -gv, 1.0};
+      const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      for (double& c : n) c /= len;
+      // A frame about n and a cosine-distributed direction in it.
+      double a[3] = {1.0, 0.0, 0.0};
+      const double an = a[0] * n[0];
+      for (int i = 0; i < 3; ++i) a[i] -= an * n[i];
+      const double al = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+      for (double& c : a) c /= al;
+      const double b[3] = {n[1] * a[2] - n[2] * a[1], n[2] * a[0] - n[0] * a[2], n[0] * a[1] - n[1] * a[0]};
+      const double phi = 2.0 * kPiD * u01(rng), q = u01(rng);
+      const double cx = std::sqrt(q) * std::cos(phi), cy = std::sqrt(q) * std::sin(phi), cz = std::sqrt(1.0 - q);
+      double wv[3];
+      for (int i = 0; i < 3; ++i) wv[i] = a[i] * cx + b[i] * cy + n[i] * cz;
+      bool open = true;
+      for (int j = 1; j <= m && open; ++j) {
+        const double t = R * j / m;
+        if (d0 + t * wv[2] < d(u + t * wv[0], v + t * wv[1])) open = false;
+        if (wall && wv[2] > 0.0 && P[0] + t * wv[0] < 0.0) open = false;
+      }
+      s += open, s2 += open;
+    }
+    const double mean = s / K;
+    sum += mean;
+    var += (s2 / K - mean * mean) / K;
+  }
+  const double N = double(pixels.size());
+  return {sum / N, std::sqrt(var) / N, pixels.size()};
+}
+
+// AT §6 in screen space: on the rippled floor beside the wall (R = 0.2,
+// scale 0.04: amplitude 0.02, max slope 2 pi 4 0.02 = 0.5; steps 2), the
+// traced twin of `ssat map=` equals the rule's expectation
+// (fieldReference) within 4 standard errors of the replicate renders and
+// the reference combined. The test tells the rule from the alternatives:
+// the field alone, the wall alone and the product of the two parts' means
+// (the pass values multiplied, which would count a direction both close
+// twice) each lie more than 2 tolerances from it.
+TEST(SsatField, CombinationIsTheProductOfTheCharacteristicFunctions) {
+  const RippledCrease rc0(true);
+  const int w = 96, h = 72;
+  const double R = 0.2, scale = 0.04;
+  // Within 2R of the wall, where both parts shadow.
+  const auto pixels = floorPixels(RasterCamera(rc0.c.cam, w, h), w, h, 2 * R);
+  ASSERT_GT(pixels.size(), 60u);
+  const MeanSe both = fieldReference(rc0, w, h, pixels, R, 2, scale, true, true, 4096);
+  const MeanSe fieldOnly = fieldReference(rc0, w, h, pixels, R, 2, scale, true, false, 4096);
+  const MeanSe wallOnly = fieldReference(rc0, w, h, pixels, R, 2, scale, false, true, 4096);
+  const std::vector<std::string> p = {"map=" + rc0.map, "scale=0.04", "falloff=step", "distance=0.2", "steps=2",
+                                      "silhouette=false", "interleave=off", "depth=traced"};
+  // The wall has no texture coordinates: plain ssat there, said once a render.
+  const WarningCapture warnings;
+  const MeanSe m = replicateMean(16, [&](uint32_t seed) {
+    const Film f = renderWith(rc0.scene, rc0.c.cam, "ssat", p, passSettings(w, h, 16, seed));
+    double sum = 0.0;
+    for (auto [x, y] : pixels) sum += f.at(kR, x, y);
+    return sum / double(pixels.size());
+  });
+  const double tol = 4.0 * std::sqrt(m.se * m.se + both.se * both.se);
+  EXPECT_NEAR(m.mean, both.mean, tol) << "field alone " << fieldOnly.mean << " wall alone " << wallOnly.mean;
+  EXPECT_EQ(warnings.count("ssat: an unnamed mesh has no usable texture coordinates"), 16u) << warnings.all();
+  for (double alternative : {fieldOnly.mean, wallOnly.mean, fieldOnly.mean * wallOnly.mean})
+    EXPECT_GT(std::abs(alternative - both.mean), 2.0 * tol) << alternative;
+  RecordProperty("ssat_field_traced", std::to_string(m.mean) + " se " + std::to_string(m.se) + " expected " +
+                                          std::to_string(both.mean) + " se " + std::to_string(both.se) +
+                                          " field alone " + std::to_string(fieldOnly.mean) + " wall alone " +
+                                          std::to_string(wallOnly.mean));
+}
+
+// Each part alone is the existing pass. The field without another object:
+// `ssat map=` (the depth buffer's points start on the macro plane, above
+// it: never inside) against `containment` with the same map, mu and steps,
+// over the rippled floor's pixels - the same expectation (both sample
+// mu' cos/pi about n_d and test the same points), independent noise, so
+// within 4 standard errors of the difference (16 replicates each). The
+// depth buffer without a field: a flat map (scale=0: no gradient, n_d = N,
+// the plain frame) is plain `ssat`, bit for bit with the traced twin
+// (the same stream of lookups), and with the z-buffer within 4 standard
+// errors of the paired difference.
+TEST(SsatField, EachPartAloneIsTheExistingPass) {
+  const int w = 64, h = 48;
+  {
+    const RippledCrease rc0(false);
+    const auto pixels = floorPixels(RasterCamera(rc0.c.cam, w, h), w, h);
+    ASSERT_GT(pixels.size(), 150u);
+    const std::vector<std::string> mu = {"map=" + rc0.map, "scale=0.1", "falloff=linear", "distance=0.15", "steps=2"};
+    std::vector<std::string> ss = mu, ct = mu;
+    ss.push_back("interleave=off");
+    ct.push_back("rays=4");
+    const auto meanOf = [&](const std::string& integ, const std::vector<std::string>& params) {
+      return replicateMean(16, [&](uint32_t seed) {
+        const Film f = renderWith(rc0.scene, rc0.c.cam, integ, params, passSettings(w, h, 4, seed));
+        double sum = 0.0;
+        for (auto [x, y] : pixels) sum += f.at(kR, x, y);
+        return sum / double(pixels.size());
+      });
+    };
+    const MeanSe a = meanOf("ssat", ss), b = meanOf("containment", ct);
+    EXPECT_NEAR(a.mean, b.mean, 4.0 * std::sqrt(a.se * a.se + b.se * b.se)) << a.se << " " << b.se;
+    EXPECT_LT(a.mean, 0.97);  // the field shadows
+    RecordProperty("ssat_field_alone_vs_containment",
+                   std::to_string(a.mean) + " se " + std::to_string(a.se) + " vs " + std::to_string(b.mean) + " se " +
+                       std::to_string(b.se));
+  }
+  {
+    const RippledCrease rc0(true);
+    const WarningCapture warnings;  // the wall's (no texture coordinates)
+    const auto pixels = floorPixels(RasterCamera(rc0.c.cam, w, h), w, h);
+    const std::vector<std::string> mu = {"distance=0.6", "falloff=sqrt", "steps=2", "interleave=off"};
+    std::vector<std::string> flat = mu;
+    flat.insert(flat.end(), {"map=" + rc0.map, "scale=0"});
+    {
+      std::vector<std::string> t = mu, tf = flat;
+      t.push_back("depth=traced"), tf.push_back("depth=traced");
+      const RenderSettings s = passSettings(w, h, 2, 3);
+      const Film a = renderWith(rc0.scene, rc0.c.cam, "ssat", t, s);
+      const Film b = renderWith(rc0.scene, rc0.c.cam, "ssat", tf, s);
+      size_t differ = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          for (int ch : {kR, kG, kB, kA}) differ += !sameBits(a.at(ch, x, y), b.at(ch, x, y));
+      EXPECT_EQ(differ, 0u);
+    }
+    const MeanSe d = replicateMean(16, [&](uint32_t seed) {
+      const Film a = renderWith(rc0.scene, rc0.c.cam, "ssat", mu, passSettings(w, h, 4, seed));
+      const Film b = renderWith(rc0.scene, rc0.c.cam, "ssat", flat, passSettings(w, h, 4, seed));
+      double sum = 0.0;
+      for (auto [x, y] : pixels) sum += double(a.at(kR, x, y)) - double(b.at(kR, x, y));
+      return sum / double(pixels.size());
+    });
+    EXPECT_NEAR(d.mean, 0.0, 4.0 * d.se) << d.se;
+    RecordProperty("ssat_flat_map_minus_plain", std::to_string(d.mean) + " se " + std::to_string(d.se));
+  }
 }
 
 }  // namespace

@@ -45,18 +45,30 @@
 // Converges to `obscurance` with the same mu when the depth buffer holds
 // every occluder and each segment crosses at most one surface.
 //
+// map= (AT §6, docs/math.md §9, the height field with the z-buffer): the
+// camera sees the undisplaced macro surface; a height field (as
+// `containment`'s, integrators/displacement.h) decides the visible
+// surface's own displaced detail and the depth buffer every other
+// occluder. Test point j of sample k is outer iff outer for both,
+//   I0 = I0_field(x + w t) I0_zbuffer(P + w t),   t = r j/m,
+// P the G-buffer point, x = P + N d(uv) the shaded point, w about the
+// displaced normal (estimateWithField).
+//
 // e0=bent: the bent normal is obscurance's, the sum of the open samples'
 // directions w (cosine distributed, so the sum estimates the
 // cosine-weighted mean open direction; docs/math.md §14.6), rotated from
 // the pixel's frame to world space once per pixel.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <obscura/error.h>
 #include "core/render/gbuffer.h"
 #include <obscura/plugin.h>
+#include "integrators/displacement.h"
 #include "integrators/falloff.h"
 #include "integrators/screen_space/common.h"
 #include "integrators/screen_space/sample_sets.h"
@@ -81,7 +93,8 @@ struct SsatConfig {
 
 class ZBufferTransfer final : public ScreenSpaceIntegrator {
  public:
-  ZBufferTransfer(const Membership& mu, const SsatConfig& c) : c_(c), mu_(mu), zero_(mu.zeroRadius()) {
+  ZBufferTransfer(const Membership& mu, const SsatConfig& c, std::shared_ptr<const Displacement> field)
+      : c_(c), field_(std::move(field)), mu_(mu), zero_(mu.zeroRadius()) {
     xi_ = cubeSet(c_.count);
     // The rule's R: the membership's radius, or for an uncut exponential
     // the farthest distance a sample can reach (xi_z < 1).
@@ -96,8 +109,9 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
   // (dx, dy, dz): the unit directions w of the offsets, for the bent normal.
   // `dim`: the shift's dimension (kOuterShiftDim; occluder=radiance's
   // estimates at the occluders draw theirs from kOccluderShiftDim).
+  // radius, if not null: each sample's r.
   void layerOffsets(uint32_t imageKey, uint32_t sampleIndex, uint32_t dim, float* ox, float* oy, float* oz,
-                    Vec3* dir) const {
+                    Vec3* dir, float* radius = nullptr) const {
     const Sample2 sh = Sampler::get2D(imageKey, sampleIndex, dim);
     for (int k = 0; k < c_.count; ++k) {
       float uy = xi_[k].y + sh.u, uz = xi_[k].z + sh.v;
@@ -106,6 +120,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
       // Cosine-distributed direction about +z from (xi_x, xi_y) [AT 4.1].
       const float phi = 2.0f * kPi * xi_[k].x, sr = std::sqrt(uy);
       const float r = mu_.segment(double(uz));
+      if (radius) radius[k] = r;
       dir[k] = Vec3(std::cos(phi) * sr, std::sin(phi) * sr, std::sqrt(std::max(0.0f, 1.0f - uy)));
       ox[k] = dir[k].x * r;
       oy[k] = dir[k].y * r;
@@ -127,6 +142,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         for (int x = tile.x0; x < tile.x1; ++x) out[tile.offset(x, y)].num = Vec3(1, 1, 1);
       return;
     }
+    if (field_) return estimateWithField(g, tile, ctx, out);
     const size_t perPixel = size_t(c_.count) * size_t(c_.steps);
     float ox[kMaxCount], oy[kMaxCount], oz[kMaxCount];
     Vec3 dir[kMaxCount];
@@ -231,7 +247,152 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
     forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
   }
 
+
+  // map=: the combination of AT §6 - the height field decides the shaded
+  // surface's own displaced detail, the z-buffer every other occluder.
+  // Per pixel, the G-buffer point P on the undisplaced macro surface, its
+  // texture frame (the pixel's camera ray traced again to its point, once
+  // per pixel and layer: the G-buffer keeps no uv) and the field's frame
+  // (integrators/displacement.h, as `containment`'s): shaded point
+  // x = P + N d0, the set rotated about the displaced normal n_d. Sample k
+  // (direction w, length r) has m test points at t = r j/m and
+  //   I0(t) = I0_field(x + w t) I0_zbuffer(P + w t)               [AT 7]
+  // - a point is outer iff it is outer for both: the product of the two
+  // characteristic functions, so the inner parts are the union of the
+  // field's and the depth buffer's. The z-buffer's points start on the
+  // macro surface, as `containment`'s macro ray does (from x, a point with
+  // d0 < 0 would start behind its own macro surface), and directions below
+  // the macro plane (n_d tilts away from N) skip them: the macro surface is
+  // no occluder there. ã: the shaded surface's albedo at the uv of the
+  // field's first inside point, or the depth buffer's where it projects. A
+  // pixel without a uv frame is plain ssat (its frame about N, no field).
+  // With a flat field (zero gradient) n_d = N: the plain pass's frame.
+  void estimateWithField(const GBufferLayer& g, const PixelRect& tile, IntegratorContext& ctx,
+                         SampleEstimate* out) const {
+    const size_t perPixel = size_t(c_.count) * size_t(c_.steps);
+    float ox[kMaxCount], oy[kMaxCount], oz[kMaxCount], radius[kMaxCount];
+    Vec3 dir[kMaxCount];
+    layerOffsets(g.imageKey, g.sampleIndex, kOuterShiftDim, ox, oy, oz, dir, radius);
+    const NormalRotations rotations(g, c_.interleave);
+    // The tile's texture frames: its covered pixels' camera rays to their
+    // G-buffer points, in one stream (on the heap, once per tile).
+    struct FieldPixel {
+      bool field = false;
+      FieldFrame L;
+      Frame f;       // the sample frame (rotated about n_d, or N)
+      Vec3 x, ng;    // the shaded point; the macro plane's normal on N's side (view space)
+      SurfaceHit h;  // for the albedo at uv'
+    };
+    const size_t tw = size_t(tile.x1 - tile.x0);
+    std::vector<FieldPixel> px(tw * size_t(tile.y1 - tile.y0));
+    IntersectBatch& camera = ctx.intersectBatch(px.size());
+    std::vector<size_t> traced;  // px index of each ray
+    traced.reserve(px.size());
+    for (int y = tile.y0; y < tile.y1; ++y)
+      for (int x = tile.x0; x < tile.x1; ++x) {
+        const size_t i = g.index(x, y);
+        if (!g.covered(i)) continue;
+        const Vec3 d = g.view.vectorToWorld(g.position[i]);
+        const float len = length(d);
+        if (!(len > 0.0f)) continue;
+        camera.pushCamera(g.view.origin, d * (1.0f / len), 0.0f, kInfinity);
+        traced.push_back(size_t(y - tile.y0) * tw + size_t(x - tile.x0));
+      }
+    ctx.trace(camera);
+    for (size_t r = 0; r < traced.size(); ++r) {
+      if (!camera.hit(r)) continue;
+      FieldPixel& p = px[traced[r]];
+      const int x = tile.x0 + int(traced[r] % tw), y = tile.y0 + int(traced[r] / tw);
+      const size_t i = g.index(x, y);
+      ctx.surfaceAt(camera, r, false, g.pixelKey[i], g.sampleIndex, p.h);
+      UvFrame uv;
+      bool framed = ctx.uvFrameAt(p.h, uv);
+      const Vec3 N = g.normal[i];
+      if (framed) {
+        uv.dpdu = g.view.vectorToView(uv.dpdu), uv.dpdv = g.view.vectorToView(uv.dpdv);
+        framed = fieldFrame(*field_, uv, N, p.L);
+      }
+      if (!framed) {
+        noFrame(p.h, ctx);
+        continue;
+      }
+      if (p.L.ddu == 0.0 && p.L.ddv == 0.0) p.L.nd = N;
+      p.field = true;
+      p.x = g.position[i] + N * float(p.L.d0);
+      const std::array<float, 4>& pl = g.plane[i];
+      p.ng = Vec3(pl[0], pl[1], pl[2]);
+      if (dot(p.ng, N) < 0.0f) p.ng = -p.ng;
+    }
+    const auto pixelOfTile = [&](int x, int y) -> FieldPixel& {
+      return px[size_t(y - tile.y0) * tw + size_t(x - tile.x0)];
+    };
+    DepthLookup look(c_.depth, size_t(kPixelRun) * perPixel, false);
+    const auto push = [&](size_t i, int x, int y) {
+      FieldPixel& p = pixelOfTile(x, y);
+      p.f = rotations.rotate(g, i, x, y, Frame::fromNormal(p.field ? p.L.nd : g.normal[i]));
+      const Vec3 P = g.position[i];
+      for (int k = 0; k < c_.count; ++k) {
+        const Vec3 off = p.f.s * ox[k] + p.f.t * oy[k] + p.f.n * oz[k];
+        for (int j = 1; j <= c_.steps; ++j) look.push(g, P + off * (float(j) / float(c_.steps)));
+      }
+    };
+    const auto evaluate = [&](size_t i, int x, int y, size_t at, SampleEstimate& o) {
+      const FieldPixel& p = pixelOfTile(x, y);
+      const ReadWindow window = readWindow(g, x, y);
+      Vec3 closedAlbedo(0, 0, 0), bent(0, 0, 0);
+      int openCount = 0;
+      for (int k = 0; k < c_.count; ++k) {
+        const Vec3 w = p.f.toWorld(dir[k]);  // view space
+        const bool macro = !p.field || dot(w, p.ng) > 0.0f;
+        const double wa = dot(w, p.L.ea), wb = dot(w, p.L.eb), wz = dot(w, p.L.ez);
+        bool closed = false;
+        for (int j = 1; j <= c_.steps && !closed; ++j) {
+          if (p.field) {
+            const double t = double(radius[k]) * double(j) / double(c_.steps);
+            const double u = p.L.u + t * wa, v = p.L.v + t * wb;
+            if (p.L.d0 + t * wz < (*field_)(u, v)) {  // inside the height field
+              closed = true;
+              if (c_.albedo) closedAlbedo += ctx.albedoAtUv(p.h, float(u), float(v));
+              break;
+            }
+          }
+          if (!macro) continue;
+          const size_t m = at + size_t(k) * size_t(c_.steps) + size_t(j - 1);
+          const float z = look.z(m);
+          const float behind = -look.q(m).z - z;
+          if (behind > kDepthBias * z && (!c_.silhouette || behind < ruleR_)) {  // behind the depth buffer
+            closed = true;
+            if (c_.albedo) closedAlbedo += albedoAt(g, look.q(m), window);
+          }
+        }
+        openCount += !closed;
+        if (c_.bent && !closed) bent += dir[k];
+      }
+      if (c_.bent) o.bent = g.view.vectorToWorld(p.f.toWorld(bent));
+      const float n = float(c_.count);
+      const float opened = float(openCount);
+      const Vec3 open{opened, opened, opened};
+      if (c_.albedo) {
+        o.num = open;
+        o.den = Vec3(n, n, n) - closedAlbedo;
+      } else {
+        o.num = open * (1.0f / n);
+      }
+      (void)i;
+    };
+    forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
+  }
  private:
+  // A pixel without a uv frame gets plain ssat - silently wrong if the user
+  // expected the field's detail there, so the first one of a render is
+  // reported, naming its mesh, as `containment` does.
+  void noFrame(const SurfaceHit& h, const IntegratorContext& ctx) const {
+    if (warnedNoFrame_.load(std::memory_order_relaxed) || warnedNoFrame_.exchange(true)) return;
+    Log::warn("ssat: " + ctx.surfaceName(h) +
+              " has no usable texture coordinates; it gets plain ssat, without the height map's detail (so may other "
+              "meshes without them)");
+  }
+
   // One pixel's estimate from its test points m = k steps + j: zStar(m) the
   // depth the lookup found on the camera ray through point m, depthOf(m)
   // the point's own view depth, point(m) the point (view space); dir[k]
@@ -352,6 +513,8 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
     float cosPsi = 1.0f, sinPsi = 0.0f;
   };
   SsatConfig c_;
+  std::shared_ptr<const Displacement> field_;  // map=: the height field (AT §6), else null
+  mutable std::atomic<bool> warnedNoFrame_{false};
   Membership mu_;
   bool zero_;
   float ruleR_ = 0.0f;
@@ -388,6 +551,14 @@ IntegratorDescriptor ssatDescriptor() {
   d.params.push_back({.name = "steps", .type = ParamType::Int, .defaultValue = "1", .min = 1, .max = 16,
                       .doc = "m: test points per sample at r i/m (the paper uses 1 or 2)"});
   for (ParamSpec& p : sharedParams("n: sample points per pixel and layer", 16, "on")) d.params.push_back(p);
+  // AT §6: the height field for the surface's own detail (as containment's).
+  d.params.push_back({.name = "map", .type = ParamType::String, .defaultValue = "",
+                      .doc = "height map of the visible surfaces' displacement (as containment's): the field decides "
+                             "their own detail, the depth buffer every other occluder (AT 6); empty: none"});
+  d.params.push_back({.name = "scale", .type = ParamType::Float, .defaultValue = "0.1", .min = -1e30, .max = 1e30,
+                      .doc = "with map: scene units per unit of height (as --displace-scale)"});
+  d.params.push_back({.name = "midlevel", .type = ParamType::Float, .defaultValue = "0.5", .min = -1e30, .max = 1e30,
+                      .doc = "with map: the height that leaves the surface in place (as --displace-midlevel)"});
   d.needs = [](const ParamSet& p) { return IntegratorNeeds{.albedo = p.getBool("albedo")}; };
   d.bentNormal = true;  // SampleEstimate::bent: the open directions (e0=bent)
   d.create = [](const ParamSet& p) -> std::unique_ptr<Integrator> {
@@ -408,7 +579,14 @@ IntegratorDescriptor ssatDescriptor() {
     c.filterDepth = float(p.getFloat("filter-depth"));
     c.depth = depthSourceFromParams(p);
     c.guardBand = p.getInt("guard-band");
-    return std::make_unique<ZBufferTransfer>(mu, c);
+    std::shared_ptr<const Displacement> field;
+    if (!p.getString("map").empty()) {
+      if (c.radiance)
+        throw Error("integrator 'ssat': occluder=radiance is not combined with map (the occluders' estimates would "
+                    "need their own fields)");
+      field = std::make_shared<const Displacement>(p.getString("map"), p.getFloat("scale"), p.getFloat("midlevel"));
+    }
+    return std::make_unique<ZBufferTransfer>(mu, c, std::move(field));
   };
   return d;
 }
