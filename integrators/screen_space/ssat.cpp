@@ -247,7 +247,6 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
     forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
   }
 
-
   // map=: the combination of AT §6 - the height field decides the shaded
   // surface's own displaced detail, the z-buffer every other occluder.
   // Per pixel, the G-buffer point P on the undisplaced macro surface, its
@@ -280,7 +279,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
       bool field = false;
       FieldFrame L;
       Frame f;       // the sample frame (rotated about n_d, or N)
-      Vec3 x, ng;    // the shaded point; the macro plane's normal on N's side (view space)
+      Vec3 ng;       // the macro plane's normal on N's side (view space)
       SurfaceHit h;  // for the albedo at uv'
     };
     const size_t tw = size_t(tile.x1 - tile.x0);
@@ -317,8 +316,9 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         continue;
       }
       if (p.L.ddu == 0.0 && p.L.ddv == 0.0) p.L.nd = N;
+      // The shaded point x = P + N d0 enters only through the field's
+      // frame: x + w t - P = N d0 + w t, whose height is d0 + t (w . ez).
       p.field = true;
-      p.x = g.position[i] + N * float(p.L.d0);
       const std::array<float, 4>& pl = g.plane[i];
       p.ng = Vec3(pl[0], pl[1], pl[2]);
       if (dot(p.ng, N) < 0.0f) p.ng = -p.ng;
@@ -336,7 +336,7 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
         for (int j = 1; j <= c_.steps; ++j) look.push(g, P + off * (float(j) / float(c_.steps)));
       }
     };
-    const auto evaluate = [&](size_t i, int x, int y, size_t at, SampleEstimate& o) {
+    const auto evaluate = [&](size_t, int x, int y, size_t at, SampleEstimate& o) {
       const FieldPixel& p = pixelOfTile(x, y);
       const ReadWindow window = readWindow(g, x, y);
       Vec3 closedAlbedo(0, 0, 0), bent(0, 0, 0);
@@ -378,10 +378,10 @@ class ZBufferTransfer final : public ScreenSpaceIntegrator {
       } else {
         o.num = open * (1.0f / n);
       }
-      (void)i;
     };
     forEachPixelRun(g, tile, perPixel, ctx, look, out, push, evaluate);
   }
+
  private:
   // A pixel without a uv frame gets plain ssat - silently wrong if the user
   // expected the field's detail there, so the first one of a render is
