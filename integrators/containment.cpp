@@ -86,34 +86,11 @@
 #include <obscura/plugin.h>
 #include "core/subd/subdivision.h"
 #include <obscura/warp.h>
+#include "integrators/displacement.h"
 #include "integrators/falloff.h"
 
 namespace obscura {
 namespace {
-
-// The displacement field d(uv) = scale (h(uv) - midlevel) of a height map,
-// read and sampled as `--displace` does (core/subd/subdivision.h HeightMap:
-// bilinear between texel centres, repeat, v = 0 at the bottom row; the uv
-// frame reports glTF's downward v flipped, so glTF meshes read the map as
-// their extras displacement does).
-class Displacement {
- public:
-  Displacement(const std::string& path, double scale, double midlevel)
-      : map_(std::make_shared<const HeightMap>(path)), scale_(scale), midlevel_(midlevel) {
-    du_ = 1.0 / map_->width(), dv_ = 1.0 / map_->height();
-  }
-  // d at (u, v), any finite u, v (the map repeats).
-  double operator()(double u, double v) const { return scale_ * (map_->sample(u, v) - midlevel_); }
-  // dd/du, dd/dv by central differences one texel apart.
-  void gradient(double u, double v, double& ddu, double& ddv) const {
-    ddu = ((*this)(u + du_, v) - (*this)(u - du_, v)) / (2 * du_);
-    ddv = ((*this)(u, v + dv_) - (*this)(u, v - dv_)) / (2 * dv_);
-  }
-
- private:
-  std::shared_ptr<const HeightMap> map_;
-  double scale_, midlevel_, du_ = 0, dv_ = 0;
-};
 
 class Containment final : public Integrator {
  public:
@@ -160,52 +137,22 @@ class Containment final : public Integrator {
               "(so may other meshes without them)");
   }
 
-  // What a hit's samples share: the height-field frame.
+  // What a hit's samples share: the height-field frame (docs/containment.md).
   struct Local {
-    double u, v, d0;     // uv of the hit, d(uv)
-    Vec3 ea, eb, ez;     // dual basis of (dP/du, dP/dv, N): a = dot(q - p, ea), ...
-    Frame lobe;          // about n_d
+    FieldFrame field;
+    Frame lobe;  // about n_d
   };
 
   bool localFrame(const SurfaceHit& h, const IntegratorContext& ctx, Local& L) const {
     UvFrame f;
-    if (!ctx.uvFrameAt(h, f)) return false;
-    const Vec3 N = h.ns;
-    const Vec3 cv = cross(f.dpdv, N), cn = cross(N, f.dpdu), cu = cross(f.dpdu, f.dpdv);
-    const float det = dot(f.dpdu, cv);
-    if (!(std::abs(det) > 0.0f) || !std::isfinite(det)) return false;
-    const float inv = 1.0f / det;
-    L.ea = cv * inv, L.eb = cn * inv, L.ez = cu * inv;
-    if (!isFinite(L.ea) || !isFinite(L.eb) || !isFinite(L.ez)) return false;
-    L.u = f.u, L.v = f.v;
-    L.d0 = field_(L.u, L.v);
-    double ddu, ddv;
-    field_.gradient(L.u, L.v, ddu, ddv);
-    // Normal of x(u, v) = p(u, v) + N d(u, v) with dN/du, dN/dv dropped.
-    Vec3 nd = cross(f.dpdu + N * float(ddu), f.dpdv + N * float(ddv));
-    const float len = length(nd);
-    nd = len > 0.0f && std::isfinite(len) ? nd * (1.0f / len) : N;
-    if (dot(nd, N) < 0.0f) nd = -nd;  // a mirrored uv layout flips the cross product
-    L.lobe = Frame::fromNormal(nd);
+    if (!ctx.uvFrameAt(h, f) || !fieldFrame(field_, f, h.ns, L.field)) return false;
+    L.lobe = Frame::fromNormal(L.field.nd);
     return true;
   }
 
   // Is x + w t outside the height field for every t = r i/m, i = 1..m? [AT 4]
-  // If not, (*su, *sv) = the uv of the first point inside: where the segment
-  // meets the field, "the projection of the point first tested positively
-  // for occlusion onto the surface" whose albedo eq. 9 takes.
   bool outside(const Local& L, Vec3 w, float r, double* su = nullptr, double* sv = nullptr) const {
-    // q - p = N d0 + w t, and (N; ea, eb, ez) = (0, 0, 1).
-    const double wa = dot(w, L.ea), wb = dot(w, L.eb), wz = dot(w, L.ez);
-    for (uint32_t i = 1; i <= steps_; ++i) {
-      const double t = double(r) * double(i) / double(steps_);
-      if (t < double(lobe_.tnear)) continue;  // nearer than `near`: ignored
-      if (L.d0 + t * wz < field_(L.u + t * wa, L.v + t * wb)) {  // inside (I0 = 0)
-        if (su) *su = L.u + t * wa, *sv = L.v + t * wb;
-        return false;
-      }
-    }
-    return true;
+    return outsideField(field_, L.field, w, r, steps_, lobe_.tnear, su, sv);
   }
 
   // The ambient transfer of eq. 9 [AT 4.1]: the same samples, each open one

@@ -32,7 +32,9 @@ struct WallOffScreen {
     // The top edge's ray dips 45 degrees - fov/2 below the horizon.
     xw = 3.0f / std::tan(0.25f * 3.14159265f - 0.5f * kFov) + 0.05f;
     const float h = 100.0f;
-    scene.addWorldPrimitive({{-h, 0, -h}, {-h, 0, h}, {h, 0, h}, {h, 0, -h}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+    // uv = (x, z): texture coordinates for ssat map= (the other passes ignore them).
+    scene.addWorldPrimitive({{-h, 0, -h}, {-h, 0, h}, {h, 0, h}, {h, 0, -h}}, {0, 1, 2, 0, 2, 3}, {},
+                            {-h, -h, -h, h, h, h, h, -h}, -1);
     scene.addWorldPrimitive({{xw, 0, -h}, {xw, 1, -h}, {xw, 1, h}, {xw, 0, h}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);
     scene.commit();
   }
@@ -131,11 +133,14 @@ bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 // Four regions of uneven sizes covering the frame (none aligned to 4 or to
 // the 64-pixel tiles): each equals the full render's pixels, every channel,
 // bit for bit - points, lines, areas (depth moments), interleaving with its
-// filter, ssat with albedo, the traced twin.
+// filter, ssat with albedo, with the occluders' radiance (whose occluder
+// estimates read within the shaded pixel's window) and with a height field
+// (map=, a camera ray per pixel traced again for its uv), the traced twin.
 TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
   const WallOffScreen s;
   const int W = WallOffScreen::kW, H = WallOffScreen::kH;
   const int tiles[4][4] = {{0, 0, 13, 9}, {13, 0, W, 9}, {0, 9, 21, H}, {21, 9, W, H}};
+  const std::string ripples = writeRipples(tempDir("guard_band_regions"));
   const std::vector<std::pair<std::string, std::vector<std::string>>> passes = {
       {"vo", {"samples=line", "radius=1"}},
       {"vo", {"samples=point", "radius=1", "interleave=on"}},
@@ -143,9 +148,14 @@ TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
       {"vo", {"samples=line", "radius=0.7", "depth=traced", "interleave=on"}},
       {"ssat", {"distance=1"}},
       {"ssat", {"distance=1", "albedo=true", "steps=2", "guard-band=5"}},
+      {"ssat", {"distance=1", "albedo=true", "occluder=radiance", "guard-band=5"}},
+      {"ssat", {"distance=0.7", "albedo=true", "occluder=radiance", "depth=traced", "interleave=off"}},
+      {"ssat", {"distance=1", "albedo=true", "map=" + ripples, "scale=0.1"}},
+      {"ssat", {"distance=0.7", "map=" + ripples, "depth=traced", "interleave=off"}},
       {"gtao", {"radius=1"}},
       {"gtao", {"radius=0.5", "depth=traced", "e0=normal"}},
   };
+  const WarningCapture warnings;  // ssat map=: the wall has no texture coordinates
   for (const auto& [integ, params] : passes) {
     RenderSettings st = passSettings(W, H, 3, 7);
     st.aovs = true;

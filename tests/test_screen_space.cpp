@@ -434,6 +434,7 @@ const std::vector<std::pair<std::string, std::vector<std::string>>>& allConfigs(
       {"vo", {"samples=point", "interleave=on", "depth=traced"}},
       {"ssat", {}},
       {"ssat", {"albedo=true", "interleave=off", "steps=2"}},
+      {"ssat", {"albedo=true", "occluder=radiance", "steps=2"}},
       {"ssat", {"falloff=exponential", "distance=inf", "silhouette=false", "depth=traced"}},
       {"gtao", {}},
       {"gtao", {"interleave=off", "depth=traced", "e0=bent", "steps=3", "slices=2"}},
