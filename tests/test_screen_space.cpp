@@ -110,13 +110,24 @@ TEST(ScreenSpaceSeam, FilterKeepsMeanAndEdges) {
 
 // --- planes ----------------------------------------------------------------------
 
-// With the normal, a plane leaves the half-ball (vo) and every test point
-// (ssat, cosine lobe above the plane) empty: W = 1 exactly, for every
-// sample kind, interleaving and depth source.
+// With the normal, a plane leaves the half-ball and the tangent sphere (vo)
+// and every test point (ssat, cosine lobe above the plane) empty: W = 1
+// exactly, for every sample kind, kernel (vo's ratios divide the kernel's
+// integral by itself; points draw their radii from it), interleaving and
+// depth source.
 TEST(ScreenSpacePlane, WithTheNormalIsOne) {
   const FloorView v;
   const RenderSettings s = passSettings(48, 36, 2, 3);
-  const std::vector<std::vector<std::string>> vos = {{"samples=point"}, {"samples=line"}, {"samples=line", "centre=false"}};
+  const std::vector<std::vector<std::string>> vos = {
+      {"samples=point"},
+      {"samples=line"},
+      {"samples=line", "centre=false"},
+      {"samples=point", "kernel=quadratic"},
+      {"samples=line", "kernel=quadratic"},
+      {"samples=point", "normal=tangent-sphere"},
+      {"samples=line", "normal=tangent-sphere"},
+      {"samples=point", "normal=tangent-sphere", "kernel=quadratic"},
+      {"samples=line", "normal=tangent-sphere", "kernel=quadratic"}};
   // (area samples: AreaSamplesOnAFrontalPlane - on a slope their depth model
   // spreads the plane over each footprint, by design)
   for (const auto& base : vos)
@@ -154,21 +165,29 @@ TEST(ScreenSpacePlane, WithTheNormalIsOne) {
 // perspective, the same bound). Tolerance: 4 SE + 0.75 R / h. Pixels within
 // 2 of the image's edge are left out: R = 0.05 spans under a pixel here,
 // and a ball reaching off the image reads as empty there.
+// kernel=quadratic keeps the 1/2: rho is symmetric under the half-turn about
+// an axis in the plane through P, which swaps the two half-balls (points:
+// their radii are drawn from rho, the rotation stays uniform). For lines the
+// numerator moves by at most Sum a_k R^2 / h (rho <= 1) against a normalizer
+// Sum a_k Int rho = R x 2/5 (rho's mean over the ball): 0.75 R / h x 5/2.
 TEST(ScreenSpacePlane, WithoutTheNormalIsHalf) {
   const FloorView v;
   const RenderSettings s = passSettings(48, 36, 4, 5);
   const double R = 0.05, h = 4.0;
-  {
-    const MeanSe m =
-        meanSe(coveredW(renderWith(v.scene, v.cam, "vo", {"samples=point", "normal=false", "radius=0.05"}, s), 2));
-    EXPECT_NEAR(m.mean, 0.5, 4 * m.se) << "se " << m.se;
-  }
-  for (const char* kind : {"samples=line", "samples=area"})
-    for (const char* c : {"centre=true", "centre=false"}) {
-      const MeanSe m =
-          meanSe(coveredW(renderWith(v.scene, v.cam, "vo", {kind, "normal=false", "radius=0.05", c}, s), 2));
-      EXPECT_NEAR(m.mean, 0.5, 4 * m.se + 0.75 * R / h) << kind << c << " se " << m.se;
+  for (const char* kernel : {"kernel=constant", "kernel=quadratic"}) {
+    const double perKernel = kernel[7] == 'q' ? 2.5 : 1.0;
+    {
+      const MeanSe m = meanSe(
+          coveredW(renderWith(v.scene, v.cam, "vo", {"samples=point", "normal=false", "radius=0.05", kernel}, s), 2));
+      EXPECT_NEAR(m.mean, 0.5, 4 * m.se) << kernel << " se " << m.se;
     }
+    for (const char* kind : {"samples=line", "samples=area"})
+      for (const char* c : {"centre=true", "centre=false"}) {
+        const MeanSe m =
+            meanSe(coveredW(renderWith(v.scene, v.cam, "vo", {kind, "normal=false", "radius=0.05", c, kernel}, s), 2));
+        EXPECT_NEAR(m.mean, 0.5, 4 * m.se + perKernel * 0.75 * R / h) << kind << c << kernel << " se " << m.se;
+      }
+  }
 }
 
 // Interleaving (16 rotations in a 4x4 pattern, shifted per layer) and the
