@@ -152,7 +152,8 @@ int screenSpaceBandBound(const std::vector<PassSetup>& setups, int w, int h) {
     const ScreenSpaceIntegrator* ss = p.integrator->screenSpace();
     if (!ss) continue;
     const ScreenSpaceIntegrator::GuardBand gb = ss->guardBand();
-    band = std::max(band, gb.pixels >= 0 ? gb.pixels : guardBandCap(w, h));
+    // (The blur's radius widens the layer like the band: layerGeometry.)
+    band = std::max(band, (gb.pixels >= 0 ? gb.pixels : guardBandCap(w, h)) + std::max(0, ss->blur().radius));
   }
   return band;
 }

@@ -63,6 +63,10 @@
 // extent from P along w is R cos(theta): a cos^3-weighted obscurance whose
 // reach shrinks as R cos(theta). The kernel stays about P; points weigh
 // by it as a ratio there (rho is not radial about C).
+//
+// blur=r (VO §2, §5): the core's depth-aware bilateral blur of each layer's
+// estimates (ScreenSpaceIntegrator::blur, core/render/gbuffer.h
+// bilateralBlur), its range test's tolerance filter-depth.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -101,6 +105,7 @@ struct VoConfig {
   float filterDepth = 0.02f;
   DepthSource depth = DepthSource::GBuffer;
   int guardBand = -1;  // guard-band: pixels, -1 auto
+  int blur = 0;        // the bilateral blur's radius (pixels), 0 = off
 };
 
 class VolumetricObscurance final : public ScreenSpaceIntegrator {
@@ -125,6 +130,8 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   }
 
   float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
+  // VO §2, §5: an edge-aware blur after the estimate (the core's bilateralBlur).
+  Blur blur() const override { return {.radius = c_.blur, .tolerance = c_.filterDepth}; }
   bool needsDepthMoments() const override { return c_.samples == VoSamples::Area; }
   // Reads reach R (or R2) from the pixel's point.
   GuardBand guardBand() const override { return {.reach = std::max(c_.R, c_.R2), .pixels = c_.guardBand}; }
@@ -600,6 +607,10 @@ IntegratorDescriptor voDescriptor() {
               "(on/yes/1 and off/no/0, its values as a boolean, still read as true and false.)"},
       {.name = "kernel", .type = ParamType::Enum, .defaultValue = "constant", .choices = {"constant", "quadratic"},
        .doc = "the kernel rho weighing the ball (VO §4): constant, or quadratic 1 - (r/R)^2, 1 at the point and 0 at R"},
+      {.name = "blur", .type = ParamType::Int, .defaultValue = "0", .min = 0.0, .max = 64.0,
+       .doc = "radius (pixels) of the depth-aware bilateral blur after the estimate (VO §2, §5): Gaussian in image "
+              "distance (sigma = radius/2), only neighbours on the pixel's surface (normals within ~25 degrees, "
+              "within filter-depth x depth of its tangent plane); 0: off"},
       {.name = "thickness", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
        .doc = "thickness model: occupied only this far behind the depth buffer (scene units); 0: off (solid)"},
   };
@@ -626,6 +637,7 @@ IntegratorDescriptor voDescriptor() {
     c.filterDepth = float(p.getFloat("filter-depth"));
     c.depth = depthSourceFromParams(p);
     c.guardBand = p.getInt("guard-band");
+    c.blur = p.getInt("blur");
     if (c.samples == VoSamples::Area && c.depth == DepthSource::Traced)
       throw Error("integrator 'vo': samples=area reads the depth buffer's mip-mapped moments; depth=traced applies "
                   "to point and line samples");
