@@ -346,9 +346,41 @@ TEST(ScreenSpaceVoKernel, CreaseClosedFormsMatchAQuadratureOverDirections) {
     }
 }
 
+// Point samples are unbiased for V (each point distributed as the kernel's
+// weight over the domain, weights summing to 1), so against the closed form
+// averaged over each pixel (the box filter's pixel; pixels wholly on the
+// floor) they need no footprint bound. The average is a G x G midpoint grid
+// of film positions; the midpoint rule errs by at most max|V''| x (the
+// pixel's h-range / G)^2 / 24 per film axis (h is linear over a pixel to
+// first order), so 2 x that, from each pixel's own h-range, bounds it, with
+// max|V''| = 1.44 / R^2 for the quadratic ((15/4) eta (1 - eta^2) / R^2)
+// and 6 / R^2 for the tangent sphere (creaseVo's 3/2 at R/2).
+struct PixelAverages {
+  std::vector<std::pair<int, int>> pixels;
+  std::vector<double> V;
+  double gridBound = 0;
+};
+PixelAverages pixelAverages(const Crease& c, int w, int h, double R, double (*closedForm)(double, double),
+                            double maxSecond) {
+  constexpr int G = 8;
+  PixelAverages out;
+  out.pixels = creaseFloorPixels(c, w, h, R);
+  for (auto [x, y] : out.pixels) {
+    double sum = 0, lo = 1e30, hi = -1e30;
+    for (int j = 0; j < G * G; ++j) {
+      Vec3 p;
+      if (!c.floorAtFilm(w, h, float(x) + (float(j % G) + 0.5f) / G, float(y) + (float(j / G) + 0.5f) / G, p)) continue;
+      sum += closedForm(p.x, R), lo = std::min<double>(lo, p.x), hi = std::max<double>(hi, p.x);
+    }
+    out.V.push_back(sum / (G * G));
+    out.gridBound = std::max(out.gridBound, 2 * maxSecond * std::pow((hi - lo) / G, 2) / 24);
+  }
+  return out;
+}
+
 // The quadratic kernel at the crease (normal clamp, R = 0.5): lines from the
-// G-buffer and traced, and points (their radii drawn from the kernel-weighted
-// volume: unbiased); 4 SE + footprint (slope 15/16).
+// G-buffer and traced, 4 SE + footprint (slope 15/16); points against the
+// pixel averages, 4 SE + the grid's bound.
 TEST(ScreenSpaceVoKernel, QuadraticCreaseMatchesTheClosedForm) {
   const Crease c;
   const int w = 64, h = 48;
@@ -361,14 +393,19 @@ TEST(ScreenSpaceVoKernel, QuadraticCreaseMatchesTheClosedForm) {
     RecordProperty(std::string("vo_quadratic_line_crease_tolerance_") + (depth + 6), std::to_string(4 * m.se + cc.footprint));
     RecordProperty(std::string("vo_quadratic_line_crease_bias_") + (depth + 6), std::to_string(m.mean));
   }
-  const MeanSe m = renderMean(c.scene, c.cam, {"samples=point", "kernel=quadratic", "radius=0.5"}, w, h, cc.pixels, cc.V);
-  EXPECT_NEAR(m.mean, 0.0, 4 * m.se + cc.footprint) << " se " << m.se << " footprint " << cc.footprint;
+  const PixelAverages pa = pixelAverages(c, w, h, R, creaseQuadratic, 1.44 / (R * R));
+  ASSERT_GT(pa.pixels.size(), 100u);
+  const MeanSe m = renderMean(c.scene, c.cam, {"samples=point", "kernel=quadratic", "radius=0.5"}, w, h, pa.pixels, pa.V);
+  EXPECT_NEAR(m.mean, 0.0, 4 * m.se + pa.gridBound) << " se " << m.se << " grid " << pa.gridBound;
   RecordProperty("vo_quadratic_point_crease_bias", std::to_string(m.mean));
+  RecordProperty("vo_quadratic_point_crease_tolerance", std::to_string(4 * m.se + pa.gridBound));
 }
 
 // The tangent sphere at the crease (R = 0.5): lines with either kernel
 // (4 SE + footprint with slopes 3/2 and 25/16) and points with the constant
-// kernel, unbiased (each point uniform in the sphere, weights summing to 1).
+// kernel against the pixel averages (4 SE + the grid's bound). Points with
+// the quadratic kernel are a ratio there (vo.cpp), biased by O(1/count):
+// measured (vo_tangent_point_quadratic_ratio_bias), not bounded.
 TEST(ScreenSpaceVoKernel, TangentSphereCreaseMatchesTheClosedForm) {
   const Crease c;
   const int w = 64, h = 48;
@@ -379,14 +416,21 @@ TEST(ScreenSpaceVoKernel, TangentSphereCreaseMatchesTheClosedForm) {
   for (const char* kind : {"samples=line", "samples=point"})
     for (const char* kernel : {"kernel=constant", "kernel=quadratic"}) {
       const bool q = std::string(kernel) == "kernel=quadratic";
-      // Points with the quadratic kernel on the tangent sphere are a ratio
-      // (vo.cpp): biased by O(1/count), measured but not bounded here.
-      if (q && std::string(kind) == "samples=point") continue;
+      if (std::string(kind) == "samples=point") continue;  // below
       const CreaseCentres& cc = q ? quadratic : constant;
       const MeanSe m = renderMean(c.scene, c.cam, {kind, kernel, "normal=tangent-sphere", "radius=0.5"}, w, h, cc.pixels, cc.V);
       EXPECT_NEAR(m.mean, 0.0, 4 * m.se + cc.footprint) << kind << kernel << " se " << m.se << " footprint " << cc.footprint;
       RecordProperty(std::string("vo_tangent_crease_bias_") + (kind + 8) + "_" + (kernel + 7), std::to_string(m.mean));
     }
+  const PixelAverages pa = pixelAverages(c, w, h, R, creaseTangent, 6.0 / (R * R));
+  const MeanSe m = renderMean(c.scene, c.cam, {"samples=point", "normal=tangent-sphere", "radius=0.5"}, w, h, pa.pixels, pa.V);
+  EXPECT_NEAR(m.mean, 0.0, 4 * m.se + pa.gridBound) << " se " << m.se << " grid " << pa.gridBound;
+  RecordProperty("vo_tangent_point_constant_bias", std::to_string(m.mean));
+  RecordProperty("vo_tangent_point_constant_tolerance", std::to_string(4 * m.se + pa.gridBound));
+  const PixelAverages pq = pixelAverages(c, w, h, R, creaseTangentQuadratic, 0.0);
+  const MeanSe r = renderMean(c.scene, c.cam, {"samples=point", "normal=tangent-sphere", "kernel=quadratic", "radius=0.5"},
+                              w, h, pq.pixels, pq.V);
+  RecordProperty("vo_tangent_point_quadratic_ratio_bias", std::to_string(r.mean) + " se " + std::to_string(r.se));
 }
 
 // VO with line samples against an independent ray-traced obscurance-type
