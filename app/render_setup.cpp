@@ -152,7 +152,8 @@ ScreenSpaceBound screenSpaceBound(const std::vector<PassSetup>& setups, int w, i
     const ScreenSpaceIntegrator* ss = p.integrator->screenSpace();
     if (!ss) continue;
     const ScreenSpaceIntegrator::GuardBand gb = ss->guardBand();
-    bound.band = std::max(bound.band, gb.pixels >= 0 ? gb.pixels : guardBandCap(w, h));
+    // (The blur's radius widens the layer like the band: layerGeometry.)
+    bound.band = std::max(bound.band, (gb.pixels >= 0 ? gb.pixels : guardBandCap(w, h)) + std::max(0, ss->blur().radius));
     ++bound.passes;
   }
   return bound;

@@ -133,9 +133,10 @@ bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 // Four regions of uneven sizes covering the frame (none aligned to 4 or to
 // the 64-pixel tiles): each equals the full render's pixels, every channel,
 // bit for bit - points, lines, areas (depth moments), interleaving with its
-// filter, ssat with albedo, with the occluders' radiance (whose occluder
-// estimates read within the shaded pixel's window) and with a height field
-// (map=, a camera ray per pixel traced again for its uv), the traced twin.
+// filter, the blur (alone and after the filter), ssat with albedo, with the
+// occluders' radiance (whose occluder estimates read within the shaded
+// pixel's window) and with a height field (map=, a camera ray per pixel
+// traced again for its uv), the traced twin.
 TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
   const WallOffScreen s;
   const int W = WallOffScreen::kW, H = WallOffScreen::kH;
@@ -146,6 +147,8 @@ TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
       {"vo", {"samples=point", "radius=1", "interleave=on"}},
       {"vo", {"samples=area", "radius=1"}},
       {"vo", {"samples=line", "radius=0.7", "depth=traced", "interleave=on"}},
+      {"vo", {"samples=line", "radius=1", "blur=3"}},
+      {"vo", {"samples=point", "radius=1", "interleave=on", "blur=2"}},
       {"ssat", {"distance=1"}},
       {"ssat", {"distance=1", "albedo=true", "steps=2", "guard-band=5"}},
       {"ssat", {"distance=1", "albedo=true", "occluder=radiance", "guard-band=5"}},

@@ -77,12 +77,19 @@ TEST(ScreenSpaceSeam, LayersAreTheCameraSamples) {
 // its exact period mean wherever the window is whole (each window holds each
 // of the 16 phases once); across a depth step nothing of the other side
 // enters.
-TEST(ScreenSpaceSeam, FilterKeepsMeanAndEdges) {
+// A synthetic w x h layer of one depth, without a guard band (the layer is
+// the image), for the filters' tests.
+GBufferLayer flatLayer(int w, int h, float depth) {
   GBufferLayer g;
-  g.width = 16, g.height = 12;
-  g.shaded = g.image = {0, 0, 16, 12};  // no guard band: the layer is the image
+  g.width = w, g.height = h;
+  g.shaded = g.image = {0, 0, w, h};
+  g.depth.assign(size_t(w) * size_t(h), depth);
+  return g;
+}
+
+TEST(ScreenSpaceSeam, FilterKeepsMeanAndEdges) {
+  GBufferLayer g = flatLayer(16, 12, 5.0f);
   const size_t n = size_t(g.width) * g.height;
-  g.depth.assign(n, 5.0f);
   for (int y = 0; y < g.height; ++y)
     for (int x = 10; x < g.width; ++x) g.depth[g.index(x, y)] = 9.0f;  // a step at x = 10
   g.depth[g.index(3, 11)] = kInfinity;  // one background pixel
@@ -108,15 +115,68 @@ TEST(ScreenSpaceSeam, FilterKeepsMeanAndEdges) {
   EXPECT_EQ(out[g.index(3, 11)].num.x, in[g.index(3, 11)].num.x);  // background passes through
 }
 
+// The bilateral blur (VO §2, §5): a synthetic layer facing the camera, a
+// near plane (depth 5) with a far plane (depth 9) to the right of x = 12 and
+// a block of the near plane tilted 45 degrees (its normal off by more than
+// kBlurNormalCos allows) at x < 4. The near plane holds 0.3 (as num over den
+// 1), the far one 7, the tilted block 2: after a radius-4 blur every pixel
+// of the near plane is still 0.3 - nothing of the far side (a depth step) or
+// of the tilted block (a crease) is mixed in - and the far side is still 7.
+// Tolerance: the weighted sums of up to 81 floats, each rounding by 2^-24
+// relative, and the ratio of two of them: 2 x 81 x 2^-24 relative.
+TEST(ScreenSpaceSeam, BlurKeepsConstantsAndEdges) {
+  GBufferLayer g = flatLayer(24, 16, 5.0f);
+  const size_t n = size_t(g.width) * g.height;
+  g.position.assign(n, Vec3(0, 0, 0));
+  g.normal.assign(n, Vec3(0, 0, 1));
+  std::vector<SampleEstimate> in(n), out(n);
+  const float pixel = 0.01f;  // the pixels' spacing on the planes
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x) {
+      const size_t i = g.index(x, y);
+      float v = 0.3f;
+      if (x >= 12) g.depth[i] = 9.0f, v = 7.0f;
+      if (x < 4) g.normal[i] = normalize(Vec3(1, 0, 1)), v = 2.0f;
+      g.position[i] = Vec3(float(x) * pixel, float(y) * pixel, -g.depth[i]);
+      in[i] = {Vec3(v, v, v), Vec3(1, 1, 1)};
+    }
+  const BlurKernel k(4, 0.02f);
+  bilateralBlur(g, in.data(), k, 0, g.height, out.data());
+  const float tol = 2 * 81 * 0x1p-24f;
+  for (int y = 0; y < g.height; ++y)
+    for (int x = 0; x < g.width; ++x) {
+      const size_t i = g.index(x, y);
+      const float want = x >= 12 ? 7.0f : x < 4 ? 2.0f : 0.3f;
+      EXPECT_NEAR(out[i].num.x / out[i].den.x, want, tol * want) << x << "," << y;
+    }
+  // The Gaussian factor: 1 at the centre, exp(-2) at distance r (sigma = r / 2).
+  EXPECT_EQ(k.weights[4 * 9 + 4], 1.0f);
+  EXPECT_NEAR(k.weights[4 * 9 + 8], std::exp(-2.0f), 1e-7f);
+}
+
 // --- planes ----------------------------------------------------------------------
 
-// With the normal, a plane leaves the half-ball (vo) and every test point
-// (ssat, cosine lobe above the plane) empty: W = 1 exactly, for every
-// sample kind, interleaving and depth source.
+// With the normal, a plane leaves the half-ball and the tangent sphere (vo)
+// and every test point (ssat, cosine lobe above the plane) empty: W = 1
+// exactly, for every sample kind, kernel (vo's ratios divide the kernel's
+// integral by itself; points draw their radii from it), interleaving and
+// depth source.
 TEST(ScreenSpacePlane, WithTheNormalIsOne) {
   const FloorView v;
   const RenderSettings s = passSettings(48, 36, 2, 3);
-  const std::vector<std::vector<std::string>> vos = {{"samples=point"}, {"samples=line"}, {"samples=line", "centre=false"}};
+  const std::vector<std::vector<std::string>> vos = {
+      {"samples=point"},
+      {"samples=line"},
+      {"samples=line", "centre=false"},
+      {"samples=point", "kernel=quadratic"},
+      {"samples=line", "kernel=quadratic"},
+      {"samples=point", "normal=tangent-sphere"},
+      {"samples=line", "normal=tangent-sphere"},
+      {"samples=point", "normal=tangent-sphere", "kernel=quadratic"},
+      {"samples=line", "normal=tangent-sphere", "kernel=quadratic"},
+      // The blur: num and den are blurred alike, so W stays 1 exactly.
+      {"samples=line", "blur=3"},
+      {"samples=point", "kernel=quadratic", "blur=2"}};
   // (area samples: AreaSamplesOnAFrontalPlane - on a slope their depth model
   // spreads the plane over each footprint, by design)
   for (const auto& base : vos)
@@ -154,21 +214,29 @@ TEST(ScreenSpacePlane, WithTheNormalIsOne) {
 // perspective, the same bound). Tolerance: 4 SE + 0.75 R / h. Pixels within
 // 2 of the image's edge are left out: R = 0.05 spans under a pixel here,
 // and a ball reaching off the image reads as empty there.
+// kernel=quadratic keeps the 1/2: rho is symmetric under the half-turn about
+// an axis in the plane through P, which swaps the two half-balls (points:
+// their radii are drawn from rho, the rotation stays uniform). For lines the
+// numerator moves by at most Sum a_k R^2 / h (rho <= 1) against a normalizer
+// Sum a_k Int rho = R x 2/5 (rho's mean over the ball): 0.75 R / h x 5/2.
 TEST(ScreenSpacePlane, WithoutTheNormalIsHalf) {
   const FloorView v;
   const RenderSettings s = passSettings(48, 36, 4, 5);
   const double R = 0.05, h = 4.0;
-  {
-    const MeanSe m =
-        meanSe(coveredW(renderWith(v.scene, v.cam, "vo", {"samples=point", "normal=false", "radius=0.05"}, s), 2));
-    EXPECT_NEAR(m.mean, 0.5, 4 * m.se) << "se " << m.se;
-  }
-  for (const char* kind : {"samples=line", "samples=area"})
-    for (const char* c : {"centre=true", "centre=false"}) {
-      const MeanSe m =
-          meanSe(coveredW(renderWith(v.scene, v.cam, "vo", {kind, "normal=false", "radius=0.05", c}, s), 2));
-      EXPECT_NEAR(m.mean, 0.5, 4 * m.se + 0.75 * R / h) << kind << c << " se " << m.se;
+  for (const char* kernel : {"kernel=constant", "kernel=quadratic"}) {
+    const double perKernel = kernel[7] == 'q' ? 2.5 : 1.0;
+    {
+      const MeanSe m = meanSe(
+          coveredW(renderWith(v.scene, v.cam, "vo", {"samples=point", "normal=false", "radius=0.05", kernel}, s), 2));
+      EXPECT_NEAR(m.mean, 0.5, 4 * m.se) << kernel << " se " << m.se;
     }
+    for (const char* kind : {"samples=line", "samples=area"})
+      for (const char* c : {"centre=true", "centre=false"}) {
+        const MeanSe m =
+            meanSe(coveredW(renderWith(v.scene, v.cam, "vo", {kind, "normal=false", "radius=0.05", c, kernel}, s), 2));
+        EXPECT_NEAR(m.mean, 0.5, 4 * m.se + perKernel * 0.75 * R / h) << kind << c << kernel << " se " << m.se;
+      }
+  }
 }
 
 // Interleaving (16 rotations in a 4x4 pattern, shifted per layer) and the
@@ -201,6 +269,109 @@ TEST(ScreenSpacePlane, AreaSamplesOnAFrontalPlane) {
   const auto w = coveredW(renderWith(scene, cam, "vo", {"samples=area", "radius=0.3"}, passSettings(40, 30, 2)));
   ASSERT_FALSE(w.empty());
   for (double x : w) ASSERT_NEAR(x, 1.0, 1e-3);
+}
+
+// --- the bilateral blur (VO §2, §5) -----------------------------------------------
+
+// A frontal plane seen from above (every pixel alike).
+struct FrontalPlane {
+  Scene scene;
+  Camera cam = makeLookAtCamera(Vec3(0, 0, 6), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.6f, "down");
+  FrontalPlane() {
+    addPlane(scene, 50.0f);
+    scene.commit();
+  }
+};
+
+// On an open area the blur averages independent pixels: point samples on
+// the frontal plane without the normal (each pixel's rotation its own; the
+// layer's radial shift is common to all pixels and leaves with the image's
+// mean), so with one layer a blurred pixel's variance is Sum w^2 / (Sum w)^2
+// of the unblurred one, w the Gaussian weights of the whole window (the
+// range test passes everywhere on a plane): 1 / (effective sample count).
+// Same seed with and without the blur: the blurred image is the blur of the
+// other. Per replicate the ratio of the two images' sample variances over
+// the pixels at least r from the frame's edge (whole windows); mean over 16
+// replicates within 4 SE plus the sample variance's bias on a correlated
+// field - E[S_B^2] = sigma_B^2 - Var(mean) ~ sigma_B^2 - sigma^2 / n, i.e.
+// 1/n on the ratio - and the ratio-of-variances (Jensen) term, 2/n relative.
+TEST(ScreenSpaceBlur, ReducesVarianceByTheKernelsSampleCount) {
+  const FrontalPlane v;
+  const int w = 64, h = 48, r = 3;
+  double sw = 0, sw2 = 0;  // the weights, independently of the code's table
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx) {
+      const double sigma = 0.5 * r, wt = std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+      sw += wt, sw2 += wt * wt;
+    }
+  const double expected = sw2 / (sw * sw);
+  size_t n = 0;
+  const MeanSe m = replicateMean(16, [&](uint32_t seed) {
+    const std::vector<std::string> base = {"samples=point", "normal=false", "radius=0.3"};
+    std::vector<std::string> blurred = base;
+    blurred.push_back("blur=" + std::to_string(r));
+    const Film a = renderWith(v.scene, v.cam, "vo", base, passSettings(w, h, 1, seed));
+    const Film b = renderWith(v.scene, v.cam, "vo", blurred, passSettings(w, h, 1, seed));
+    const auto variance = [&](const Film& f) {
+      std::vector<double> x;
+      for (int y = r; y < h - r; ++y)
+        for (int xx = r; xx < w - r; ++xx) x.push_back(f.at(kR, xx, y));
+      n = x.size();
+      const MeanSe s = meanSe(x);
+      return s.se * s.se * double(x.size());  // the sample variance
+    };
+    return variance(b) / variance(a);
+  });
+  const double bias = 1.0 / double(n) + 2.0 * expected / double(n);
+  EXPECT_NEAR(m.mean, expected, 4 * m.se + bias) << "se " << m.se << " effective samples " << 1 / expected;
+  RecordProperty("blur_variance_ratio", std::to_string(m.mean));
+  RecordProperty("blur_variance_ratio_expected", std::to_string(expected));
+  RecordProperty("blur_variance_ratio_se", std::to_string(m.se));
+}
+
+// Across a depth step nothing is mixed: a box (top at z = 0.6) on the
+// frontal plane, seen from straight above (its sides face away from the
+// camera). With the normal clamp the box's top is exactly 1 in every layer
+// (an open plane: the half-ball above it is empty, over the edge too, where
+// it lies in front of the floor), while the floor beside the box reads
+// below 1 (the box's sides occlude it). Every pixel wholly on the top whose
+// blur window reaches the floor must still read exactly 1: the floor's
+// pixels lie 0.6 behind the top's plane, far beyond filter-depth x depth.
+TEST(ScreenSpaceBlur, DoesNotMixAcrossADepthStep) {
+  Scene scene;
+  addPlane(scene, 50.0f);
+  const float a = 0.5f, t = 0.6f;
+  scene.addWorldPrimitive({{-a, -a, t}, {a, -a, t}, {a, a, t}, {-a, a, t}}, {0, 1, 2, 0, 2, 3}, {}, {}, -1);  // top
+  scene.addWorldPrimitive({{-a, -a, 0}, {a, -a, 0}, {a, -a, t}, {-a, -a, t}, {a, a, 0}, {-a, a, 0}, {-a, a, t}, {a, a, t}},
+                          {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7}, {}, {}, -1);  // two sides
+  scene.addWorldPrimitive({{a, -a, 0}, {a, a, 0}, {a, a, t}, {a, -a, t}, {-a, a, 0}, {-a, -a, 0}, {-a, -a, t}, {-a, a, t}},
+                          {0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7}, {}, {}, -1);  // the other two
+  scene.commit();
+  const Camera cam = makeLookAtCamera(Vec3(0, 0, 6), Vec3(0, 0, 0), Vec3(0, 1, 0), 0.6f, "down");
+  const int w = 48, h = 36, r = 3;
+  const RasterCamera rc(cam, w, h);
+  const auto onTop = [&](float fx, float fy) { return traceClosest(scene, rc.org, rc.direction(fx, fy)).hit.geomID == 1; };
+  std::vector<std::pair<int, int>> edge;  // wholly on the top, the floor within r
+  for (int y = r; y < h - r; ++y)
+    for (int x = r; x < w - r; ++x) {
+      bool whole = true, nearFloor = false;
+      for (int k = 0; k < 4; ++k) whole &= onTop(float(x + (k & 1)), float(y + (k >> 1)));
+      for (int dy = -r; dy <= r && whole; ++dy)
+        for (int dx = -r; dx <= r; ++dx) nearFloor |= !onTop(float(x + dx) + 0.5f, float(y + dy) + 0.5f);
+      if (whole && nearFloor) edge.emplace_back(x, y);
+    }
+  ASSERT_GT(edge.size(), 20u);
+  const RenderSettings s = passSettings(w, h, 2, 3);
+  const Film plain = renderWith(scene, cam, "vo", {"samples=line", "radius=0.3"}, s);
+  const Film blurred = renderWith(scene, cam, "vo", {"samples=line", "radius=0.3", "blur=3"}, s);
+  double floorMin = 1;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) floorMin = std::min<double>(floorMin, plain.at(kR, x, y));
+  EXPECT_LT(floorMin, 0.9);  // what mixing would bring in
+  for (auto [x, y] : edge) {
+    ASSERT_EQ(plain.at(kR, x, y), 1.0f) << x << "," << y;
+    ASSERT_EQ(blurred.at(kR, x, y), 1.0f) << x << "," << y;
+  }
 }
 
 // --- a 90 degree crease -----------------------------------------------------------

@@ -284,6 +284,163 @@ TEST(ScreenSpaceVoLines, CreaseMatchesTheClosedForm) {
   }
 }
 
+// --- the quadratic kernel and the tangent sphere (VO §4, §4.4; docs/math.md §8) ---
+//
+// The closed forms (docs/math.md §8), eta = h / R at a floor point h from
+// the wall:
+// - kernel=quadratic, rho = 1 - (r/R)^2, half-ball:
+//     V = 1/2 + (15 eta - 10 eta^3 + 3 eta^5) / 16,        |dV/dh| <= (15/16) / R;
+// - normal=tangent-sphere, constant: the ball of radius R/2 tangent at the
+//   point is cut by the wall as the half-ball of radius R/2 is, so
+//     V = creaseVo(h, R/2),                                 |dV/dh| <= (3/2) / R;
+// - normal=tangent-sphere, kernel=quadratic (rho from the point, radius R):
+//     V = 1/2 + (25 e - 10 e^3 + e^5) / 32,  e = min(2h/R, 1), |dV/dh| <= (25/16) / R.
+// Each is checked first against an independent quadrature of the "relation
+// to obscurance" (docs/math.md §8): V = Int mu-weighted over the hemisphere's
+// directions, the inner radial integral of rho r^2 analytic, the outer a
+// midpoint grid in (cos theta, phi) - a different route from the slices the
+// closed forms were derived with.
+//
+// Tolerances: 4 SE (renderMean's replicates) plus the pixel-footprint bound
+// of creaseCentres with the slopes above.
+
+double creaseQuadratic(double h, double R) {
+  const double e = std::min(h / R, 1.0);
+  return 0.5 + (15 * e - 10 * e * e * e + 3 * std::pow(e, 5)) / 16;
+}
+double creaseTangent(double h, double R) { return creaseVo(h, 0.5 * R); }
+double creaseTangentQuadratic(double h, double R) {
+  const double e = std::min(2 * h / R, 1.0);
+  return 0.5 + (25 * e - 10 * e * e * e + std::pow(e, 5)) / 32;
+}
+
+// The crease's V by quadrature over directions w of the floor's hemisphere
+// (z = cos theta uniform in [0, 1] and phi: dw = dz dphi, N x N midpoints):
+// along w the domain reaches L(w) (R for the half-ball, R cos theta for the
+// tangent sphere) and the wall at d = h / (-w_x) (w_x < 0), and the empty
+// part is [0, min(d, L)]: V = Int F(min(d, L)) dw / Int F(L) dw with F(t) =
+// Int_0^t rho r^2 dr (t^3/3, or t^3/3 - t^5/(5 R^2) for the quadratic).
+double creaseByDirections(double h, double R, bool quadratic, bool tangent, int N) {
+  const auto F = [&](double t) { return t * t * t / 3 - (quadratic ? std::pow(t, 5) / (5 * R * R) : 0.0); };
+  double num = 0, den = 0;
+  for (int i = 0; i < N; ++i) {
+    const double z = (i + 0.5) / N, s = std::sqrt(1 - z * z), L = tangent ? R * z : R;
+    for (int j = 0; j < N; ++j) {
+      const double wx = s * std::cos(2 * kPi * (j + 0.5) / N);
+      const double d = wx < 0 ? h / -wx : 1e300;
+      num += F(std::min(d, L)), den += F(L);
+    }
+  }
+  return num / den;
+}
+
+// The closed forms against the quadrature. The integrand is continuous with
+// a kink where d = L, so the midpoint grid converges at least as 1/N; the
+// tolerance is twice the change from N/2 to N (the error of the N grid is
+// below the change when the convergence is at least first order), plus 1e-12.
+TEST(ScreenSpaceVoKernel, CreaseClosedFormsMatchAQuadratureOverDirections) {
+  const double R = 1.0;
+  struct Form {
+    bool quadratic, tangent;
+    double (*V)(double, double);
+  };
+  for (const Form f : {Form{true, false, creaseQuadratic}, Form{false, true, creaseTangent},
+                       Form{true, true, creaseTangentQuadratic}, Form{false, false, creaseVo}})
+    for (double h : {0.0, 0.1, 0.3, 0.45, 0.7, 1.2}) {
+      const double fine = creaseByDirections(h, R, f.quadratic, f.tangent, 800);
+      const double coarse = creaseByDirections(h, R, f.quadratic, f.tangent, 400);
+      EXPECT_NEAR(f.V(h, R), fine, 2 * std::abs(fine - coarse) + 1e-12)
+          << "quadratic " << f.quadratic << " tangent " << f.tangent << " h " << h;
+    }
+}
+
+// Point samples are unbiased for V (each point distributed as the kernel's
+// weight over the domain, weights summing to 1), so against the closed form
+// averaged over each pixel (the box filter's pixel; pixels wholly on the
+// floor) they need no footprint bound. The average is a G x G midpoint grid
+// of film positions; the midpoint rule errs by at most max|V''| x (the
+// pixel's h-range / G)^2 / 24 per film axis (h is linear over a pixel to
+// first order), so 2 x that, from each pixel's own h-range, bounds it, with
+// max|V''| = 1.44 / R^2 for the quadratic ((15/4) eta (1 - eta^2) / R^2)
+// and 6 / R^2 for the tangent sphere (creaseVo's 3/2 at R/2).
+struct PixelAverages {
+  std::vector<std::pair<int, int>> pixels;
+  std::vector<double> V;
+  double gridBound = 0;
+};
+PixelAverages pixelAverages(const Crease& c, int w, int h, double R, double (*closedForm)(double, double),
+                            double maxSecond) {
+  constexpr int G = 8;
+  PixelAverages out;
+  out.pixels = creaseFloorPixels(c, w, h, R);
+  for (auto [x, y] : out.pixels) {
+    double sum = 0, lo = 1e30, hi = -1e30;
+    for (int j = 0; j < G * G; ++j) {
+      Vec3 p;
+      if (!c.floorAtFilm(w, h, float(x) + (float(j % G) + 0.5f) / G, float(y) + (float(j / G) + 0.5f) / G, p)) continue;
+      sum += closedForm(p.x, R), lo = std::min<double>(lo, p.x), hi = std::max<double>(hi, p.x);
+    }
+    out.V.push_back(sum / (G * G));
+    out.gridBound = std::max(out.gridBound, 2 * maxSecond * std::pow((hi - lo) / G, 2) / 24);
+  }
+  return out;
+}
+
+// The quadratic kernel at the crease (normal clamp, R = 0.5): lines from the
+// G-buffer and traced, 4 SE + footprint (slope 15/16); points against the
+// pixel averages, 4 SE + the grid's bound.
+TEST(ScreenSpaceVoKernel, QuadraticCreaseMatchesTheClosedForm) {
+  const Crease c;
+  const int w = 64, h = 48;
+  const double R = 0.5;
+  const CreaseCentres cc = creaseCentres(c, w, h, R, creaseQuadratic, 15.0 / 16.0);
+  ASSERT_GT(cc.pixels.size(), 100u);
+  for (const char* depth : {"depth=gbuffer", "depth=traced"}) {
+    const MeanSe m = renderMean(c.scene, c.cam, {"samples=line", "kernel=quadratic", "radius=0.5", depth}, w, h, cc.pixels, cc.V);
+    EXPECT_NEAR(m.mean, 0.0, 4 * m.se + cc.footprint) << depth << " se " << m.se << " footprint " << cc.footprint;
+    RecordProperty(std::string("vo_quadratic_line_crease_tolerance_") + (depth + 6), std::to_string(4 * m.se + cc.footprint));
+    RecordProperty(std::string("vo_quadratic_line_crease_bias_") + (depth + 6), std::to_string(m.mean));
+  }
+  const PixelAverages pa = pixelAverages(c, w, h, R, creaseQuadratic, 1.44 / (R * R));
+  ASSERT_GT(pa.pixels.size(), 100u);
+  const MeanSe m = renderMean(c.scene, c.cam, {"samples=point", "kernel=quadratic", "radius=0.5"}, w, h, pa.pixels, pa.V);
+  EXPECT_NEAR(m.mean, 0.0, 4 * m.se + pa.gridBound) << " se " << m.se << " grid " << pa.gridBound;
+  RecordProperty("vo_quadratic_point_crease_bias", std::to_string(m.mean));
+  RecordProperty("vo_quadratic_point_crease_tolerance", std::to_string(4 * m.se + pa.gridBound));
+}
+
+// The tangent sphere at the crease (R = 0.5): lines with either kernel
+// (4 SE + footprint with slopes 3/2 and 25/16) and points with the constant
+// kernel against the pixel averages (4 SE + the grid's bound). Points with
+// the quadratic kernel are a ratio there (vo.cpp), biased by O(1/count):
+// measured (vo_tangent_point_quadratic_ratio_bias), not bounded.
+TEST(ScreenSpaceVoKernel, TangentSphereCreaseMatchesTheClosedForm) {
+  const Crease c;
+  const int w = 64, h = 48;
+  const double R = 0.5;
+  const CreaseCentres constant = creaseCentres(c, w, h, R, creaseTangent, 1.5);
+  const CreaseCentres quadratic = creaseCentres(c, w, h, R, creaseTangentQuadratic, 25.0 / 16.0);
+  ASSERT_GT(constant.pixels.size(), 100u);
+  for (const char* kind : {"samples=line", "samples=point"})
+    for (const char* kernel : {"kernel=constant", "kernel=quadratic"}) {
+      const bool q = std::string(kernel) == "kernel=quadratic";
+      if (std::string(kind) == "samples=point") continue;  // below
+      const CreaseCentres& cc = q ? quadratic : constant;
+      const MeanSe m = renderMean(c.scene, c.cam, {kind, kernel, "normal=tangent-sphere", "radius=0.5"}, w, h, cc.pixels, cc.V);
+      EXPECT_NEAR(m.mean, 0.0, 4 * m.se + cc.footprint) << kind << kernel << " se " << m.se << " footprint " << cc.footprint;
+      RecordProperty(std::string("vo_tangent_crease_bias_") + (kind + 8) + "_" + (kernel + 7), std::to_string(m.mean));
+    }
+  const PixelAverages pa = pixelAverages(c, w, h, R, creaseTangent, 6.0 / (R * R));
+  const MeanSe m = renderMean(c.scene, c.cam, {"samples=point", "normal=tangent-sphere", "radius=0.5"}, w, h, pa.pixels, pa.V);
+  EXPECT_NEAR(m.mean, 0.0, 4 * m.se + pa.gridBound) << " se " << m.se << " grid " << pa.gridBound;
+  RecordProperty("vo_tangent_point_constant_bias", std::to_string(m.mean));
+  RecordProperty("vo_tangent_point_constant_tolerance", std::to_string(4 * m.se + pa.gridBound));
+  const PixelAverages pq = pixelAverages(c, w, h, R, creaseTangentQuadratic, 0.0);
+  const MeanSe r = renderMean(c.scene, c.cam, {"samples=point", "normal=tangent-sphere", "kernel=quadratic", "radius=0.5"},
+                              w, h, pq.pixels, pq.V);
+  RecordProperty("vo_tangent_point_quadratic_ratio_bias", std::to_string(r.mean) + " se " + std::to_string(r.se));
+}
+
 // VO with line samples against an independent ray-traced obscurance-type
 // integral (docs/math.md §8: V = mean over uniform directions of
 // (min(d, R) / R)^3 when the empty part is star-shaped from the point and

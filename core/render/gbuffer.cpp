@@ -82,7 +82,11 @@ LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene
     }
   }
   // No band: the window is the frame (no --region), the layer the image.
-  const int margin = L.band > 0 ? L.band + extra + (integrator.interleaveFilterTolerance() > 0.0f ? 2 : 0) : 0;
+  // (The interleave filter reads 2 pixels further and the blur its radius:
+  // their neighbours are estimated too, from their own reads.)
+  const int margin = L.band > 0 ? L.band + extra + (integrator.interleaveFilterTolerance() > 0.0f ? 2 : 0) +
+                                      std::max(0, integrator.blur().radius)
+                                : 0;
   L.originX = L.band > 0 ? floorDiv(window.x0 - margin, align) * align : window.x0;
   L.originY = L.band > 0 ? floorDiv(window.y0 - margin, align) * align : window.y0;
   L.width = window.x1 + margin - L.originX;
@@ -300,41 +304,95 @@ void buildDepthMoments(GBufferLayer& g, int levels) {
   }
 }
 
-void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float tolerance, int y0, int y1,
-                         SampleEstimate* out) {
-  // Neighbours within the image (a region's layer holds the estimates of
-  // those around it: layerGeometry's margin), never beyond it.
+namespace {
+// The neighbourhood filters' loop (depthAwareBoxFilter, bilateralBlur):
+// each covered pixel (x, y) of layer rows [y0, y1) x columns [x0, x1)
+// gets the weighted mean of (num, den, bent) over the pixels of its window
+// x+lo..x+hi, y+lo..y+hi within the image (a region's layer holds the
+// estimates of those around it: layerGeometry's margin), never beyond it;
+// weight(c, j, dx, dy) >= 0, 0 where j is not mixed in, > 0 for the pixel
+// itself. Uncovered pixels pass through. store(x, y, estimate).
+template <class Weight, class Store>
+void filterPixels(const GBufferLayer& g, const SampleEstimate* in, int x0, int x1, int y0, int y1, int lo, int hi,
+                  Weight&& weight, Store&& store) {
   const int nx0 = std::max(0, g.image.x0), ny0 = std::max(0, g.image.y0);
   const int nx1 = std::min(g.width, g.image.x1) - 1, ny1 = std::min(g.height, g.image.y1) - 1;
-  const int w = g.shaded.width();
   for (int y = y0; y < y1; ++y) {
-    for (int x = g.shaded.x0; x < g.shaded.x1; ++x) {
+    for (int x = x0; x < x1; ++x) {
       const size_t c = g.index(x, y);
-      SampleEstimate& o = out[size_t(y - y0) * size_t(w) + size_t(x - g.shaded.x0)];
       if (!g.covered(c)) {
-        o = in[c];
+        store(x, y, in[c]);
         continue;
       }
-      const float z = g.depth[c], limit = tolerance * z;
       Vec3 num(0, 0, 0), den(0, 0, 0), bent(0, 0, 0);
-      int count = 0;
-      for (int yy = std::max(ny0, y - 1); yy <= std::min(ny1, y + 2); ++yy)
-        for (int xx = std::max(nx0, x - 1); xx <= std::min(nx1, x + 2); ++xx) {
+      float sum = 0.0f;
+      for (int yy = std::max(ny0, y + lo); yy <= std::min(ny1, y + hi); ++yy)
+        for (int xx = std::max(nx0, x + lo); xx <= std::min(nx1, x + hi); ++xx) {
           const size_t j = g.index(xx, yy);
-          // Uncovered neighbours have depth inf and fail the test.
-          if (!(std::abs(g.depth[j] - z) <= limit)) continue;
-          num += in[j].num;
-          den += in[j].den;
-          bent += in[j].bent;
-          ++count;
+          const float w = weight(c, j, xx - x, yy - y);
+          if (!(w > 0.0f)) continue;
+          num += in[j].num * w;
+          den += in[j].den * w;
+          bent += in[j].bent * w;
+          sum += w;
         }
-      // count >= 1: the pixel itself passes.
-      const float inv = 1.0f / float(count);
+      // sum > 0: the pixel itself passes.
+      const float inv = 1.0f / sum;
+      SampleEstimate o = in[c];
       o.num = num * inv;
       o.den = den * inv;
       o.bent = bent * inv;
+      store(x, y, o);
     }
   }
+}
+
+// The box filter's weight: 1 within the relative depth tolerance of the
+// pixel's depth, else 0 (uncovered neighbours have depth inf and fail).
+// (Weights of 1 sum the estimates exactly as a count would.)
+auto boxWeight(const GBufferLayer& g, float tolerance) {
+  return [&g, tolerance](size_t c, size_t j, int, int) {
+    const float z = g.depth[c];
+    return std::abs(g.depth[j] - z) <= tolerance * z ? 1.0f : 0.0f;
+  };
+}
+
+auto blurWeight(const GBufferLayer& g, const BlurKernel& k) {
+  const int side = 2 * k.radius + 1;
+  return [&g, &k, side](size_t c, size_t j, int dx, int dy) {
+    if (!g.covered(j)) return 0.0f;
+    const Vec3 n = g.normal[c];
+    if (!(dot(n, g.normal[j]) >= kBlurNormalCos)) return 0.0f;
+    if (!(std::abs(dot(n, g.position[j] - g.position[c])) <= k.tolerance * g.depth[c])) return 0.0f;
+    return k.weights[size_t(dy + k.radius) * size_t(side) + size_t(dx + k.radius)];
+  };
+}
+
+// Rows [y0, y1) of g.shaded into out (g.shaded's width per row).
+auto shadedRows(const GBufferLayer& g, int y0, SampleEstimate* out) {
+  return [&g, y0, out](int x, int y, const SampleEstimate& e) {
+    out[size_t(y - y0) * size_t(g.shaded.width()) + size_t(x - g.shaded.x0)] = e;
+  };
+}
+}  // namespace
+
+void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float tolerance, int y0, int y1,
+                         SampleEstimate* out) {
+  filterPixels(g, in, g.shaded.x0, g.shaded.x1, y0, y1, -1, 2, boxWeight(g, tolerance), shadedRows(g, y0, out));
+}
+
+BlurKernel::BlurKernel(int r, float tol) : radius(r), tolerance(tol) {
+  const int side = 2 * r + 1;
+  const double inv2s2 = r > 0 ? 2.0 / (double(r) * double(r)) : 0.0;  // 1 / (2 sigma^2), sigma = r / 2
+  weights.resize(size_t(side) * size_t(side));
+  for (int dy = -r; dy <= r; ++dy)
+    for (int dx = -r; dx <= r; ++dx)
+      weights[size_t(dy + r) * size_t(side) + size_t(dx + r)] = float(std::exp(-double(dx * dx + dy * dy) * inv2s2));
+}
+
+void bilateralBlur(const GBufferLayer& g, const SampleEstimate* in, const BlurKernel& k, int y0, int y1,
+                   SampleEstimate* out) {
+  filterPixels(g, in, g.shaded.x0, g.shaded.x1, y0, y1, -k.radius, k.radius, blurWeight(g, k), shadedRows(g, y0, out));
 }
 
 namespace {
@@ -367,9 +425,13 @@ struct ScreenSpacePass {
   // The layer's estimates as a whole layer only for the depth-aware filter
   // (estimated over the window and its neighbours in the image: `estimated`);
   // otherwise each tile's go from a per-thread buffer into the sums.
+  // With the blur (after the interleave filter, if any), the filter's
+  // output over the window and the blur's reach (`blurred`) in `filtered`.
   float tolerance = 0.0f;
-  LargeVector<SampleEstimate> est;
-  PixelRect estimated;
+  BlurKernel blur{0, 0.02f};
+  bool wholeLayer = false;
+  LargeVector<SampleEstimate> est, filtered;
+  PixelRect estimated, blurred;
   // Adaptive sampling (core/render/adaptive.h): after each round of layers,
   // the pixels whose error is small enough stop accumulating; the pass is
   // done when none is left.
@@ -394,6 +456,8 @@ struct ScreenSpacePass {
     albedoSums.resize(wantAlbedo ? n : 0), normalSums.resize(s.aovs ? n : 0), e0Sums.resize(wantE0 ? n : 0);
     bentSums.resize(light.bent ? n : 0), depthSums.resize(s.aovs ? n : 0);
     tolerance = ssi.interleaveFilterTolerance();
+    blur = BlurKernel(std::max(0, ssi.blur().radius), ssi.blur().tolerance);
+    wholeLayer = tolerance > 0.0f || blur.radius > 0;
     if (adaptiveSampling(s)) schedule.emplace(window, s, true), error.resize(n);
     const LayerGeometry own = layerGeometry(ssi, scene, camera, s.width, s.height, window);
     band = own.band, momentLevels = own.momentLevels;
@@ -484,14 +548,21 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
   const auto layerIndex = [&](size_t k) {
     return g.index(g.shaded.x0 + int(k % size_t(ww)), g.shaded.y0 + int(k / size_t(ww)));
   };
+  // Each pass estimates its window's pixels and, for its filters, their
+  // neighbours in the image: the blur's radius, then the interleave
+  // filter's 4x4 window about those.
+  const auto around = [&](const PixelRect& r, int lo, int hi) {
+    return PixelRect{std::max({r.x0 - lo, g.image.x0, 0}), std::max({r.y0 - lo, g.image.y0, 0}),
+                     std::min({r.x1 + hi, g.image.x1, g.width}), std::min({r.y1 + hi, g.image.y1, g.height})};
+  };
   for (ScreenSpacePass* p : passes) {
+    p->blurred = around(g.shaded, p->blur.radius, p->blur.radius);
     p->estimated = g.shaded;
-    if (p->tolerance > 0.0f) {
+    if (p->wholeLayer) {
       p->est.resize(size_t(g.width) * size_t(g.height));
-      p->estimated = {std::max({g.shaded.x0 - 1, g.image.x0, 0}), std::max({g.shaded.y0 - 1, g.image.y0, 0}),
-                      std::min({g.shaded.x1 + 2, g.image.x1, g.width}),
-                      std::min({g.shaded.y1 + 2, g.image.y1, g.height})};
+      p->estimated = p->tolerance > 0.0f ? around(p->blurred, 1, 2) : p->blurred;
     }
+    if (p->tolerance > 0.0f && p->blur.radius > 0) p->filtered.resize(p->est.size());
   }
   tbb::enumerable_thread_specific<std::vector<SampleEstimate>> tileBuffers, rowBuffers;
   tbb::enumerable_thread_specific<std::unique_ptr<IntegratorContext>> contexts;
@@ -578,7 +649,7 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
             for (int y = tile.y0; y < tile.y1; ++y)
               for (int x = tile.x0; x < tile.x1; ++x) {
                 const size_t i = g.index(x, y);
-                if (p.tolerance > 0.0f)
+                if (p.wholeLayer)
                   p.est[i] = out[tile.offset(x, y)];
                 else if (g.covered(i))
                   accumulate(size_t(y - g.shaded.y0) * size_t(ww) + size_t(x - g.shaded.x0), i, out[tile.offset(x, y)]);
@@ -587,12 +658,23 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
         });
         stats.screenSpaceSeconds += secondsSince(t);
 
-        if (p.tolerance > 0.0f) {
+        if (p.wholeLayer) {
           t = std::chrono::steady_clock::now();
+          const PixelRect& blurred = p.blurred;
+          if (p.tolerance > 0.0f && p.blur.radius > 0)  // the interleave filter over what the blur reads
+            parallelRows(blurred.height(), [&](int r0, int r1) {
+              filterPixels(g, p.est.data(), blurred.x0, blurred.x1, blurred.y0 + r0, blurred.y0 + r1, -1, 2,
+                           boxWeight(g, p.tolerance),
+                           [&](int x, int y, const SampleEstimate& e) { p.filtered[g.index(x, y)] = e; });
+            });
           parallelRows(window.height(), [&](int r0, int r1) {
             std::vector<SampleEstimate>& out = rowBuffers.local();
             out.resize(size_t(r1 - r0) * size_t(ww));
-            depthAwareBoxFilter(g, p.est.data(), p.tolerance, g.shaded.y0 + r0, g.shaded.y0 + r1, out.data());
+            if (p.blur.radius > 0)
+              bilateralBlur(g, p.tolerance > 0.0f ? p.filtered.data() : p.est.data(), p.blur, g.shaded.y0 + r0,
+                            g.shaded.y0 + r1, out.data());
+            else
+              depthAwareBoxFilter(g, p.est.data(), p.tolerance, g.shaded.y0 + r0, g.shaded.y0 + r1, out.data());
             for (size_t k = size_t(r0) * size_t(ww), e = size_t(r1) * size_t(ww); k < e; ++k) {
               const size_t i = layerIndex(k);
               if (g.covered(i)) accumulate(k, i, out[k - size_t(r0) * size_t(ww)]);

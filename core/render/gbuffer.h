@@ -98,4 +98,25 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
 void depthAwareBoxFilter(const GBufferLayer& g, const SampleEstimate* in, float tolerance, int y0, int y1,
                          SampleEstimate* out);
 
+// The depth-aware bilateral blur after VO (VO §2, §5;
+// ScreenSpaceIntegrator::Blur): each covered pixel's (num, den, bent)
+// becomes the weighted mean over the covered pixels j of the (2r+1)^2
+// window about it (clipped to the image) with weight exp(-(dx^2 + dy^2) /
+// (2 sigma^2)), sigma = r / 2, times the range test - j on the pixel's own
+// surface: n.n_j >= kBlurNormalCos and |n.(P_j - P)| <= tolerance x depth
+// (the distance from the pixel's tangent plane, so an oblique plane passes
+// whole where a depth difference would not). Weights are made once
+// (BlurKernel). Layer rows [y0, y1) of g.shaded into `out` (g.shaded's
+// width per row), from `in`, the whole layer's estimates (those of
+// g.shaded and of its neighbours within r in the image).
+constexpr float kBlurNormalCos = 0.9f;
+struct BlurKernel {
+  int radius = 0;
+  float tolerance = 0.02f;
+  std::vector<float> weights;  // (2r+1)^2, row-major, the Gaussian factor
+  BlurKernel(int radius, float tolerance);
+};
+void bilateralBlur(const GBufferLayer& g, const SampleEstimate* in, const BlurKernel& k, int y0, int y1,
+                   SampleEstimate* out);
+
 }  // namespace obscura

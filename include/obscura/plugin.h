@@ -28,7 +28,7 @@
 // installed CMake package reads it from this line (obscura_PLUGIN_ABI_VERSION),
 // and docs/plugins.md "ABI history" lists every version (a test checks that
 // the history reaches this one).
-#define OBSCURA_PLUGIN_ABI_VERSION 11u
+#define OBSCURA_PLUGIN_ABI_VERSION 12u
 
 namespace obscura {
 

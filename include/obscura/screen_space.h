@@ -147,6 +147,18 @@ class ScreenSpaceIntegrator : public Integrator {
   // filter of interleaved sampling (AT §4.2) to its estimates, with this
   // relative depth tolerance (depthAwareBoxFilter).
   virtual float interleaveFilterTolerance() const { return 0.0f; }
+  // radius > 0: after estimating a layer (and after the interleave filter),
+  // the core blurs its estimates with the depth-aware bilateral blur of
+  // this radius in pixels (VO §2, §5; bilateralBlur, core/render/gbuffer.h):
+  // Gaussian weights in image distance (sigma = radius / 2), neighbours only
+  // on the pixel's own surface - normals within ~25 degrees, and within
+  // `tolerance` x its depth of its tangent plane. The guard band's layer
+  // grows by the radius, so regions stay exact.
+  struct Blur {
+    int radius = 0;
+    float tolerance = 0.02f;
+  };
+  virtual Blur blur() const { return {}; }
   // true: the core builds each layer's depth moments (GBufferLayer::moments).
   virtual bool needsDepthMoments() const { return false; }
   // The guard band's size (GBufferLayer): `pixels` >= 0 as given, or -1 for

@@ -47,6 +47,26 @@
 // VO equals obscurance with mu(d) = min(d/R, 1)^3 under *uniform* direction
 // weighting when every line crosses one surface: the empty length of a chord
 // through P in direction w is min(d(w), R) (VO §3).
+//
+// kernel=quadratic (VO §4; docs/math.md §8): V = Int rho Occ dx / Int rho dx
+// with rho = 1 - |x - P|^2 / R^2, quadratic in x, so along a chord Q0 + s u
+// it is a quadratic in s and the chord's weight rho (1 + s/dQ)^2 a quartic
+// (times the area samples' ramp, a quintic): 3-point Gauss-Legendre is
+// exact for both (ChordWeight). Points on the (half-)ball draw their radii
+// from the kernel-weighted volume, M(r) = (5 r^3 - 3 r^5) / 2 = mu_V, in
+// place of r^3 (radialSampled); membership mu_V(d) = (5 e^3 - 3 e^5) / 2,
+// e = min(d/R, 1).
+//
+// normal=tangent-sphere (VO §4.4's cited variant): the ball of radius R/2
+// about C = P + n R/2, tangent at P; the same sets scaled by R/2 about C
+// (the lines' disk through C, perpendicular to P's view direction). Its
+// extent from P along w is R cos(theta): a cos^3-weighted obscurance whose
+// reach shrinks as R cos(theta). The kernel stays about P; points weigh
+// by it as a ratio there (rho is not radial about C).
+//
+// blur=r (VO §2, §5): the core's depth-aware bilateral blur of each layer's
+// estimates (ScreenSpaceIntegrator::blur, core/render/gbuffer.h
+// bilateralBlur), its range test's tolerance filter-depth.
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -64,6 +84,12 @@ using namespace screen_space;
 
 enum class VoSamples { Point, Line, Area };
 enum class Combine { Product, Min };
+// The kernel rho of VO §4 (docs/math.md §8): constant, or 1 - (r/R)^2.
+enum class Kernel { Constant, Quadratic };
+// The region integrated over: the whole ball, the half-ball above the
+// tangent plane (the normal clamp, VO §4.4), or the ball of radius R/2
+// tangent to the surface at P (the variant VO §4.4 cites).
+enum class Domain { Ball, HalfBall, TangentSphere };
 
 struct VoConfig {
   VoSamples samples = VoSamples::Line;
@@ -72,13 +98,15 @@ struct VoConfig {
   int count = 16;
   bool centre = true;
   bool optimisedSets = false;  // sets=optimised: VO §4.5's optimiser (sample_sets.h)
-  bool normalClamp = true;
+  Domain domain = Domain::HalfBall;
+  Kernel kernel = Kernel::Constant;
   bool bent = false;  // e0=bent: write SampleEstimate::bent
   float thickness = 0.0f;  // 0 = off (every point behind the surface is occupied)
   bool interleave = false;
   float filterDepth = 0.02f;
   DepthSource depth = DepthSource::GBuffer;
   int guardBand = -1;  // guard-band: pixels, -1 auto
+  int blur = 0;        // the bilateral blur's radius (pixels), 0 = off
 };
 
 class VolumetricObscurance final : public ScreenSpaceIntegrator {
@@ -90,7 +118,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       w_ = b.w;
       for (int k = 0; k < c_.count; ++k) {
         rad_.push_back(length(b.p[k]));
-        cube_.push_back(rad_[k] * rad_[k] * rad_[k]);
+        cube_.push_back(radialSampled() ? kernelVolume(rad_[k]) : rad_[k] * rad_[k] * rad_[k]);
       }
     } else {
       const DiskSet d = c_.optimisedSets ? optimisedDiskSet(c_.count, c_.centre) : diskSet(c_.count, c_.centre);
@@ -103,6 +131,8 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   }
 
   float interleaveFilterTolerance() const override { return c_.interleave ? c_.filterDepth : 0.0f; }
+  // VO §2, §5: an edge-aware blur after the estimate (the core's bilateralBlur).
+  Blur blur() const override { return {.radius = c_.blur, .tolerance = c_.filterDepth}; }
   bool needsDepthMoments() const override { return c_.samples == VoSamples::Area; }
   // Reads reach R (or R2) from the pixel's point.
   GuardBand guardBand() const override { return {.reach = std::max(c_.R, c_.R2), .pixels = c_.guardBand}; }
@@ -121,7 +151,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       for (int k = 0; k < c_.count; ++k) {
         float u = cube_[k] + shift;
         u -= u >= 1.0f ? 1.0f : 0.0f;
-        radial[k] = rad_[k] > 0.0f ? std::cbrt(u) / rad_[k] : 0.0f;
+        radial[k] = rad_[k] > 0.0f ? (radialSampled() ? kernelRadius(u) : std::cbrt(u)) / rad_[k] : 0.0f;
       }
     }
     const NormalRotations rotations(g, c_.interleave && c_.samples != VoSamples::Point);
@@ -131,7 +161,11 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       v = std::clamp(v, 0.0f, 1.0f);
       return Vec3(v, v, v);
     };
-    if (c_.samples == VoSamples::Point && c_.depth == DepthSource::GBuffer) {
+    // The tangent sphere's centre depends on the pixel's normal and the
+    // radius, which the pipelined paths' shared offsets cannot carry: it
+    // takes the general path below.
+    const bool pipelined = c_.depth == DepthSource::GBuffer && c_.domain != Domain::TangentSphere;
+    if (c_.samples == VoSamples::Point && pipelined) {
       // Points read from the z-buffer: each pixel's points projected in one
       // vectorized pass, then one depth read per point.
       alignas(32) float ox[2 * kMaxCount], oy[2 * kMaxCount], oz[2 * kMaxCount];
@@ -145,7 +179,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           g, tile, c_.interleave,
           [&](size_t i, int x, int y, int b) {
             pts.project(b, x, y, g.position[i], pixelFrame(g, i, x, y, rotations),
-                        c_.normalClamp ? g.normal[i] : Vec3(0, 0, 0), ox, oy, oz);
+                        c_.domain == Domain::HalfBall ? g.normal[i] : Vec3(0, 0, 0), ox, oy, oz);
             prefetchAt(g.depthSlack, pts.pixels(b), perPixel);
           },
           [&](size_t, int x, int y, int b) {
@@ -163,12 +197,13 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
                   if (on < 0.0f) o = o - clamp * (2.0f * on);
                   return o;
                 };
+                const float w = w_[k];  // the quadratic kernel is in the radii (radialSampled)
                 // Behind the camera or outside the read window (depth -1): no occluder known.
                 if (!(depth[m] > 0.0f) ||
                     !occupied(depth[m], zStarAt(g, pixel[m], depth[m], false, [&] { return P + offset(); }),
                               c_.thickness)) {
-                  v[r] += w_[k];
-                  if (c_.bent && r == 0) bent += offset() * w_[k];
+                  v[r] += w;
+                  if (c_.bent && r == 0) bent += offset() * w;
                 }
               }
             SampleEstimate& o = out[tile.offset(x, y)];
@@ -177,7 +212,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
           });
       return;
     }
-    if (c_.samples == VoSamples::Line && c_.depth == DepthSource::GBuffer) {
+    if (c_.samples == VoSamples::Line && pipelined) {
       // Lines read from the z-buffer: each pixel's disk points projected in
       // one vectorized pass, their (depth, slack) and planes prefetched
       // pixels ahead, then the exact read (the plane) per chord.
@@ -254,18 +289,45 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     const Vec3 P = g.position[i], n = g.normal[i];
     const Frame f = pixelFrame(g, i, x, y, rotations);
     for (int r = 0; r < radii; ++r) {
+      // The set's ball: about P with radius R, or the tangent sphere's, about P + n R/2 with radius R/2.
       const float R = r == 0 ? c_.R : c_.R2;
+      const float Rs = c_.domain == Domain::TangentSphere ? 0.5f * R : R;
+      const Vec3 C = c_.domain == Domain::TangentSphere ? P + n * Rs : P;
       for (int k = 0; k < c_.count; ++k) {
         if (c_.samples == VoSamples::Point) {
           Vec3 p = (f.s * px_[k] + f.t * py_[k] + f.n * pz_[k]) * radial[k];
           const float pn = dot(p, n);
-          if (c_.normalClamp && pn < 0.0f) p = p - n * (2.0f * pn);  // reflected into the half-ball (VO §4.4)
-          look.push(g, P + p * R);
+          if (c_.domain == Domain::HalfBall && pn < 0.0f) p = p - n * (2.0f * pn);  // reflected into the half-ball (VO §4.4)
+          look.push(g, C + p * Rs);
         } else {
-          look.push(g, P + (f.s * px_[k] + f.t * py_[k]) * R);
+          look.push(g, C + (f.s * px_[k] + f.t * py_[k]) * Rs);
         }
       }
     }
+  }
+
+  // The quadratic kernel rho at distance r R from P (docs/math.md §8).
+  static float kernelAt(float r) { return std::max(0.0f, 1.0f - r * r); }
+
+  // Points on the (half-)ball with the quadratic kernel: the radii are
+  // drawn from the kernel-weighted volume, density ~ rho(r) r^2, instead of
+  // weighing the points - the per-layer shift moves u = M(|p_k|) to
+  // frac(u + shift) and the radius is M^-1(u), M(r) = (5 r^3 - 3 r^5) / 2
+  // the kernel's share of the ball within r (mu_V, docs/math.md §8; r^3 for
+  // the constant kernel). Each point is then distributed as rho dx / Int rho
+  // and Sum w_k Occ_k is unbiased for V with weights summing to 1: an open
+  // plane stays exactly 1 and no ratio bias enters.
+  bool radialSampled() const { return c_.kernel == Kernel::Quadratic && c_.domain != Domain::TangentSphere; }
+  static float kernelVolume(float r) { return 0.5f * r * r * r * (5.0f - 3.0f * r * r); }
+  // M^-1(u) by bisection in double (M increases on [0, 1]; 40 halvings,
+  // below float's resolution), once per point and call.
+  static float kernelRadius(float u) {
+    double lo = 0.0, hi = 1.0;
+    for (int it = 0; it < 40; ++it) {
+      const double r = 0.5 * (lo + hi);
+      (0.5 * r * r * r * (5.0 - 3.0 * r * r) < double(u) ? lo : hi) = r;
+    }
+    return float(0.5 * (lo + hi));
   }
 
   bool occupied(float depthQ, float zStar, float thick) const {
@@ -280,15 +342,24 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   // space; see the head of the file).
   template <class Point, class ZStar>
   float evaluate(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, Vec3* bent) const {
-    const Vec3 P = g.position[i], n = g.normal[i];
+    const Vec3 P = g.position[i];
     if (c_.samples == VoSamples::Point) {
-      float v = 0.0f;
+      // The quadratic kernel about P over the tangent sphere, which is not
+      // radial about the sphere's centre: a weight rho(|x_k - P| / R) per
+      // point, normalised by the sample's own sum (a ratio: a plane stays
+      // exactly 1; biased by O(1/count) elsewhere, docs/math.md §8). On the
+      // (half-)ball the kernel is in the radii instead (radialSampled).
+      const bool weighed = c_.kernel == Kernel::Quadratic && !radialSampled();
+      float v = 0.0f, sum = 0.0f;
       for (int k = 0; k < c_.count; ++k) {
+        const float w = weighed ? w_[k] * kernelAt(length(q(k) - P) / R) : w_[k];
+        sum += w;
         if (!occupied(-q(k).z, zStar(k), c_.thickness)) {
-          v += w_[k];
-          if (bent) *bent += (q(k) - P) * w_[k];
+          v += w;
+          if (bent) *bent += (q(k) - P) * w;
         }
       }
+      if (weighed) v = sum > 0.0f ? v / sum : 1.0f;
       return v;
     }
     // Area samples: the mip level whose texel matches a disk cell's
@@ -298,7 +369,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     int level = 0;
     if (c_.samples == VoSamples::Area) {
       const float pixelSize = 2.0f * g.view.tanHalfY * g.depth[i] / g.view.height;
-      const float span = 2.0f * R / std::sqrt(float(c_.count)) / pixelSize;
+      const float span = 2.0f * (c_.domain == Domain::TangentSphere ? 0.5f * R : R) / std::sqrt(float(c_.count)) / pixelSize;
       level = span > 1.0f ? int(std::lround(std::log2(span))) : 0;
       level = std::min(level, int(g.moments.size()) - 1);
     }
@@ -322,7 +393,14 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     const ReadWindow window = readWindow(g, int(i % size_t(g.width)), int(i / size_t(g.width)));
     double freeSum = 0.0, chordSum = 0.0;  // over the chords: double for either T
     const V Pd(P), nd(n);
-    const T lengthP = Pd.length();
+    // The sphere the chords cross: about P with radius R, or the tangent
+    // sphere about C = P + n R/2 with radius R/2 (its disk points Q0 lie in
+    // the plane through C perpendicular to P's view direction).
+    const bool tangent = c_.domain == Domain::TangentSphere;
+    const T Rs = tangent ? T(0.5) * T(R) : T(R);
+    const V C = tangent ? Pd + nd * Rs : Pd;
+    // The disk plane's distance from the camera along its normal P/|P|.
+    const T lengthP = tangent ? Pd.dot(C) / Pd.length() : Pd.length();
     // bent: the moments relative to R^2 (only their direction is read), so
     // that they stay finite in float at every R.
     const T invR = T(1) / T(R);
@@ -332,14 +410,15 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       if (!(dQ > T(0)) || w_[k] == 0.0f) continue;
       const T invDQ = T(1) / dQ;
       const V u = Q0 * invDQ;
-      // Chord of the sphere |Q0 + s u - P| = R along the ray: s^2 + 2 b s + c = 0.
+      // Chord of the sphere |Q0 + s u - C| = Rs along the ray: s^2 + 2 b s + c = 0.
       const V o = Q0 - Pd;
-      const T b = u.dot(o), c = o.dot(o) - T(R) * T(R);
+      const V oC = tangent ? Q0 - C : o;
+      const T b = u.dot(oC), c = oC.dot(oC) - Rs * Rs;
       const T disc = b * b - c;
       if (!(disc > T(0))) continue;
       const T root = std::sqrt(disc);
       T s0 = -b - root, s1 = -b + root;
-      if (c_.normalClamp) {  // keep the side of the tangent plane n.(X - P) >= 0
+      if (c_.domain == Domain::HalfBall) {  // keep the side of the tangent plane n.(X - P) >= 0
         const T nu = nd.dot(u), no = nd.dot(o);
         if (nu < T(0))
           s1 = std::min(s1, -no / nu);
@@ -356,7 +435,10 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       // cos = |P| / dQ. Lengths are weighed by that (weightedLength); with
       // plain lengths a plane without the clamp reads 1/2 + (3/8) R / d.
       const T cosTheta = lengthP * invDQ;
-      const T chord = weightedLength(s0, s1, invDQ);
+      // With the quadratic kernel the element is weighed by rho(|X - P| / R) too (docs/math.md §8).
+      const ChordWeight<T> density{invDQ, o * invR, u * invR};
+      const bool quadratic = c_.kernel == Kernel::Quadratic;
+      const T chord = quadratic ? density.integral(s0, s1) : weightedLength(s0, s1, invDQ);
       // Depth along a camera ray is proportional to distance along it: a
       // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
       const T perDepth = dQ / -Q0.z;
@@ -373,10 +455,13 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
         const T surface = zMean * perDepth - dQ + bias;
         const T lo = surface - zSigma * perDepth;
         const T hi = surface + zSigma * perDepth;
-        T f = freeAlong(s0, s1, lo, hi, invDQ);
+        const auto freeFrom = [&](T l, T h) {
+          return quadratic ? density.freeAlong(s0, s1, l, h) : freeAlong(s0, s1, l, h, invDQ);
+        };
+        T f = freeFrom(lo, hi);
         const T t = c_.thickness * perDepth;
         if (c_.thickness > 0.0f)  // VO §4.3: the occupancy shifted back by the thickness, complemented, added
-          f += chord - freeAlong(s0, s1, lo + t, hi + t, invDQ);
+          f += chord - freeFrom(lo + t, hi + t);
         freeLen = (T(1) - covered) * chord + covered * std::clamp(f, T(0), chord);
         if (bent) {
           V m = moment(s0, std::min(s1, surface));
@@ -440,6 +525,37 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     return f;
   }
 
+  // The quadratic kernel's chord weight (docs/math.md §8): at s along a
+  // chord, the fan's (1 + s/dQ)^2 times rho = 1 - |X - P|^2 / R^2, X - P =
+  // o + s u (oR, uR: o / R, u / R). Both factors are quadratics in s, so
+  // the weight is a quartic and, with the box model's linear ramp, a
+  // quintic: 3-point Gauss-Legendre integrates both exactly, with positive
+  // weights on positive values (no cancellation).
+  template <class T>
+  struct ChordWeight {
+    T invDQ;
+    V3<T> oR, uR;
+    T operator()(T s) const {
+      const T w = T(1) + s * invDQ;
+      const V3<T> x = oR + uR * s;
+      return w * w * std::max(T(0), T(1) - x.dot(x));  // rho >= 0 in the ball; max() for rounding at its rim
+    }
+    // Int_a^b f(s) ds by 3-point Gauss-Legendre (exact to degree 5).
+    template <class F>
+    static T gauss3(T a, T b, F&& f) {
+      const T m = T(0.5) * (a + b), h = T(0.5) * (b - a), d = h * T(0.7745966692414834);  // sqrt(3/5)
+      return h * (T(5.0 / 9.0) * (f(m - d) + f(m + d)) + T(8.0 / 9.0) * f(m));
+    }
+    T integral(T a, T b) const { return b > a ? gauss3(a, b, *this) : T(0); }
+    // freeAlong's box model under this weight.
+    T freeAlong(T s0, T s1, T lo, T hi) const {
+      T f = integral(s0, std::min(s1, lo));
+      const T a = std::max(s0, lo), b = std::min(s1, hi);
+      if (b > a && hi > lo) f += gauss3(a, b, [&](T s) { return (hi - s) / (hi - lo) * (*this)(s); });
+      return f;
+    }
+  };
+
   // Area samples: the depth moments at the texel of `level` that Q0
   // projects to: coverage, mean depth, standard deviation. Outside the
   // read window, or a texel whose block's centre is (its block may reach
@@ -489,8 +605,17 @@ IntegratorDescriptor voDescriptor() {
        .doc = "sample sets: relaxed (one Poisson start, repulsion and Lloyd steps; ~10 ms) or optimised "
               "(VO §4.5: 32 starts, boundary charge, 128^3/512^2 Voronoi grids; ~1 s at count 16, memoised "
               "per process; docs/vo_sample_sets.md)"},
-      {.name = "normal", .type = ParamType::Bool, .defaultValue = "true",
-       .doc = "normal clamp: only the half-ball above the tangent plane (a plane gives 1; without: 1/2)"},
+      {.name = "normal", .type = ParamType::Enum, .defaultValue = "true",
+       .choices = {"true", "clamp", "tangent-sphere", "false", "on", "off", "yes", "no", "1", "0"},
+       .doc = "true or clamp: only the half-ball above the tangent plane (a plane gives 1); tangent-sphere: the ball "
+              "of radius R/2 tangent at the point (VO §4.4's cited variant); false: the whole ball (a plane: 1/2). "
+              "(on/yes/1 and off/no/0, its values as a boolean, still read as true and false.)"},
+      {.name = "kernel", .type = ParamType::Enum, .defaultValue = "constant", .choices = {"constant", "quadratic"},
+       .doc = "the kernel rho weighing the ball (VO §4): constant, or quadratic 1 - (r/R)^2, 1 at the point and 0 at R"},
+      {.name = "blur", .type = ParamType::Int, .defaultValue = "0", .min = 0.0, .max = 64.0,
+       .doc = "radius (pixels) of the depth-aware bilateral blur after the estimate (VO §2, §5): Gaussian in image "
+              "distance (sigma = radius/2), only neighbours on the pixel's surface (normals within ~25 degrees, "
+              "within filter-depth x depth of its tangent plane); 0: off"},
       {.name = "thickness", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
        .doc = "thickness model: occupied only this far behind the depth buffer (scene units); 0: off (solid)"},
   };
@@ -507,13 +632,18 @@ IntegratorDescriptor voDescriptor() {
     c.count = p.getInt("count");
     c.centre = p.getBool("centre");
     c.optimisedSets = p.getEnum("sets") == "optimised";
-    c.normalClamp = p.getBool("normal");
+    const std::string& normal = p.getEnum("normal");
+    c.domain = normal == "tangent-sphere"                                          ? Domain::TangentSphere
+               : normal == "false" || normal == "off" || normal == "no" || normal == "0" ? Domain::Ball
+                                                                                   : Domain::HalfBall;
+    c.kernel = p.getEnum("kernel") == "quadratic" ? Kernel::Quadratic : Kernel::Constant;
     c.bent = bentE0Requested(p);
     c.thickness = float(p.getFloat("thickness"));
     c.interleave = p.getEnum("interleave") == "on";
     c.filterDepth = float(p.getFloat("filter-depth"));
     c.depth = depthSourceFromParams(p);
     c.guardBand = p.getInt("guard-band");
+    c.blur = p.getInt("blur");
     if (c.samples == VoSamples::Area && c.depth == DepthSource::Traced)
       throw Error("integrator 'vo': samples=area reads the depth buffer's mip-mapped moments; depth=traced applies "
                   "to point and line samples");
