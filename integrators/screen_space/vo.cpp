@@ -38,7 +38,7 @@
 // the same samples - points: Sum w_k [x_k empty] (x_k - P); lines and areas:
 // Sum a_k cos(theta_k) Int_{free part of chord k} (Q0 + s u - P) ds, the
 // free part the chord before the surface (and, with the thickness model,
-// after surface + T), an area sample's surface at its texel's mean depth
+// after surface + T), an area sample's surface at its filtered mean depth
 // and its uncovered fraction free; lengths not weighed by the camera rays'
 // spread (the direction is what E0 reads). From the first radius only. An
 // open plane gives the normal (the half-ball's centroid), a crease the
@@ -290,16 +290,18 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       }
       return v;
     }
-    // Area samples: the mip level whose texel matches a disk cell's
-    // footprint - a cell of the n-point set covers ~1/n of the disk, radius
-    // R / sqrt(n), which spans 2 R / sqrt(n) / (pixel size at P's depth)
-    // pixels (VO §4.2: one log per pixel, the cells' share precomputed).
-    int level = 0;
+    // Area samples: the continuous mip level whose texel matches a disk
+    // cell's footprint - a cell of the n-point set covers ~1/n of the disk,
+    // radius R / sqrt(n), which spans 2 R / sqrt(n) / (pixel size at P's
+    // depth) pixels: level log2(span) (VO §4.2: one log per pixel, the
+    // cells' share precomputed), read trilinearly (depthModel); from -1
+    // (half a pixel or less: the pixel's own texel) to the coarsest.
+    float level = 0.0f;
     if (c_.samples == VoSamples::Area) {
       const float pixelSize = 2.0f * g.view.tanHalfY * g.depth[i] / g.view.height;
       const float span = 2.0f * R / std::sqrt(float(c_.count)) / pixelSize;
-      level = span > 1.0f ? int(std::lround(std::log2(span))) : 0;
-      level = std::min(level, int(g.moments.size()) - 1);
+      level = std::clamp(std::log2(span), -1.0f, float(int(g.moments.size()) - 1));
+      if (std::isnan(level)) level = -1.0f;  // a degenerate span: the pixel's own texel
     }
     // The chords in float where that is safe, in double where it is not:
     // with R up to 1e30 the chord's lengths, |Q0|^2 and the spread's weight
@@ -315,7 +317,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
 
   // evaluate's chords (lines, areas) with scalar T.
   template <class T, class Point, class ZStar>
-  float chords(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, int level, Vec3* bent) const {
+  float chords(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, float level, Vec3* bent) const {
     using V = V3<T>;
     const Vec3 P = g.position[i], n = g.normal[i];
     const ReadWindow window = readWindow(g, int(i % size_t(g.width)), int(i / size_t(g.width)));
@@ -439,25 +441,88 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     return f;
   }
 
-  // Area samples: the depth moments at the texel of `level` that Q0
-  // projects to: coverage, mean depth, standard deviation. Outside the
-  // read window, or a texel whose block's centre is (its block may reach
-  // half a block beyond the window: the layer's margin holds it): nothing
-  // known (no occluder).
-  static void depthModel(const GBufferLayer& g, int level, Vec3 Q0, const ReadWindow& window, float& covered,
+  // Area samples: the depth moments at Q0, filtered trilinearly (VO §4.2):
+  // bilinearly within each of the two levels bracketing the continuous
+  // `level`, linearly between them; below level 0, between level 0 and
+  // the texel of the pixel Q0 lies in. The texels read are a mixture of
+  // depth distributions, each weighing its filter weight times its
+  // coverage: coverage = Sum w_j c_j / Sum w_j, mean = Sum w_j c_j mu_j /
+  // Sum w_j c_j, variance = Sum w_j c_j (var_j + (mu_j - mean)^2) / Sum w_j
+  // c_j (the linear filtering of the moments M1, M2; buildDepthMoments'
+  // 2x2 reduction). Q0 outside the read window: nothing known (no
+  // occluder). A texel is read only if it lies in its level and, with a
+  // band, its block's centre lies in the window (its block may reach half
+  // a block beyond the window: the layer's margin holds it); the weights
+  // are renormalised over the texels read (a texel not read is unknown,
+  // not empty).
+  static void depthModel(const GBufferLayer& g, float level, Vec3 Q0, const ReadWindow& window, float& covered,
                          float& mean, float& sigma) {
     covered = 0.0f, mean = kInfinity, sigma = 0.0f;
-    int x, y;
-    if (!pixelOf(g, Q0, window, x, y)) return;
-    const DepthMoments& m = g.moments[size_t(level)];
-    const int bx = x >> level, by = y >> level;
-    if (g.band > 0 && level > 0) {
-      const float half = float(1 << (level - 1));
-      if (!window.contains(float(bx << level) + half, float(by << level) + half)) return;
+    if (!(Q0.z < 0.0f)) return;
+    float fx, fy;
+    g.view.project(Q0, fx, fy);
+    if (!window.contains(fx, fy)) return;
+    // The filter's position in image coordinates: the layer's origin moves
+    // with the region, and the weights must not (regions equal the full
+    // render bit for bit); the texel grid is aligned to image coordinates
+    // (the origin is a multiple of the coarsest block; 0 without a band).
+    const float inv = 1.0f / -Q0.z;
+    const float ix = 0.5f * g.view.width + Q0.x * inv * g.view.filmScaleX;
+    const float iy = 0.5f * g.view.height - Q0.y * inv * g.view.filmScaleY;
+    const int top = int(g.moments.size()) - 1;
+    float wj[9], cj[9], mj[9], vj[9];
+    int n = 0;
+    if (level < 0.0f) {
+      // A footprint under a pixel: the texel of the pixel Q0 lies in (the
+      // "level -1" of the filter, weight -level) and level 0 bilinearly
+      // (weight 1 + level), so that a tiny ball reads its own pixel - a
+      // bilinear read would spread a pixel's depth slope over it.
+      const size_t j = size_t(int(fy)) * size_t(g.moments[0].width) + size_t(int(fx));
+      wj[n] = -level, cj[n] = g.moments[0].coverage[j], mj[n] = g.moments[0].mean[j], vj[n] = g.moments[0].variance[j];
+      ++n;
     }
-    const size_t j = size_t(by) * size_t(m.width) + size_t(bx);
-    covered = m.coverage[j];
-    if (covered > 0.0f) mean = m.mean[j], sigma = std::sqrt(m.variance[j]);
+    const int l0 = std::clamp(int(level), 0, top), l1 = level < 0.0f ? 0 : std::min(l0 + 1, top);
+    const float t = l1 > l0 ? level - float(l0) : 0.0f;
+    const float wBase = level < 0.0f ? 1.0f + level : 1.0f;
+    for (int l = l0; l <= l1; ++l) {
+      const float wl = wBase * (l == l0 ? 1.0f - t : t);
+      if (!(wl > 0.0f)) continue;
+      const DepthMoments& m = g.moments[size_t(l)];
+      const float size = float(1 << l), scale = 1.0f / size;
+      // Texel centres at (b + 1/2) 2^l: the four around the point.
+      const int step = 1 << l;
+      const bool aligned = g.originX % step == 0 && g.originY % step == 0;
+      const float u = (aligned ? ix : fx) * scale - 0.5f, v = (aligned ? iy : fy) * scale - 0.5f;
+      const float fu = std::floor(u), fv = std::floor(v);
+      const float ax = u - fu, ay = v - fv;
+      const int bx0 = int(fu) - (aligned ? g.originX / step : 0), by0 = int(fv) - (aligned ? g.originY / step : 0);
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int bx = bx0 + dx, by = by0 + dy;
+          const float w = wl * (dx ? ax : 1.0f - ax) * (dy ? ay : 1.0f - ay);
+          if (!(w > 0.0f) || bx < 0 || by < 0 || bx >= m.width || by >= m.height) continue;
+          if (g.band > 0 && !window.contains((float(bx) + 0.5f) * size, (float(by) + 0.5f) * size)) continue;
+          const size_t j = size_t(by) * size_t(m.width) + size_t(bx);
+          wj[n] = w, cj[n] = m.coverage[j], mj[n] = m.mean[j], vj[n] = m.variance[j];
+          ++n;
+        }
+    }
+    float W = 0.0f, Wc = 0.0f, M = 0.0f;
+    for (int k = 0; k < n; ++k) {
+      W += wj[k];
+      Wc += wj[k] * cj[k];
+      M += wj[k] * cj[k] * mj[k];
+    }
+    if (!(W > 0.0f)) return;
+    covered = Wc / W;
+    if (!(Wc > 0.0f)) return;
+    mean = M / Wc;
+    float var = 0.0f;
+    for (int k = 0; k < n; ++k) {
+      const float d = mj[k] - mean;
+      var += wj[k] * cj[k] * (vj[k] + d * d);
+    }
+    sigma = std::sqrt(std::max(0.0f, var / Wc));
   }
 
   static constexpr int kMaxCount = 256;  // the `count` parameter's maximum
@@ -475,7 +540,8 @@ IntegratorDescriptor voDescriptor() {
   d.params = {
       {.name = "samples", .type = ParamType::Enum, .defaultValue = "line", .choices = {"point", "line", "area"},
        .doc = "point: points in the ball; line: chords of the ball along camera rays through disk points; "
-              "area: those chords against the depth's mean and variance over each disk cell's footprint (mip-mapped)"},
+              "area: those chords against the depth's mean and variance over each disk cell's footprint (mip-mapped, "
+              "read trilinearly)"},
       {.name = "radius", .type = ParamType::Float, .defaultValue = "1", .min = 0.0, .max = 1e30,
        .doc = "R, the ball's radius (scene units); 0: nothing occludes (W = 1)"},
       {.name = "radius2", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
