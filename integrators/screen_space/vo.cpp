@@ -613,36 +613,45 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     // (ux^4 + uy^4) m4 + 6 ux^2 uy^2 V^2 for independent axes alike.
     const float ux2 = gradScale > 0.0f ? gx * gx / (gradScale * gradScale) : 1.0f, uy2 = 1.0f - ux2;
     const float along4 = ux2 * ux2 + uy2 * uy2, cross4 = 6.0f * ux2 * uy2;
-    const auto planeAt = [&](float a, float b, float& p) {
+    // The plane on the ray depth x (a, b, -1): 1 / (n . (a, b, -1)) into
+    // invDen, false where it is seen edge-on (|cos| below 1e-3, compared
+    // squared) or behind the camera.
+    const auto planeAt = [&](float a, float b, float& p, float& invDen) {
       const float den = c.x * a + c.y * b - c.z;
-      p = nP / den;
-      return std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f) && p > 0.0f && p < kInfinity;
+      invDen = 1.0f / den;
+      p = nP * invDen;
+      return den * den > 1e-6f * (a * a + b * b + 1.0f) && p > 0.0f && p < kInfinity;
     };
-    float pQ;
-    if (!planeAt(Q0.x / -Q0.z, Q0.y / -Q0.z, pQ)) return false;
-    float dj[9], cv[9], sj[9];
+    float pQ, invDenQ;
+    if (!planeAt(Q0.x / -Q0.z, Q0.y / -Q0.z, pQ, invDenQ)) return false;
+    float dj[9], cv[9], sj2[9];
     float D = 0.0f, C = 0.0f;
+    const float invFx = 1.0f / g.view.filmScaleX, invFy = 1.0f / g.view.filmScaleY;
+    // Branch-free over the texels (the loop vectorizes), validity summed.
+    bool ok = true;
     for (int k = 0; k < n; ++k) {
-      const float a = (xj[k] - 0.5f * g.view.width) / g.view.filmScaleX;
-      const float b = (0.5f * g.view.height - yj[k]) / g.view.filmScaleY;
-      float p;
-      if (!planeAt(a, b, p)) return false;
-      const float slope = gradScale / std::abs(c.x * a + c.y * b - c.z);  // |grad p| / p
-      dj[k] = mj[k] - p;
+      const float a = (xj[k] - 0.5f * g.view.width) * invFx, b = (0.5f * g.view.height - yj[k]) * invFy;
+      float p, invDen;
+      ok &= planeAt(a, b, p, invDen);
+      const float slope = gradScale * std::abs(invDen);  // |grad p| / p
       // Along the gradient the plane's depth is p / (1 + s t), s = slope, t
       // the position's offset (variance V, 4th moment m4): to 4th order its
       // mean over the texel is p (1 + s^2 V + s^4 m4) (the curvature
       // offset) and its variance p^2 s^2 (V + s^2 (3 m4 - V^2)).
       const float s2 = slope * slope, V = pv[k], m4 = along4 * pm[k] + cross4 * V * V;
       cv[k] = p * (s2 * V + s2 * s2 * m4);
-      sj[k] = std::sqrt(vj[k]) - p * slope * std::sqrt(std::max(0.0f, V + s2 * (3.0f * m4 - V * V)));
+      const float planeVar = p * p * s2 * std::max(0.0f, V + s2 * (3.0f * m4 - V * V));
+      // (sigma_j - sigma_p,j)^2 with one root: var_j + var_p - 2 sqrt(var_j var_p).
+      sj2[k] = std::max(0.0f, vj[k] + planeVar - 2.0f * std::sqrt(vj[k] * planeVar));
+      dj[k] = mj[k] - p;
       D += wj[k] * cj[k] * dj[k], C += wj[k] * cj[k] * cv[k];
     }
+    if (!ok) return false;
     D /= Wc, C /= Wc;
     float var = 0.0f;
     for (int k = 0; k < n; ++k) {
       const float d = (dj[k] - cv[k]) - (D - C);
-      var += wj[k] * cj[k] * (sj[k] * sj[k] + d * d);
+      var += wj[k] * cj[k] * (sj2[k] + d * d);
     }
     mean = pQ + D;
     sigma = std::sqrt(std::max(0.0f, var / Wc));
