@@ -146,6 +146,8 @@ TEST(GuardBand, RegionsEqualTheFullRenderBitForBit) {
       {"vo", {"samples=line", "radius=1"}},
       {"vo", {"samples=point", "radius=1", "interleave=on"}},
       {"vo", {"samples=area", "radius=1"}},
+      {"vo", {"samples=area", "radius=1", "prefilter=off"}},
+      {"vo", {"samples=area", "radius=0.5", "interleave=on", "guard-band=6"}},
       {"vo", {"samples=line", "radius=0.7", "depth=traced", "interleave=on"}},
       {"vo", {"samples=line", "radius=1", "blur=3"}},
       {"vo", {"samples=point", "radius=1", "interleave=on", "blur=2"}},

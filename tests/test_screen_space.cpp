@@ -8,6 +8,7 @@
 // any deterministic bound named where it applies.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -270,6 +271,9 @@ TEST(ScreenSpacePlane, AreaSamplesOnAFrontalPlane) {
   ASSERT_FALSE(w.empty());
   for (double x : w) ASSERT_NEAR(x, 1.0, 1e-3);
 }
+
+// Area samples on an open plane seen at a grazing angle (W = 1, no bands
+// down the slope): test_screen_space_vo_area.cpp.
 
 // --- the bilateral blur (VO §2, §5) -----------------------------------------------
 

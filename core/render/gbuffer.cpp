@@ -83,8 +83,10 @@ LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene
   }
   // No band: the window is the frame (no --region), the layer the image.
   // (The interleave filter reads 2 pixels further and the blur its radius:
-  // their neighbours are estimated too, from their own reads.)
-  const int margin = L.band > 0 ? L.band + extra + (integrator.interleaveFilterTolerance() > 0.0f ? 2 : 0) +
+  // their neighbours are estimated too, from their own reads; the moments'
+  // pre-blur reads kMomentBlurRadius pixels beyond a block.)
+  const int preBlur = integrator.needsDepthMoments() && integrator.prefilterDepthMoments() ? kMomentBlurRadius : 0;
+  const int margin = L.band > 0 ? L.band + extra + preBlur + (integrator.interleaveFilterTolerance() > 0.0f ? 2 : 0) +
                                       std::max(0, integrator.blur().radius)
                                 : 0;
   L.originX = L.band > 0 ? floorDiv(window.x0 - margin, align) * align : window.x0;
@@ -127,12 +129,15 @@ void parallelRows(int height, F&& f) {
 
 uint64_t screenSpaceWorkingBytes(const PixelRect& window, int band, int passes) {
   // The layer: the window and on each side the band, half a block (<= half
-  // the band), the filter's 2 pixels and the alignment (< the band, or 4).
-  const uint64_t margin = 2 * (uint64_t(band) + uint64_t(band) / 2 + 2 + std::max<uint64_t>(4, uint64_t(band)));
+  // the band), the filter's 2 pixels, the moments' pre-blur and the
+  // alignment (< the band, or 4).
+  const uint64_t margin = 2 * (uint64_t(band) + uint64_t(band) / 2 + 2 + uint64_t(kMomentBlurRadius) +
+                               std::max<uint64_t>(4, uint64_t(band)));
   const uint64_t n = (uint64_t(window.width()) + margin) * (uint64_t(window.height()) + margin);
   const uint64_t layer = n * (sizeof(float) + 3 * sizeof(Vec3) + sizeof(std::array<float, 4>) +
                               sizeof(std::array<float, 2>) + 2 * sizeof(uint32_t));
-  const uint64_t moments = n * 3 * sizeof(float) * 4 / 3;  // the mip chain: 4/3 of level 0
+  // The mip chain (4/3 of level 0) and the pre-blur's one-level scratch.
+  const uint64_t moments = n * 3 * sizeof(float) * 4 / 3 + n * 3 * sizeof(float);
   // Sums: num, den, hits (twice: the whole pixel's and the even layers'),
   // the AOVs' albedo, normal and depth, E0 and the bent normal.
   // Each pass of the shared layer loop keeps its own, and a film of its
@@ -245,17 +250,101 @@ void renderGBufferLayer(const Scene& scene, const Tracer& tracer, const Camera& 
   for (uint64_t r : rays) cameraRays += r;
 }
 
-void buildDepthMoments(GBufferLayer& g, int levels) {
+namespace {
+
+// The depth of pixel i's surface at the pixel's centre: its stored plane
+// met by the centre's camera ray (as planeDepth in the screen-space
+// integrators), the stored depth where the plane is seen edge-on. So the
+// moments' depths sit at the pixel centres (texel centres (b + 1/2) 2^l),
+// which vo's plane-relative spread relies on; the camera sample's own depth
+// lies somewhere in the pixel (a plane's slope across a pixel as noise).
+// The offsets from the centre are image coordinates (centreX carries the
+// origin), so a region's layer gets the full frame's values bit for bit.
+float centreDepth(const GBufferLayer& g, size_t i) {
+  const float a = (float(i % size_t(g.width)) + 0.5f - g.view.centreX) / g.view.filmScaleX;
+  const float b = (g.view.centreY - (float(i / size_t(g.width)) + 0.5f)) / g.view.filmScaleY;
+  const std::array<float, 4>& p = g.plane[i];
+  const float den = p[0] * a + p[1] * b - p[2];
+  if (!(std::abs(den) > 1e-3f * std::sqrt(a * a + b * b + 1.0f))) return g.depthSlack[i][0];
+  const float z = p[3] / den;
+  return z > 0.0f ? z : g.depthSlack[i][0];
+}
+
+// Texels merged as a mixture of depth distributions (the parallel-variance
+// formula, docs/math.md §8): each part weighs its weight w times its
+// coverage c; coverage = Sum w c / Sum w, mean = Sum w c mu / Sum w c,
+// variance = Sum w c (var + (mu - mean)^2) / Sum w c. Two passes over the
+// parts, in double: never E[z^2] - E[z]^2.
+struct MomentMerge {
+  double w = 0.0, wc = 0.0, wcMu = 0.0, wcSpread = 0.0;
+  template <class ForParts>  // ForParts(f) calls f(weight, coverage, mean, variance) per part
+  void run(ForParts&& parts, float& coverage, float& mean, float& variance) {
+    parts([&](double wt, float c, float mu, float) {
+      w += wt, wc += wt * c, wcMu += wt * c * mu;
+    });
+    coverage = w > 0.0 ? float(wc / w) : 0.0f;
+    if (!(wc > 0.0)) {
+      mean = 0.0f, variance = 0.0f;
+      return;
+    }
+    const double m = wcMu / wc;
+    parts([&](double wt, float c, float mu, float var) {
+      const double d = double(mu) - m;
+      wcSpread += wt * c * (double(var) + d * d);
+    });
+    mean = float(m), variance = float(wcSpread / wc);
+  }
+};
+
+// One separable pass of the pre-blur over level 0: from `a` into `b`
+// (same size), along x (dx = 1) or y; taps off the layer are not read and
+// the rest renormalised (layerGeometry's margin keeps every texel a pass
+// reads at least kMomentBlurRadius pixels from the layer's edge).
+void blurPass(const DepthMoments& a, DepthMoments& b, bool alongX) {
+  parallelRows(a.height, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < a.width; ++x) {
+        const auto parts = [&](auto&& f) {
+          for (int t = -kMomentBlurRadius; t <= kMomentBlurRadius; ++t) {
+            const int xx = alongX ? x + t : x, yy = alongX ? y : y + t;
+            if (xx < 0 || yy < 0 || xx >= a.width || yy >= a.height) continue;
+            const size_t j = size_t(yy) * size_t(a.width) + size_t(xx);
+            f(double(kMomentBlurWeights[t + kMomentBlurRadius]), a.coverage[j], a.mean[j], a.variance[j]);
+          }
+        };
+        const size_t i = size_t(y) * size_t(a.width) + size_t(x);
+        MomentMerge().run(parts, b.coverage[i], b.mean[i], b.variance[i]);
+      }
+  });
+}
+
+}  // namespace
+
+void buildDepthMoments(GBufferLayer& g, int levels, bool prefilter) {
   g.moments.resize(size_t(std::max(levels, 1)));
   DepthMoments& base = g.moments[0];
   base.width = g.width, base.height = g.height;
   const size_t n = size_t(g.width) * size_t(g.height);
   base.mean.resize(n), base.variance.assign(n, 0.0f), base.coverage.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    // Occluders only: a non-occluding object's pixels are no depth here.
-    const bool c = g.covered(i) && g.depthSlack[i][0] < kInfinity;
-    base.mean[i] = c ? g.depth[i] : 0.0f;
-    base.coverage[i] = c ? 1.0f : 0.0f;
+  parallelRows(g.height, [&](int y0, int y1) {
+    for (size_t i = size_t(y0) * size_t(g.width); i < size_t(y1) * size_t(g.width); ++i) {
+      // Occluders only: a non-occluding object's pixels are no depth here.
+      const bool c = g.covered(i) && g.depthSlack[i][0] < kInfinity;
+      base.mean[i] = c ? centreDepth(g, i) : 0.0f;
+      base.coverage[i] = c ? 1.0f : 0.0f;
+    }
+  });
+  if (prefilter) {
+    // VO §4.2's Gaussian blur of the top level: separable, x then y. Each
+    // pass is a mixture merge, and so is the pair: a tap's weight in the
+    // y pass is the x pass's normaliser times its own, the same for every
+    // row a y pass reads (the layer's edges are straight), so the result is
+    // the mixture of the 5x5 neighbourhood under the product weights.
+    DepthMoments tmp;
+    tmp.width = base.width, tmp.height = base.height;
+    tmp.mean.resize(n), tmp.variance.resize(n), tmp.coverage.resize(n);
+    blurPass(base, tmp, true);
+    blurPass(tmp, base, false);
   }
   for (size_t l = 1; l < g.moments.size(); ++l) {
     const DepthMoments& a = g.moments[l - 1];
@@ -277,28 +366,11 @@ void buildDepthMoments(GBufferLayer& g, int levels) {
                 if (cx < a.width && cy < a.height) f(size_t(cy) * size_t(a.width) + size_t(cx));
               }
           };
-          double w = 0.0, mean = 0.0, cov = 0.0;
-          int children = 0;
-          forChildren([&](size_t j) {
-            ++children;
-            cov += a.coverage[j];
-            w += a.coverage[j];
-            mean += double(a.coverage[j]) * a.mean[j];
-          });
+          const auto parts = [&](auto&& f) {
+            forChildren([&](size_t j) { f(1.0, a.coverage[j], a.mean[j], a.variance[j]); });
+          };
           const size_t i = size_t(y) * size_t(b.width) + size_t(x);
-          b.coverage[i] = float(cov / children);
-          if (!(w > 0.0)) {
-            b.mean[i] = 0.0f, b.variance[i] = 0.0f;
-            continue;
-          }
-          mean /= w;
-          double var = 0.0;
-          forChildren([&](size_t j) {
-            const double d = double(a.mean[j]) - mean;
-            var += double(a.coverage[j]) * (double(a.variance[j]) + d * d);
-          });
-          b.mean[i] = float(mean);
-          b.variance[i] = float(var / w);
+          MomentMerge().run(parts, b.coverage[i], b.mean[i], b.variance[i]);
         }
     });
   }
@@ -534,9 +606,6 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
     geometry.band = std::max(geometry.band, own.band);
     geometry.momentLevels = std::max(geometry.momentLevels, own.momentLevels);
   }
-  const bool anyMoments = std::any_of(passes.begin(), passes.end(), [](const ScreenSpacePass* p) {
-    return p->integrator->needsDepthMoments();
-  });
   const Tracer tracer(scene.rtcScene(), s.recorder, scene.occlusionScopes());
   const int ww = window.width();
   GBufferLayer g;
@@ -588,17 +657,18 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
       if (cancel && cancel->load(std::memory_order_relaxed)) break;
       // The layer holds what the passes still running read (a layer's
       // pixels do not depend on which arrays it fills).
-      bool running = false, wantAlbedo = false, wantMoments = false;
+      bool running = false, wantAlbedo = false;
       for (const ScreenSpacePass* p : passes) {
         if (p->done) continue;
         running = true;
         wantAlbedo = wantAlbedo || p->wantAlbedo;
-        wantMoments = wantMoments || p->integrator->needsDepthMoments();
       }
       if (!running) break;
       auto t = std::chrono::steady_clock::now();
       renderGBufferLayer(scene, tracer, camera, s, uint32_t(si), wantAlbedo, g, cameraRays);
-      if (anyMoments && wantMoments) buildDepthMoments(g, geometry.momentLevels);
+      // The moments are built for the first pass that reads them, again for
+      // a pass that wants the other pre-blur (prefilterDepthMoments).
+      int momentsBuilt = -1;  // -1: none; else the pre-blur they have
       stats.gbufferSeconds += secondsSince(t);
 
       for (ScreenSpacePass* pass : passes) {
@@ -608,6 +678,12 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
         // The pass reads as a solo render's layer lets it: its own band
         // and moment levels.
         g.band = p.band;
+        if (integrator.needsDepthMoments() && momentsBuilt != int(integrator.prefilterDepthMoments())) {
+          t = std::chrono::steady_clock::now();
+          buildDepthMoments(g, geometry.momentLevels, integrator.prefilterDepthMoments());
+          momentsBuilt = int(integrator.prefilterDepthMoments());
+          stats.gbufferSeconds += secondsSince(t);
+        }
         const MomentLevels levels(g, p.momentLevels);
         // Window pixel k's (layer pixel i's) estimate of this layer into its
         // sums (and the AOVs').

@@ -67,10 +67,11 @@ struct LayerGeometry {
 LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene& scene, const Camera& camera,
                             int w, int h, const PixelRect& window);
 
-// Builds g.moments from g.depth: `levels` levels (level 0 = the pixels),
-// each block of level l aligned to image pixels 2^l apart (parallel over
-// rows; the caller's TBB arena).
-void buildDepthMoments(GBufferLayer& g, int levels);
+// Builds g.moments from g.depth: `levels` levels (level 0 = the pixels'
+// depths at their centres, from the stored planes; `prefilter`: blurred by
+// the Gaussian kMomentBlurWeights, VO §4.2), each block of level l aligned
+// to image pixels 2^l apart (parallel over rows; the caller's TBB arena).
+void buildDepthMoments(GBufferLayer& g, int levels, bool prefilter);
 
 // An upper bound of the bytes renderScreenSpace keeps besides the output
 // film for a render of `window` with a guard band of at most `band` pixels

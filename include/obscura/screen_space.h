@@ -63,10 +63,32 @@ struct ViewTransform {
 // instead of entering the moments). Variances are merged with the parallel
 // formula (sum of the parts' variances and of their means' spread), never as
 // E[z^2] - E[z]^2, which cancels in float.
+//
+// Level 0 holds each pixel's depth at the pixel's centre (its surface's
+// plane there, not the jittered camera sample's depth), so that a texel's
+// depths sit at known film positions. With the pre-blur (VO §4.2;
+// ScreenSpaceIntegrator::prefilterDepthMoments) level 0 is first blurred
+// with the separable Gaussian kMomentBlurWeights, merged the same way.
 struct DepthMoments {
   int width = 0, height = 0;
   LargeVector<float> mean, variance, coverage;
 };
+
+// The pre-blur's taps at offsets -2..2 pixels: exp(-i^2 / 2), a Gaussian of
+// sigma 1 pixel truncated at 2 sigma (unnormalised: the merge divides by
+// the weights of the taps it reads).
+inline constexpr int kMomentBlurRadius = 2;
+inline constexpr float kMomentBlurWeights[2 * kMomentBlurRadius + 1] = {0.135335283f, 0.606530660f, 1.0f,
+                                                                         0.606530660f, 0.135335283f};
+// The pre-blur's variance per axis (pixels^2): Sum w_i i^2 / Sum w_i = 0.924.
+constexpr float momentBlurVariance() {
+  float w = 0.0f, wii = 0.0f;
+  for (int i = -kMomentBlurRadius; i <= kMomentBlurRadius; ++i) {
+    w += kMomentBlurWeights[i + kMomentBlurRadius];
+    wii += kMomentBlurWeights[i + kMomentBlurRadius] * float(i * i);
+  }
+  return wii / w;
+}
 
 // One G-buffer layer: camera sample `sampleIndex` of every pixel, in view
 // space, structure of arrays (the screen-space loops read `depth` at
@@ -161,6 +183,10 @@ class ScreenSpaceIntegrator : public Integrator {
   virtual Blur blur() const { return {}; }
   // true: the core builds each layer's depth moments (GBufferLayer::moments).
   virtual bool needsDepthMoments() const { return false; }
+  // true (with needsDepthMoments): level 0 of the moments is pre-blurred
+  // with the Gaussian kMomentBlurWeights before the mip chain is built
+  // (VO §4.2); the layer's margin grows by kMomentBlurRadius.
+  virtual bool prefilterDepthMoments() const { return false; }
   // The guard band's size (GBufferLayer): `pixels` >= 0 as given, or -1 for
   // the core's default from `reach`, the farthest distance from a shaded
   // point (scene units) at which the pass reads the depth buffer - R

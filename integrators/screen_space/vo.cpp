@@ -30,6 +30,27 @@
 //   the plane exactly 1 (clamp), and 1/2 without the clamp to the disk set's
 //   quadrature (plain lengths gave 1/2 + (3/8) R / d, d the camera's
 //   distance).
+// - samples=area (VO §4.2; docs/math.md §8 "Area samples"): the chords of
+//   line samples against a depth distribution over each disk cell's
+//   footprint instead of one depth: the moments (coverage, mean, variance
+//   of the depths at the pixel centres, level 0 pre-blurred by a Gaussian
+//   of sigma 1 pixel with prefilter=on; core/render/gbuffer.cpp) read
+//   trilinearly at level log2(footprint span), modelled as a box of the
+//   same mean and variance, mu +- sqrt(3) sigma (a uniform distribution on
+//   [a, b] has sigma = (b - a) / sqrt(12)), the empty probability falling
+//   linearly across it. With the normal clamp the distribution is that of
+//   delta = z - p, the surface's depth relative to the tangent plane p over
+//   the footprint (where the plane ends the chord): each ray of the
+//   footprint ends at its own clamp, free = (p - s0) + min(delta, 0), so the
+//   plane's own ramp across the footprint is no spread. Per texel j: delta_j
+//   = mu_j - p(c_j), sd_j = |sigma_j - sigma_p,j| (the surface varying with
+//   the plane within a texel; sigma_p,j the plane's spread over the texel's
+//   pixel centres, to 4th order in |grad p / p| x their offsets), mixed
+//   between texels with the plane's curvature over each texel (kappa_j, the
+//   same order) taken out of the spread. An open plane at any angle:
+//   delta_j = kappa_j >= 0 (a plane's depth is convex along image lines),
+//   the box behind the clamp, W = 1 (the box about the absolute depth gave
+//   0.91 on a grazing floor).
 // - radius2 > 0: V computed at both radii with the same samples, combined by
 //   product or min (VO §6).
 //
@@ -38,7 +59,7 @@
 // the same samples - points: Sum w_k [x_k empty] (x_k - P); lines and areas:
 // Sum a_k cos(theta_k) Int_{free part of chord k} (Q0 + s u - P) ds, the
 // free part the chord before the surface (and, with the thickness model,
-// after surface + T), an area sample's surface at its texel's mean depth
+// after surface + T), an area sample's surface at its filtered mean depth
 // and its uncovered fraction free; lengths not weighed by the camera rays'
 // spread (the direction is what E0 reads). From the first radius only. An
 // open plane gives the normal (the half-ball's centroid), a crease the
@@ -82,6 +103,17 @@ namespace {
 
 using namespace screen_space;
 
+// The pre-blur's 4th moment per axis, Sum w_i i^4 / Sum w_i (pixels^4; its
+// variance: momentBlurVariance).
+constexpr float momentBlurFourthMoment() {
+  float w = 0.0f, m = 0.0f;
+  for (int i = -kMomentBlurRadius; i <= kMomentBlurRadius; ++i) {
+    w += kMomentBlurWeights[i + kMomentBlurRadius];
+    m += kMomentBlurWeights[i + kMomentBlurRadius] * float(i * i * i * i);
+  }
+  return m / w;
+}
+
 enum class VoSamples { Point, Line, Area };
 enum class Combine { Product, Min };
 // The kernel rho of VO §4 (docs/math.md §8): constant, or 1 - (r/R)^2.
@@ -107,6 +139,7 @@ struct VoConfig {
   DepthSource depth = DepthSource::GBuffer;
   int guardBand = -1;  // guard-band: pixels, -1 auto
   int blur = 0;        // the bilateral blur's radius (pixels), 0 = off
+  bool prefilter = true;  // area samples: the moments' Gaussian pre-blur (VO §4.2)
 };
 
 class VolumetricObscurance final : public ScreenSpaceIntegrator {
@@ -134,6 +167,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
   // VO §2, §5: an edge-aware blur after the estimate (the core's bilateralBlur).
   Blur blur() const override { return {.radius = c_.blur, .tolerance = c_.filterDepth}; }
   bool needsDepthMoments() const override { return c_.samples == VoSamples::Area; }
+  bool prefilterDepthMoments() const override { return c_.samples == VoSamples::Area && c_.prefilter; }
   // Reads reach R (or R2) from the pixel's point.
   GuardBand guardBand() const override { return {.reach = std::max(c_.R, c_.R2), .pixels = c_.guardBand}; }
 
@@ -362,16 +396,18 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       if (weighed) v = sum > 0.0f ? v / sum : 1.0f;
       return v;
     }
-    // Area samples: the mip level whose texel matches a disk cell's
-    // footprint - a cell of the n-point set covers ~1/n of the disk, radius
-    // R / sqrt(n), which spans 2 R / sqrt(n) / (pixel size at P's depth)
-    // pixels (VO §4.2: one log per pixel, the cells' share precomputed).
-    int level = 0;
+    // Area samples: the continuous mip level whose texel matches a disk
+    // cell's footprint - a cell of the n-point set covers ~1/n of the disk,
+    // radius R / sqrt(n), which spans 2 R / sqrt(n) / (pixel size at P's
+    // depth) pixels: level log2(span) (VO §4.2: one log per pixel, the
+    // cells' share precomputed), read trilinearly (depthModel); from -1
+    // (half a pixel or less: the pixel's own texel) to the coarsest.
+    float level = 0.0f;
     if (c_.samples == VoSamples::Area) {
       const float pixelSize = 2.0f * g.view.tanHalfY * g.depth[i] / g.view.height;
       const float span = 2.0f * (c_.domain == Domain::TangentSphere ? 0.5f * R : R) / std::sqrt(float(c_.count)) / pixelSize;
-      level = span > 1.0f ? int(std::lround(std::log2(span))) : 0;
-      level = std::min(level, int(g.moments.size()) - 1);
+      level = std::clamp(std::log2(span), -1.0f, float(int(g.moments.size()) - 1));
+      if (std::isnan(level)) level = -1.0f;  // a degenerate span: the pixel's own texel
     }
     // The chords in float where that is safe, in double where it is not:
     // with R up to 1e30 the chord's lengths, |Q0|^2 and the spread's weight
@@ -387,7 +423,7 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
 
   // evaluate's chords (lines, areas) with scalar T.
   template <class T, class Point, class ZStar>
-  float chords(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, int level, Vec3* bent) const {
+  float chords(const GBufferLayer& g, size_t i, Point&& q, ZStar&& zStar, float R, float level, Vec3* bent) const {
     using V = V3<T>;
     const Vec3 P = g.position[i], n = g.normal[i];
     const ReadWindow window = readWindow(g, int(i % size_t(g.width)), int(i / size_t(g.width)));
@@ -443,7 +479,13 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       // depth z sits at s = z |Q0| / depth(Q0) - |Q0| on the chord's line.
       const T perDepth = dQ / -Q0.z;
       float covered = 1.0f, zMean = c_.samples == VoSamples::Area ? kInfinity : zStar(k), zSigma = 0.0f;
-      if (c_.samples == VoSamples::Area) depthModel(g, level, q(k), window, covered, zMean, zSigma);
+      if (c_.samples == VoSamples::Area) {
+        // Where the tangent plane ends the chord (the ray meets it going
+        // in, n.u < 0) the spread is taken relative to that plane
+        // (depthModel): the footprint's rays each end at their own clamp.
+        const bool relative = c_.domain == Domain::HalfBall && nd.dot(u) < T(0);
+        depthModel(g, level, q(k), window, relative ? &n : nullptr, dot(n, P), c_.prefilter, covered, zMean, zSigma);
+      }
       T freeLen = chord;
       // The first moment of the segment [a, b] of the chord about P (bent), / R^2.
       const auto moment = [&](T a, T b) {
@@ -453,8 +495,11 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
       if (covered > 0.0f && zMean < kInfinity) {
         const T bias = T(kDepthBias) * zMean * perDepth;
         const T surface = zMean * perDepth - dQ + bias;
-        const T lo = surface - zSigma * perDepth;
-        const T hi = surface + zSigma * perDepth;
+        // The box of the depth model: a uniform distribution with the
+        // moments' standard deviation sigma spans mu +- sqrt(3) sigma
+        // (docs/math.md §8; VO §4.2's mu +- sigma has a third less spread).
+        const T halfWidth = T(kSqrt3) * zSigma * perDepth;
+        const T lo = surface - halfWidth, hi = surface + halfWidth;
         const auto freeFrom = [&](T l, T h) {
           return quadratic ? density.freeAlong(s0, s1, l, h) : freeAlong(s0, s1, l, h, invDQ);
         };
@@ -556,28 +601,184 @@ class VolumetricObscurance final : public ScreenSpaceIntegrator {
     }
   };
 
-  // Area samples: the depth moments at the texel of `level` that Q0
-  // projects to: coverage, mean depth, standard deviation. Outside the
-  // read window, or a texel whose block's centre is (its block may reach
-  // half a block beyond the window: the layer's margin holds it): nothing
-  // known (no occluder).
-  static void depthModel(const GBufferLayer& g, int level, Vec3 Q0, const ReadWindow& window, float& covered,
-                         float& mean, float& sigma) {
+  // Area samples: the depth moments at Q0, filtered trilinearly (VO §4.2):
+  // bilinearly within each of the two levels bracketing the continuous
+  // `level`, linearly between them; below level 0, between level 0 and
+  // the texel of the pixel Q0 lies in. The texels read are a mixture of
+  // depth distributions, each weighing its filter weight times its
+  // coverage: coverage = Sum w_j c_j / Sum w_j, mean = Sum w_j c_j mu_j /
+  // Sum w_j c_j, variance = Sum w_j c_j (var_j + (mu_j - mean)^2) / Sum w_j
+  // c_j (the linear filtering of the moments M1, M2; buildDepthMoments'
+  // 2x2 reduction). Q0 outside the read window: nothing known (no
+  // occluder). A texel is read only if it lies in its level and, with a
+  // band, its block's centre lies in the window (its block may reach half
+  // a block beyond the window: the layer's margin holds it); the weights
+  // are renormalised over the texels read (a texel not read is unknown,
+  // not empty).
+  //
+  // clamp (the normal clamp's plane n.X = nP, when it ends the chord): the
+  // distribution returned is that of the surface's depth relative to the
+  // plane's over the same footprint, delta = z - p, moved to the plane's
+  // depth on Q0's ray: mean = p(Q0) + mean(delta), sigma = sd(delta)
+  // (docs/math.md §8 "The plane-relative spread"). Per texel j: delta_j =
+  // mu_j - p(c_j), the plane's depth at the texel's centre c_j; within the
+  // texel the surface's depth is taken to vary with the plane's (their
+  // correlation 1), sd_j(delta) = |sigma_j - sigma_p,j|, sigma_p,j the
+  // plane's own spread over the texel's pixel centres (relativeToPlane),
+  // whose positions have per axis the variance V and 4th moment m4 of a
+  // block of 2^l pixels, pre-blurred (blurred) or not; between texels the
+  // mixture, the plane's curvature over each texel taken out. On an open
+  // plane delta_j is that curvature, >= 0: the chord is free to its clamp,
+  // W = 1. A texel whose centre sees the plane edge-on or behind the
+  // camera: the absolute model (no plane).
+  static void depthModel(const GBufferLayer& g, float level, Vec3 Q0, const ReadWindow& window, const Vec3* clamp,
+                         float nP, bool blurred, float& covered, float& mean, float& sigma) {
     covered = 0.0f, mean = kInfinity, sigma = 0.0f;
-    int x, y;
-    if (!pixelOf(g, Q0, window, x, y)) return;
-    const DepthMoments& m = g.moments[size_t(level)];
-    const int bx = x >> level, by = y >> level;
-    if (g.band > 0 && level > 0) {
-      const float half = float(1 << (level - 1));
-      if (!window.contains(float(bx << level) + half, float(by << level) + half)) return;
+    if (!(Q0.z < 0.0f)) return;
+    float fx, fy;
+    g.view.project(Q0, fx, fy);
+    if (!window.contains(fx, fy)) return;
+    // The filter's position in image coordinates: the layer's origin moves
+    // with the region, and the weights must not (regions equal the full
+    // render bit for bit); the texel grid is aligned to image coordinates
+    // (the origin is a multiple of the coarsest block; 0 without a band).
+    const float inv = 1.0f / -Q0.z;
+    const float ix = 0.5f * g.view.width + Q0.x * inv * g.view.filmScaleX;
+    const float iy = 0.5f * g.view.height - Q0.y * inv * g.view.filmScaleY;
+    const int top = int(g.moments.size()) - 1;
+    // xj, yj: the texel's centre (image); pv, pm: its pixel centres' position variance and 4th moment per axis
+    float wj[9], cj[9], mj[9], vj[9], xj[9], yj[9], pv[9], pm[9];
+    int n = 0;
+    if (level < 0.0f) {
+      // A footprint under a pixel: the pixel Q0 lies in, read as a line
+      // sample reads it - its surface's plane on Q0's ray, one depth at
+      // Q0's own film position (the "level -1" of the filter, weight
+      // -level) - and level 0 bilinearly (weight 1 + level), so that a tiny
+      // ball reads its own pixel exactly: a bilinear read, or the pixel's
+      // pre-blurred texel, would spread the neighbours' depths over it.
+      const size_t j = g.index(int(fx), int(fy));
+      const float z = planeDepth(g, j, Q0.x * inv, Q0.y * inv);  // +inf: background or no occluder
+      wj[n] = -level, cj[n] = z < kInfinity ? 1.0f : 0.0f, mj[n] = z < kInfinity ? z : 0.0f, vj[n] = 0.0f;
+      xj[n] = ix, yj[n] = iy, pv[n] = 0.0f, pm[n] = 0.0f;
+      ++n;
     }
-    const size_t j = size_t(by) * size_t(m.width) + size_t(bx);
-    covered = m.coverage[j];
-    if (covered > 0.0f) mean = m.mean[j], sigma = std::sqrt(m.variance[j]);
+    const int l0 = std::clamp(int(level), 0, top), l1 = level < 0.0f ? 0 : std::min(l0 + 1, top);
+    const float t = l1 > l0 ? level - float(l0) : 0.0f;
+    const float wBase = level < 0.0f ? 1.0f + level : 1.0f;
+    for (int l = l0; l <= l1; ++l) {
+      const float wl = wBase * (l == l0 ? 1.0f - t : t);
+      if (!(wl > 0.0f)) continue;
+      const DepthMoments& m = g.moments[size_t(l)];
+      const float size = float(1 << l), scale = 1.0f / size;
+      // A block of 2^l pixel centres, each pre-blurred: per axis the discrete
+      // uniform's variance and 4th moment, (N^2 - 1) / 12 and (N^2 - 1)
+      // (3 N^2 - 7) / 240, convolved with the blur's (moments of a sum).
+      const float N2 = size * size, Vbox = (N2 - 1.0f) * (1.0f / 12.0f);
+      const float m4box = (N2 - 1.0f) * (3.0f * N2 - 7.0f) * (1.0f / 240.0f);
+      const float Vl = Vbox + (blurred ? kBlurV : 0.0f);
+      const float m4l = m4box + (blurred ? 6.0f * Vbox * kBlurV + kBlurM4 : 0.0f);
+      // Texel centres at (b + 1/2) 2^l: the four around the point.
+      const int step = 1 << l;
+      const bool aligned = g.originX % step == 0 && g.originY % step == 0;
+      const float u = (aligned ? ix : fx) * scale - 0.5f, v = (aligned ? iy : fy) * scale - 0.5f;
+      const float fu = std::floor(u), fv = std::floor(v);
+      const float ax = u - fu, ay = v - fv;
+      const int bx0 = int(fu) - (aligned ? g.originX / step : 0), by0 = int(fv) - (aligned ? g.originY / step : 0);
+      for (int dy = 0; dy < 2; ++dy)
+        for (int dx = 0; dx < 2; ++dx) {
+          const int bx = bx0 + dx, by = by0 + dy;
+          const float w = wl * (dx ? ax : 1.0f - ax) * (dy ? ay : 1.0f - ay);
+          if (!(w > 0.0f) || bx < 0 || by < 0 || bx >= m.width || by >= m.height) continue;
+          if (g.band > 0 && !window.contains((float(bx) + 0.5f) * size, (float(by) + 0.5f) * size)) continue;
+          const size_t j = size_t(by) * size_t(m.width) + size_t(bx);
+          wj[n] = w, cj[n] = m.coverage[j], mj[n] = m.mean[j], vj[n] = m.variance[j];
+          xj[n] = (float(bx) + 0.5f) * size + float(g.originX), yj[n] = (float(by) + 0.5f) * size + float(g.originY);
+          pv[n] = Vl, pm[n] = m4l;
+          ++n;
+        }
+    }
+    float W = 0.0f, Wc = 0.0f, M = 0.0f;
+    for (int k = 0; k < n; ++k) {
+      W += wj[k];
+      Wc += wj[k] * cj[k];
+      M += wj[k] * cj[k] * mj[k];
+    }
+    if (!(W > 0.0f)) return;
+    covered = Wc / W;
+    if (!(Wc > 0.0f)) return;
+    mean = M / Wc;
+    if (clamp && relativeToPlane(g, Q0, *clamp, nP, n, wj, cj, mj, vj, xj, yj, pv, pm, Wc, mean, sigma)) return;
+    float var = 0.0f;
+    for (int k = 0; k < n; ++k) {
+      const float d = mj[k] - mean;
+      var += wj[k] * cj[k] * (vj[k] + d * d);
+    }
+    sigma = std::sqrt(std::max(0.0f, var / Wc));
+  }
+
+  // depthModel's plane-relative distribution of the n texels read (see
+  // there): false where the plane is seen edge-on or behind the camera at
+  // Q0 or at a texel's centre (then mean and sigma are left as they are).
+  // The plane's depth on the camera ray depth x (a, b, -1) is p = nP / (n .
+  // (a, b, -1)), its gradient in image pixels |grad p| = p |(n.x / filmScaleX,
+  // n.y / filmScaleY)| / |n . (a, b, -1)|.
+  static bool relativeToPlane(const GBufferLayer& g, Vec3 Q0, Vec3 c, float nP, int n, const float* wj,
+                              const float* cj, const float* mj, const float* vj, const float* xj, const float* yj,
+                              const float* pv, const float* pm, float Wc, float& mean, float& sigma) {
+    const float gx = c.x / g.view.filmScaleX, gy = c.y / g.view.filmScaleY, gradScale = std::sqrt(gx * gx + gy * gy);
+    // The positions' 4th moment along the gradient's direction (ux, uy):
+    // (ux^4 + uy^4) m4 + 6 ux^2 uy^2 V^2 for independent axes alike.
+    const float ux2 = gradScale > 0.0f ? gx * gx / (gradScale * gradScale) : 1.0f, uy2 = 1.0f - ux2;
+    const float along4 = ux2 * ux2 + uy2 * uy2, cross4 = 6.0f * ux2 * uy2;
+    // The plane on the ray depth x (a, b, -1): 1 / (n . (a, b, -1)) into
+    // invDen, false where it is seen edge-on (|cos| below 1e-3, compared
+    // squared) or behind the camera.
+    const auto planeAt = [&](float a, float b, float& p, float& invDen) {
+      const float den = c.x * a + c.y * b - c.z;
+      invDen = 1.0f / den;
+      p = nP * invDen;
+      return den * den > 1e-6f * (a * a + b * b + 1.0f) && p > 0.0f && p < kInfinity;
+    };
+    float pQ, invDenQ;
+    if (!planeAt(Q0.x / -Q0.z, Q0.y / -Q0.z, pQ, invDenQ)) return false;
+    float dj[9], cv[9], sj2[9];
+    float D = 0.0f, C = 0.0f;
+    const float invFx = 1.0f / g.view.filmScaleX, invFy = 1.0f / g.view.filmScaleY;
+    // Branch-free over the texels (the loop vectorizes), validity summed.
+    bool ok = true;
+    for (int k = 0; k < n; ++k) {
+      const float a = (xj[k] - 0.5f * g.view.width) * invFx, b = (0.5f * g.view.height - yj[k]) * invFy;
+      float p, invDen;
+      ok &= planeAt(a, b, p, invDen);
+      const float slope = gradScale * std::abs(invDen);  // |grad p| / p
+      // Along the gradient the plane's depth is p / (1 + s t), s = slope, t
+      // the position's offset (variance V, 4th moment m4): to 4th order its
+      // mean over the texel is p (1 + s^2 V + s^4 m4) (the curvature
+      // offset) and its variance p^2 s^2 (V + s^2 (3 m4 - V^2)).
+      const float s2 = slope * slope, V = pv[k], m4 = along4 * pm[k] + cross4 * V * V;
+      cv[k] = p * (s2 * V + s2 * s2 * m4);
+      const float planeVar = p * p * s2 * std::max(0.0f, V + s2 * (3.0f * m4 - V * V));
+      // (sigma_j - sigma_p,j)^2 with one root: var_j + var_p - 2 sqrt(var_j var_p).
+      sj2[k] = std::max(0.0f, vj[k] + planeVar - 2.0f * std::sqrt(vj[k] * planeVar));
+      dj[k] = mj[k] - p;
+      D += wj[k] * cj[k] * dj[k], C += wj[k] * cj[k] * cv[k];
+    }
+    if (!ok) return false;
+    D /= Wc, C /= Wc;
+    float var = 0.0f;
+    for (int k = 0; k < n; ++k) {
+      const float d = (dj[k] - cv[k]) - (D - C);
+      var += wj[k] * cj[k] * (sj2[k] + d * d);
+    }
+    mean = pQ + D;
+    sigma = std::sqrt(std::max(0.0f, var / Wc));
+    return true;
   }
 
   static constexpr int kMaxCount = 256;  // the `count` parameter's maximum
+  static constexpr float kSqrt3 = 1.7320508f;
+  // The pre-blur's variance and 4th moment per axis (pixels^2, ^4).
+  static constexpr float kBlurV = momentBlurVariance(), kBlurM4 = momentBlurFourthMoment();
   VoConfig c_;
   std::vector<float> px_, py_, pz_, w_;
   std::vector<float> rad_, cube_;  // points: |p_k| and |p_k|^3
@@ -592,7 +793,8 @@ IntegratorDescriptor voDescriptor() {
   d.params = {
       {.name = "samples", .type = ParamType::Enum, .defaultValue = "line", .choices = {"point", "line", "area"},
        .doc = "point: points in the ball; line: chords of the ball along camera rays through disk points; "
-              "area: those chords against the depth's mean and variance over each disk cell's footprint (mip-mapped)"},
+              "area: those chords against the depth's mean and variance over each disk cell's footprint (mip-mapped, "
+              "read trilinearly)"},
       {.name = "radius", .type = ParamType::Float, .defaultValue = "1", .min = 0.0, .max = 1e30,
        .doc = "R, the ball's radius (scene units); 0: nothing occludes (W = 1)"},
       {.name = "radius2", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
@@ -618,6 +820,9 @@ IntegratorDescriptor voDescriptor() {
               "within filter-depth x depth of its tangent plane); 0: off"},
       {.name = "thickness", .type = ParamType::Float, .defaultValue = "0", .min = 0.0, .max = 1e30,
        .doc = "thickness model: occupied only this far behind the depth buffer (scene units); 0: off (solid)"},
+      {.name = "prefilter", .type = ParamType::Enum, .defaultValue = "on", .choices = {"on", "off"},
+       .doc = "area samples: blur the depth moments' finest level with a Gaussian (sigma 1 pixel) before the mip "
+              "chain is built (VO §4.2)"},
   };
   for (ParamSpec& p : sharedParams("samples per pixel and layer (the set's size)", 16, "off")) d.params.push_back(p);
   d.needs = [](const ParamSet&) { return IntegratorNeeds{}; };
@@ -644,6 +849,7 @@ IntegratorDescriptor voDescriptor() {
     c.depth = depthSourceFromParams(p);
     c.guardBand = p.getInt("guard-band");
     c.blur = p.getInt("blur");
+    c.prefilter = p.getEnum("prefilter") == "on";
     if (c.samples == VoSamples::Area && c.depth == DepthSource::Traced)
       throw Error("integrator 'vo': samples=area reads the depth buffer's mip-mapped moments; depth=traced applies "
                   "to point and line samples");
