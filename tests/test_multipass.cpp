@@ -109,7 +109,9 @@ TEST_F(MultiPass, ScreenSpacePrimary) {
 // guard band and moment levels, so each layer still equals its solo render
 // bit for bit - passes with different bands (one fixed at 5 pixels, one
 // without a band, which reads the image alone), depth moments of two band
-// widths, the interleave filter, albedo, a traced twin, gtao - under a
+// widths and with and without their pre-blur (built again for the pass
+// that wants the other), the interleave filter, the bilateral blur, albedo
+// and the occluders' radiance, a traced twin, gtao - under a
 // ray-traced primary and a screen-space one, and with adaptive sampling,
 // where each pass keeps its own schedule.
 TEST_F(MultiPass, ScreenSpacePassesShareOneLayerAndEqualTheirSoloRenders) {
@@ -121,6 +123,10 @@ TEST_F(MultiPass, ScreenSpacePassesShareOneLayerAndEqualTheirSoloRenders) {
       {"vo_none", "vo", {"guard-band=0"}},
       {"gtao", "gtao", {"radius=0.6"}},
       {"twin", "vo", {"depth=traced", "radius=0.7"}},
+      {"vo_raw", "vo", {"samples=area", "prefilter=off", "radius=0.8"}},
+      {"vo_blur", "vo", {"interleave=on", "blur=2", "kernel=quadratic"}},
+      {"vo_sphere", "vo", {"samples=area", "normal=tangent-sphere"}},
+      {"ssat_rad", "ssat", {"albedo=true", "occluder=radiance", "distance=0.5"}},
   };
   RenderSettings s = passSettings(44, 26, 3, 5);
   s.aovs = true;
