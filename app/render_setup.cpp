@@ -204,13 +204,17 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBo
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer
-  // layer, the pixel sums, the estimates: core/render/gbuffer.h).
+  // layer, the pixel sums, the estimates: core/render/gbuffer.h), for
+  // the whole frame: a capped band makes even a region's layer the
+  // whole image's (LayerGeometry::readsImage).
   // Each layer adds three planes.
   // A --region film holds the region only.
   const PixelRect win = renderWindow(s);
   const uint64_t need = filmBytes(win.width(), win.height(), s.aovs, s.albedoAov) + uint64_t(layers) * 3 * sizeof(float) * win.size() +
                         (a.preview.empty() ? 0 : uint64_t(win.size()) * 3) +
-                        (screenSpace.band >= 0 ? screenSpaceWorkingBytes(win, screenSpace.band, screenSpace.passes) : 0) +
+                        (screenSpace.band >= 0 ? screenSpaceWorkingBytes(PixelRect{0, 0, s.width, s.height}, screenSpace.band,
+                                                                          screenSpace.passes)
+                                               : 0) +
                         cryptomatteBytes(s.cryptomatte, win.width(), win.height()) +
                         // Adaptive sampling keeps every pixel's sums across rounds (core/render/render.cpp);
                         // the denoiser about 24 floats per pixel (noisy.R/G/B, its guides and

@@ -130,6 +130,67 @@ TEST(GuardBand, AutomaticBandIsRsProjectionCapped) {
 
 bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
+// A small crease (a 1 x 1 floor square and a wall square on its far edge)
+// in the middle of the frame, nothing else: the background all round.
+struct SmallCrease {
+  static constexpr int kW = 128, kH = 96;  // the crease ~33 pixels a unit: reads reach past the 16-pixel cap
+  Scene scene;
+  Camera cam = makeLookAtCamera(Vec3(0, 2.2f, 2.2f), Vec3(0, 0.3f, 0), Vec3(0, 1, 0), 0.9f, "small");
+  SmallCrease() {
+    scene.addWorldPrimitive({{-0.5f, 0, -0.5f}, {-0.5f, 0, 0.5f}, {0.5f, 0, 0.5f}, {0.5f, 0, -0.5f}},
+                            {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+    scene.addWorldPrimitive({{-0.5f, 0, -0.5f}, {0.5f, 0, -0.5f}, {0.5f, 1, -0.5f}, {-0.5f, 1, -0.5f}},
+                            {0, 1, 2, 0, 2, 3}, {}, {}, -1);
+    scene.commit();
+  }
+};
+
+// When R projects wider than the automatic band's cap, reads are not
+// limited to the band about each pixel but go anywhere within the band of
+// the image (layerGeometry's readsImage). With the whole scene inside the
+// frame, what lies beyond the image is background either way, so the pass
+// must equal the one without a band (which reads the whole image) bit for
+// bit; the same band given explicitly (reads within it of each pixel)
+// calls open the wall pixels farther away and differs. Regions still equal
+// the full render bit for bit.
+TEST(GuardBand, ACappedBandReadsTheWholeImage) {
+  const SmallCrease s;
+  const int W = SmallCrease::kW, H = SmallCrease::kH;
+  const std::vector<std::vector<std::string>> passes = {
+      {"radius=3"}, {"radius=3", "samples=point"}, {"radius=3", "interleave=on"}};
+  for (const auto& params : passes) {
+    const auto p = makeIntegrator("vo", params);
+    const LayerGeometry g = layerGeometry(*p->screenSpace(), s.scene, s.cam, W, H, PixelRect{0, 0, W, H});
+    ASSERT_TRUE(g.readsImage) << "R = 3 should project wider than the cap";
+    ASSERT_EQ(g.band, guardBandCap(W, H));
+    const RenderSettings st = passSettings(W, H, 2, 3);
+    const Film capped = renderWith(s.scene, s.cam, "vo", params, st);
+    std::vector<std::string> none = params, fixed = params;
+    none.push_back("guard-band=0");
+    fixed.push_back("guard-band=" + std::to_string(g.band));
+    const Film open = renderWith(s.scene, s.cam, "vo", none, st);
+    const Film limited = renderWith(s.scene, s.cam, "vo", fixed, st);
+    size_t differ = 0, differLimited = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        differ += !sameBits(capped.at(kR, x, y), open.at(kR, x, y));
+        differLimited += !sameBits(limited.at(kR, x, y), open.at(kR, x, y));
+      }
+    EXPECT_EQ(differ, 0u) << params.back();
+    EXPECT_GT(differLimited, 0u) << params.back();
+    const int tiles[2][4] = {{0, 0, 19, 13}, {19, 13, W, H}};
+    for (const auto& t : tiles) {
+      RenderSettings rs = st;
+      rs.region = {t[0], t[1], t[2], t[3]};
+      const Film r = renderWith(s.scene, s.cam, "vo", params, rs);
+      size_t d = 0;
+      for (int y = t[1]; y < t[3]; ++y)
+        for (int x = t[0]; x < t[2]; ++x) d += !sameBits(r.at(kR, x, y), capped.at(kR, x, y));
+      EXPECT_EQ(d, 0u) << params.back() << " region " << t[0] << "," << t[1];
+    }
+  }
+}
+
 // Four regions of uneven sizes covering the frame (none aligned to 4 or to
 // the 64-pixel tiles): each equals the full render's pixels, every channel,
 // bit for bit - points, lines, areas (depth moments), interleaving with its

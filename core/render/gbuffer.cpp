@@ -66,6 +66,12 @@ LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene
     const int cap = guardBandCap(w, h);
     // (An empty scene's bounds are infinitely far: px = 0, one pixel.)
     L.band = px < double(cap) ? int(std::ceil(px)) + 1 : cap;
+    // R projects wider than the cap (a camera close to the scene, or
+    // inside its bounds): limiting reads to the band about each pixel would
+    // call open what the image shows beyond it (measured: docs/temporal.md),
+    // so reads go anywhere within the band of the image, and every region's
+    // layer holds the whole image to keep regions exact.
+    L.readsImage = !(px < double(cap));
   }
   // The moments' levels: with a band, blocks no larger than it; without,
   // the whole image's pyramid, as before there was a band.
@@ -89,10 +95,11 @@ LayerGeometry layerGeometry(const ScreenSpaceIntegrator& integrator, const Scene
   const int margin = L.band > 0 ? L.band + extra + preBlur + (integrator.interleaveFilterTolerance() > 0.0f ? 2 : 0) +
                                       std::max(0, integrator.blur().radius)
                                 : 0;
-  L.originX = L.band > 0 ? floorDiv(window.x0 - margin, align) * align : window.x0;
-  L.originY = L.band > 0 ? floorDiv(window.y0 - margin, align) * align : window.y0;
-  L.width = window.x1 + margin - L.originX;
-  L.height = window.y1 + margin - L.originY;
+  const PixelRect covered = L.readsImage ? PixelRect{0, 0, w, h} : window;
+  L.originX = L.band > 0 ? floorDiv(covered.x0 - margin, align) * align : covered.x0;
+  L.originY = L.band > 0 ? floorDiv(covered.y0 - margin, align) * align : covered.y0;
+  L.width = covered.x1 + margin - L.originX;
+  L.height = covered.y1 + margin - L.originY;
   L.shaded = {window.x0 - L.originX, window.y0 - L.originY, window.x1 - L.originX, window.y1 - L.originY};
   L.image = {-L.originX, -L.originY, w - L.originX, h - L.originY};
   return L;
@@ -477,6 +484,7 @@ struct ScreenSpacePass {
   IntegratorNeeds needs;
   RenderSettings s;
   int band = 0, momentLevels = 0;
+  bool readsImage = false;
   bool wantAlbedo = false, wantE0 = false;
   PixelLighting light;
   Film film;
@@ -532,7 +540,7 @@ struct ScreenSpacePass {
     wholeLayer = tolerance > 0.0f || blur.radius > 0;
     if (adaptiveSampling(s)) schedule.emplace(window, s, true), error.resize(n);
     const LayerGeometry own = layerGeometry(ssi, scene, camera, s.width, s.height, window);
-    band = own.band, momentLevels = own.momentLevels;
+    band = own.band, momentLevels = own.momentLevels, readsImage = own.readsImage;
   }
 
   // The pass's standard error at window pixel i from the layer sums
@@ -678,6 +686,7 @@ void renderSharedLayers(const Scene& scene, const Camera& camera, std::span<Scre
         // The pass reads as a solo render's layer lets it: its own band
         // and moment levels.
         g.band = p.band;
+        g.readsImage = p.readsImage;
         if (integrator.needsDepthMoments() && momentsBuilt != int(integrator.prefilterDepthMoments())) {
           t = std::chrono::steady_clock::now();
           buildDepthMoments(g, geometry.momentLevels, integrator.prefilterDepthMoments());

@@ -61,6 +61,10 @@ int guardBandCap(int w, int h);
 // so a region's layer holds what the full frame's holds around it.
 struct LayerGeometry {
   int band = 0, momentLevels = 0;
+  // The automatic band capped: the pass reads anywhere within the band of
+  // the image, and the layer is the whole image's and the band's whatever
+  // the window (GBufferLayer::readsImage).
+  bool readsImage = false;
   int originX = 0, originY = 0, width = 0, height = 0;
   PixelRect shaded, image;
 };

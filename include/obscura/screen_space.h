@@ -109,6 +109,11 @@ struct GBufferLayer {
   int width = 0, height = 0;  // the layer's size: shaded pixels and margins
   int originX = 0, originY = 0;
   int band = 0;               // reads within this many pixels of the shaded pixel (Chebyshev)
+  // Reads anywhere within `band` pixels of the image instead (the
+  // automatic band when R projects wider than its cap: a pixel's reach
+  // is then not bounded by the band, and a region's layer is the whole
+  // image's; docs/screen_space.md "Guard band").
+  bool readsImage = false;
   PixelRect shaded;           // the pixels estimated, layer coordinates
   PixelRect image;            // the whole image, layer coordinates (may reach beyond the layer)
   uint32_t sampleIndex = 0;

@@ -42,6 +42,9 @@ struct ReadWindow {
 };
 inline ReadWindow readWindow(const GBufferLayer& g, int x, int y) {
   if (g.band <= 0) return {0.0f, 0.0f, float(g.width), float(g.height)};
+  if (g.readsImage)
+    return {float(std::max(0, g.image.x0 - g.band)), float(std::max(0, g.image.y0 - g.band)),
+            float(std::min(g.width, g.image.x1 + g.band)), float(std::min(g.height, g.image.y1 + g.band))};
   return {float(std::max(0, x - g.band)), float(std::max(0, y - g.band)), float(std::min(g.width, x + g.band + 1)),
           float(std::min(g.height, y + g.band + 1))};
 }
