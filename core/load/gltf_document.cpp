@@ -347,7 +347,7 @@ void GltfDocument::read() {
     if (type == 0x4E4F534A && length <= bytes.size() - 20) text.assign(bytes.begin() + 20, bytes.begin() + 20 + length);
   }
   // Refused before any parser sees it: the parsers recurse per level
-  // (docs/scenes.md "Limits"). A .glb's JSON chunk is scanned whatever its
+  // (docs/scenes.md "What the loader refuses"). A .glb's JSON chunk is scanned whatever its
   // declared type or length (tinygltf decides those later).
   {
     const unsigned char* json0 = binary ? bytes.data() + std::min<size_t>(20, bytes.size())
