@@ -282,7 +282,7 @@ ComparePlan planCompare(const CompareArgs& a) {
   if (a.seeds < 1 || a.seeds > 64) throw Error("--seeds: must be in [1, 64], got " + std::to_string(a.seeds));
   if (a.referenceSpp < 2) throw Error("--reference-spp: must be at least 2, got " + std::to_string(a.referenceSpp));
   if (a.seed < 0 || a.seed > 0xffffffffLL - 64) throw Error("--seed: must be in [0, 4294967231]");
-  if (a.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(a.threads));
+  checkThreads(a.threads);
   parseResolution(a.res, p.base.width, p.base.height);
   p.base.sky = parseSky(a.sky);
   // Under a map the cells are measured by their shaded.* (the radiance),

@@ -100,25 +100,47 @@ Vec3 parseSky(const std::string& s) {
   return {v[0], v[1], v[2]};
 }
 
+void checkThreads(long long threads) {
+  if (threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(threads));
+  if (threads > kMaxThreads)
+    throw Error("--threads: at most " + std::to_string(kMaxThreads) + " (0 = all cores), got " + std::to_string(threads));
+}
+
 Camera selectCamera(const Scene& scene, const std::string& want, float aspect) {
   const auto autoCamera = [&] {
     // Far from a scene near the coordinate limit, or framing it through a
     // very narrow image, the camera could leave the range Embree traces.
+    const std::string what = scene.sourcePath + ": the automatic camera (--camera auto)";
     Camera c = makeAutoCamera(scene.bounds(), aspect);
-    checkCameraRange(c, scene.sourcePath + ": the automatic camera (--camera auto)");
+    // A scene of no size (one point: equal vertices, a node scaled by 0 or
+    // 1e-25, a small mesh so far out its coordinates collapse to one float)
+    // leaves the camera no distance to stand back: its eye equals the
+    // centre, or their difference underflows, and the look-at frame is NaN.
+    const Vec3 eye = c.position(), centre = scene.bounds().center();
+    const bool inRange = inTraceableRange(eye.x) && inTraceableRange(eye.y) && inTraceableRange(eye.z);
+    if (inRange && (!cameraFrameValid(c.toWorld) ||
+        (!scene.bounds().empty() && eye.x == centre.x && eye.y == centre.y && eye.z == centre.z)))
+      throw Error(what + ": the scene's bounds have no extent to frame; give the scene a camera");
+    checkCameraRange(c, what);
     return c;
   };
-  if (want.empty()) return scene.cameras.empty() ? autoCamera() : scene.cameras[0];
+  // A file's camera is checked on load; checked again here (cheaply) so no
+  // primary ray with a NaN or infinite origin or direction reaches Embree.
+  const auto checked = [&](const Camera& c) {
+    checkCameraRange(c, scene.sourcePath + ": camera '" + c.name + "'");
+    return c;
+  };
+  if (want.empty()) return scene.cameras.empty() ? autoCamera() : checked(scene.cameras[0]);
   if (want == "auto") return autoCamera();
   std::string names;
   for (const auto& c : scene.cameras) {
-    if (c.name == want) return c;
+    if (c.name == want) return checked(c);
     names += (names.empty() ? "" : ", ") + c.name;
   }
   if (want.find_first_not_of("0123456789") == std::string::npos && want.size() < 9) {
     const int i = std::stoi(want);
     for (const auto& c : scene.cameras)
-      if (c.fileIndex == i) return c;
+      if (c.fileIndex == i) return checked(c);
     throw Error("--camera: no perspective camera with index " + want + " (the scene has " +
                 std::to_string(scene.cameras.size()) + " usable camera" + (scene.cameras.size() == 1 ? "" : "s") + ")");
   }

@@ -44,6 +44,14 @@ std::shared_ptr<const Environment> loadEnvironment(const EnvironmentArgs& a, con
 // rotation and strength, mean radiance, and the SH9 fit's error against
 // the exact E0 (lines of the form "environment ...\n").
 std::string describeEnvironment(const Environment& e);
+// The most worker threads --threads (and Python's threads=) accepts. TBB
+// crashed (SIGSEGV) when its parallelism limit exceeded 65536 and reserves
+// memory in proportion to it (2147483647 took all memory); no machine
+// Obscura renders on has more than a few hundred cores, so 4096 refuses
+// no real setting and stays far below both.
+constexpr int kMaxThreads = 4096;
+// Throws obscura::Error "--threads: ..." unless 0 <= threads <= kMaxThreads.
+void checkThreads(long long threads);
 // --camera: a name, an index into the file's cameras, "auto", or empty
 // (the first camera, else auto).
 Camera selectCamera(const Scene& scene, const std::string& want, float aspect);

@@ -163,7 +163,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   RenderSettings s;
   parseResolution(args.res, s.width, s.height);
   if (args.spp < 1) throw Error("--spp: must be at least 1, got " + std::to_string(args.spp));
-  if (args.threads < 0) throw Error("--threads: must be >= 0 (0 = all cores), got " + std::to_string(args.threads));
+  checkThreads(args.threads);
   if (args.tileSize < 1 || args.tileSize > 4096) throw Error("--tile: must be in [1, 4096], got " + std::to_string(args.tileSize));
   if (args.seed < 0 || args.seed > 0xffffffffLL) throw Error("--seed: must be in [0, 4294967295]");
   if (args.filter == "box") s.filter = PixelFilter::Box;

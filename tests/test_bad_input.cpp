@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <random>
@@ -457,6 +458,128 @@ TEST(BadInputCli, EveryBadArgumentIsOneErrorLineAndNoOutput) {
     EXPECT_TRUE(name == "good.gltf" || name == "good.bin" || name == "garbage.gltf" || name.rfind("stderr", 0) == 0)
         << "unexpected file left behind: " << name;
   }
+}
+
+// `n` arrays nested in one another, the innermost holding 1.
+std::string nestedArrays(size_t n) { return std::string(n, '[') + "1" + std::string(n, ']'); }
+
+// quad() with nodes[0].extras replaced by `extras` (raw JSON text), as a
+// .gltf (or .glb) in dir: written as text, since nlohmann's dump recurses.
+std::string withRawExtras(const std::string& dir, const std::string& name, const std::string& extras, bool glb) {
+  GltfBuilder d = quad();
+  d.doc["nodes"][0]["extras"] = "EXTRAS_PLACEHOLDER";
+  const std::string marker = "\"EXTRAS_PLACEHOLDER\"";
+  if (!glb) {
+    const std::string path = d.writeGltf(dir, name);
+    const std::vector<unsigned char> bytes = readBytes(path);
+    std::string text(bytes.begin(), bytes.end());
+    text.replace(text.find(marker), marker.size(), extras);
+    writeText(path, text);
+    return path;
+  }
+  std::vector<unsigned char> b = d.glbBytes();
+  uint32_t length = 0;
+  std::memcpy(&length, b.data() + 12, 4);
+  std::string text(b.begin() + 20, b.begin() + 20 + length);
+  text.replace(text.find(marker), marker.size(), extras);
+  while (text.size() % 4) text += ' ';
+  std::vector<unsigned char> out(b.begin(), b.begin() + 20);
+  out.insert(out.end(), text.begin(), text.end());
+  out.insert(out.end(), b.begin() + 20 + length, b.end());
+  const uint32_t total = uint32_t(out.size()), jsonLength = uint32_t(text.size());
+  std::memcpy(out.data() + 8, &total, 4);
+  std::memcpy(out.data() + 12, &jsonLength, 4);
+  const std::string path = dir + "/" + name + ".glb";
+  writeBytes(path, out.data(), out.size());
+  return path;
+}
+
+// 30,000 arrays nested in `extras` overflowed the stack inside tinygltf
+// (SIGSEGV in render, info and Python): refused before any parser runs,
+// past 512 levels (docs/scenes.md "What the loader refuses").
+TEST(BadInputFile, DeeplyNestedJsonIsRefused) {
+  const std::string dir = tempDir("bad_deep_json");
+  // root {, nodes [, nodes[0] {: three levels before extras.
+  for (const bool glb : {false, true})
+    expectLoadError(withRawExtras(dir, glb ? "deep_glb" : "deep", nestedArrays(30000), glb),
+                    {"the JSON nests 30003 arrays and objects deep", "at most 512 levels"});
+  expectLoadError(withRawExtras(dir, "limit_plus_one", nestedArrays(510), false), {"nests 513", "512"});
+  // At the limit, and brackets inside strings (with escaped quotes) do not count.
+  WarningCapture quiet;
+  EXPECT_NO_THROW(loadGltf(withRawExtras(dir, "at_limit", nestedArrays(509), false)));
+  EXPECT_NO_THROW(loadGltf(withRawExtras(dir, "in_string", "[\"\\\"" + std::string(5000, '[') + "\"]", true)));
+  // The CLI: one error line from render and info, no crash.
+  const std::string deep = dir + "/deep.gltf";
+  std::vector<CliRun> runs(2);
+  runs[0].name = "render";
+  runs[0].args = {"render", deep, "-o", dir + "/out.exr", "-q", "--res", "8x8", "--spp", "1"};
+  runs[0].output = dir + "/out.exr";
+  runs[1].name = "info";
+  runs[1].args = {"info", deep};
+  for (CliRun& r : runs) r.mention = deep + ": the JSON nests 30003";
+  runAll(runs, dir);
+  for (const CliRun& r : runs) expectOneErrorLine(r);
+}
+
+// A scene of no size leaves the automatic camera no distance to stand back
+// (its look-at frame was NaN and Embree aborted on ray.valid(), exit 134):
+// one error line naming the file, exit non-zero.
+TEST(BadInputCli, DegenerateSceneWithAutomaticCameraIsOneErrorLine) {
+  const std::string dir = tempDir("bad_cli_degenerate_camera");
+  std::vector<std::string> scenes;
+  scenes.push_back(dir + "/point.obj");  // a triangle whose three vertices are equal
+  writeText(scenes.back(), "v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n");
+  scenes.push_back(dir + "/far.obj");  // 10 cm at 1e7: the coordinates collapse to one float
+  writeText(scenes.back(), "v 1e7 1e7 1e7\nv 10000000.1 1e7 1e7\nv 1e7 10000000.1 1e7\nf 1 2 3\n");
+  for (const double s : {0.0, 1e-25}) {
+    GltfBuilder d = quad();
+    d.doc["nodes"][0]["scale"] = {s, s, s};
+    scenes.push_back(d.writeGltf(dir, s == 0 ? "scale0" : "scale1e-25"));
+  }
+  std::vector<CliRun> runs;
+  for (const std::string& sc : scenes) {
+    CliRun r;
+    r.name = sc;
+    r.output = dir + "/out" + std::to_string(runs.size()) + ".exr";
+    r.args = {"render", sc, "-o", r.output, "-q", "--res", "8x8", "--spp", "1"};
+    r.mention = sc + ": the automatic camera (--camera auto): the scene's bounds have no extent";
+    runs.push_back(r);
+  }
+  // info selects the camera too (for --subdiv-edge), and says the same.
+  CliRun info = runs[0];
+  info.name = "info";
+  info.args = {"info", scenes[0]};
+  info.output = "";
+  runs.push_back(info);
+  runAll(runs, dir);
+  for (const CliRun& r : runs) expectOneErrorLine(r);
+}
+
+// TBB crashed (SIGSEGV) with a parallelism limit above 65536, and
+// 2147483647 took all memory: every subcommand taking --threads refuses
+// more than kMaxThreads (4096) before loading anything.
+TEST(BadInputCli, ThreadsAboveTheLimitAreRefused) {
+  const std::string dir = tempDir("bad_cli_threads");
+  const std::string scene = writeGoodScene(dir);
+  std::vector<CliRun> runs;
+  for (const std::string n : {"4097", "65537", "2147483647"}) {
+    CliRun r;
+    r.mention = "--threads: at most 4096 (0 = all cores), got " + n;
+    r.name = "render " + n;
+    r.output = dir + "/out" + n + ".exr";
+    r.args = {"render", scene, "-o", r.output, "-q", "--res", "8x8", "--spp", "1", "--threads", n};
+    runs.push_back(r);
+    r.name = "compare " + n;
+    r.output = dir + "/cmp" + n;
+    r.args = {"compare", scene, "-o", r.output, "-c", "ao", "-q", "--res", "8x8", "--spp", "1", "--threads", n};
+    runs.push_back(r);
+    r.name = "fit " + n;
+    r.output = dir + "/fit" + n + ".json";
+    r.args = {"fit", scene, "-o", r.output, "-q", "--res", "8x8", "--spp", "1", "--threads", n};
+    runs.push_back(r);
+  }
+  runAll(runs, dir);
+  for (const CliRun& r : runs) expectOneErrorLine(r);
 }
 
 TEST(BadInputCli, FailedRenderLeavesTheExistingOutputUntouched) {

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iterator>
 #include <set>
+#include <utility>
 
 #include <obscura/error.h>
 #include <obscura/params.h>
@@ -258,6 +259,36 @@ std::string decodeUri(const std::string& uri) {
   return out;
 }
 
+// The deepest nesting of arrays and objects a scene's JSON may have.
+// tinygltf turns JSON into its Values (extras, extensions) recursively, a
+// stack frame or more a level: 30,000 nested arrays in `extras` overflowed
+// the 8 MB main stack (SIGSEGV), and a thread's stack may be far smaller
+// (512 KB on macOS, Python's and TBB's threads). The glTF schema itself
+// needs fewer than 10 levels and DCC tools write flat extras; 512 leaves
+// room for any real file while keeping the recursion well under 512 KB.
+constexpr size_t kMaxJsonDepth = 512;
+
+// The deepest nesting of [ and { in JSON text outside strings, and the byte
+// offset where it is first reached: one pass, no recursion, no allocation.
+std::pair<size_t, size_t> jsonDepth(const unsigned char* p, size_t n) {
+  size_t depth = 0, deepest = 0, at = 0;
+  bool inString = false;
+  for (size_t i = 0; i < n; ++i) {
+    const unsigned char c = p[i];
+    if (inString) {
+      if (c == '\\') ++i;  // the escaped character, whatever it is
+      else if (c == '"') inString = false;
+    } else if (c == '"') {
+      inString = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > deepest) deepest = depth, at = i;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return {deepest, at};
+}
+
 }  // namespace
 
 struct GltfDocument::View {
@@ -314,6 +345,20 @@ void GltfDocument::read() {
     std::memcpy(&length, bytes.data() + 12, 4);
     std::memcpy(&type, bytes.data() + 16, 4);
     if (type == 0x4E4F534A && length <= bytes.size() - 20) text.assign(bytes.begin() + 20, bytes.begin() + 20 + length);
+  }
+  // Refused before any parser sees it: the parsers recurse per level
+  // (docs/scenes.md "What the loader refuses"). A .glb's JSON chunk is scanned whatever its
+  // declared type or length (tinygltf decides those later).
+  {
+    const unsigned char* json0 = binary ? bytes.data() + std::min<size_t>(20, bytes.size())
+                                        : reinterpret_cast<const unsigned char*>(text.data());
+    const size_t jsonBytes = binary ? (text.empty() ? bytes.size() - std::min<size_t>(20, bytes.size()) : text.size())
+                                    : text.size();
+    const auto [deepest, at] = jsonDepth(json0, jsonBytes);
+    if (deepest > kMaxJsonDepth)
+      throw Error(path_ + ": the JSON nests " + std::to_string(deepest) + " arrays and objects deep (at byte " +
+                  std::to_string(binary ? at + size_t(json0 - bytes.data()) : at) +
+                  "); at most " + std::to_string(kMaxJsonDepth) + " levels are accepted");
   }
   const json root = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (root.is_object()) {  // anything else is not glTF, as tinygltf says below

@@ -52,6 +52,27 @@ void checkCameraRange(const Camera& c, const std::string& what) {
                   ") is outside the range Embree traces (|x| <= 1e+16)");
   if (!(c.znear >= 0.0f) || !inTraceableRange(c.znear))
     throw Error(what + ": znear " + g(c.znear) + " is outside [0, 1e+16]");
+  // Every primary ray's origin and direction must be finite or Embree
+  // aborts (ray.valid()): the frame (at rest and at each motion step) must
+  // be a rotation and the field of view in (0, pi).
+  if (!cameraFrameValid(c.toWorld)) throw Error(what + ": the camera's orientation is not finite and orthonormal");
+  for (const Affine& m : c.motion)
+    if (!cameraFrameValid(m) || !inTraceableRange(m.m[0][3]) || !inTraceableRange(m.m[1][3]) ||
+        !inTraceableRange(m.m[2][3]))
+      throw Error(what + ": the camera's motion has a position or orientation that is not finite");
+  if (!(c.yfov > 0.0f && c.yfov < kPi)) throw Error(what + ": yfov " + g(c.yfov) + " is outside (0, pi)");
+}
+
+bool cameraFrameValid(const Affine& m) {
+  Vec3 col[3];
+  for (int k = 0; k < 3; ++k) {
+    col[k] = Vec3(m.m[0][k], m.m[1][k], m.m[2][k]);
+    for (int r = 0; r < 3; ++r)
+      if (!std::isfinite(col[k][r])) return false;
+    if (!(std::abs(length(col[k]) - 1.0f) < 1e-3f)) return false;
+  }
+  return std::abs(dot(col[0], col[1])) < 1e-3f && std::abs(dot(col[0], col[2])) < 1e-3f &&
+         std::abs(dot(col[1], col[2])) < 1e-3f;
 }
 
 }  // namespace obscura

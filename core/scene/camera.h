@@ -144,7 +144,13 @@ Camera makeAutoCamera(const Bounds3& bounds, float aspect);
 // Throws obscura::Error "`what`: camera position ... outside the range Embree
 // traces" unless the camera's position and znear are finite and within
 // kMaxCoordinate (a zfar beyond it is as good as infinity).
+// It also throws unless the frame (and every motion step's) is a finite
+// rotation and yfov is in (0, pi), so no primary ray has a NaN or infinite
+// origin or direction (Embree aborts on one: ray.valid()).
 void checkCameraRange(const Camera& camera, const std::string& what);
+
+// True if m's 3x3 part is finite and orthonormal (within 1e-3).
+bool cameraFrameValid(const Affine& m);
 
 // Camera from the look-at form (rigid, orthonormal).
 Camera makeLookAtCamera(Vec3 eye, Vec3 target, Vec3 up, float yfov, std::string name);

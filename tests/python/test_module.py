@@ -158,7 +158,8 @@ def cli_error(*args):
     (dict(region=(0, 0, 100, 10), res=(64, 36)), ["--region", "0,0,100,10", "--res", "64x36"]),
     (dict(passes=["ao=ao", "ao=obscurance"]), ["--pass", "ao=ao", "--pass", "ao=obscurance"]),
     (dict(filter="tent"), ["--filter", "tent"]),
-], ids=["spp", "integrator", "param", "res", "camera", "region", "passes", "filter"])
+    (dict(threads=65537), ["--threads", "65537"]),
+], ids=["spp", "integrator", "param", "res", "camera", "region", "passes", "filter", "threads"])
 def test_errors_match_cli(scene, tmp_path, kwargs, flags):
     kwargs = dict(kwargs)
     integrator = kwargs.pop("integrator", None)
@@ -176,6 +177,30 @@ def test_scene_errors_match_cli(tmp_path):
     with pytest.raises(obscura.Error) as e:
         obscura.Scene(SCENE, subdiv="bogus")
     assert str(e.value) == cli_error("render", SCENE, "-o", str(tmp_path / "x.exr"), "-q", "--subdiv", "bogus")
+
+
+def test_degenerate_scene_with_automatic_camera_is_an_error(tmp_path):
+    # A triangle whose three vertices are equal: the automatic camera has no
+    # distance to stand back (Embree aborted the process on its NaN rays).
+    path = tmp_path / "point.obj"
+    path.write_text("v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n")
+    with pytest.raises(obscura.Error) as e:
+        obscura.render(obscura.Scene(str(path)), "ao", spp=1, res=(8, 8))
+    assert "the scene's bounds have no extent" in str(e.value)
+    assert str(e.value) == cli_error("render", str(path), "-o", str(tmp_path / "x.exr"), "-q",
+                                     "--spp", "1", "--res", "8x8")
+
+
+def test_deeply_nested_json_is_refused(tmp_path):
+    # 30,000 arrays nested in extras overflowed the stack inside tinygltf and
+    # killed Python; refused past 512 levels (docs/scenes.md).
+    path = tmp_path / "deep.gltf"
+    write_emissive_triangle(path)
+    doc = path.read_text()
+    n = 30000
+    path.write_text(doc[:-1] + ', "extras": ' + "[" * n + "1" + "]" * n + "}")
+    with pytest.raises(obscura.Error, match=r"the JSON nests 30001 arrays and objects deep .*at most 512 levels"):
+        obscura.Scene(str(path))
 
 
 def write_emissive_triangle(path):
