@@ -148,16 +148,8 @@ int runFit(const FitArgs& a, const std::atomic<bool>* cancel) {
                          ", seed " + std::to_string(a.seed) + ", bins " + std::to_string(a.bins) +
                          ", camera " + (a.camera.empty() ? "default" : a.camera);
   OutputSet out;
-  const auto text = [](const std::string& body) {
-    return [body](const std::string& tmp) {
-      std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-      f << body;
-      f.close();
-      if (!f) throw Error(tmp + ": cannot write");
-    };
-  };
-  out.addFile(a.output, text(improvedFitJson(fit, a.scenes, settings)));
-  if (!a.histogram.empty()) out.addFile(a.histogram, text(histogramCsv(pooled, fit.coefficients)));
+  out.addText(a.output, improvedFitJson(fit, a.scenes, settings));
+  if (!a.histogram.empty()) out.addText(a.histogram, histogramCsv(pooled, fit.coefficients));
   out.commit();
   std::printf("wrote %s%s%s (use: -i multibounce -p mapping=fitted -p fit=%s)\n", a.output.c_str(),
               a.histogram.empty() ? "" : " and ", a.histogram.c_str(), a.output.c_str());

@@ -137,7 +137,7 @@ int runRender(const RenderArgs& args) {
   for (const FrameJob& job : jobs) {
     RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
-    checkOutputPaths(fa.output, fa.preview, fa.scene);
+    checkOutputPaths(fa.output, fa.preview, fa.scene, renderInputs(fa));
     checkFilmMemory(fa, s, screenSpaceBound(setups, s.width, s.height), args.passes.size());
     sceneOptions(fa);
   }

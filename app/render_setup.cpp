@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <variant>
 
 #include "app/exr_header.h"
@@ -32,14 +33,6 @@ void checkLayerName(const std::string& layer, const std::string& text) {
 }
 
 // The passes of a render, the primary first: --pass (with --primary), or
-
-// True when a and b name the same file (existing or not).
-bool samePath(const std::string& a, const std::string& b) {
-  namespace fs = std::filesystem;
-  std::error_code ea, eb;
-  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea);
-  return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
-}
 
 // FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
 std::string fileHash(const std::string& path) {
@@ -85,7 +78,39 @@ std::string attributeText(const HeaderAttribute& h) {
 
 }  // namespace
 
+// True when a and b name the same file (existing or not).
+bool samePath(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ea, eb;
+  if (fs::exists(a, ea) && fs::exists(b, eb)) return fs::equivalent(a, b, ea);
+  return fs::weakly_canonical(a, ea) == fs::weakly_canonical(b, eb);
+}
+
 // True when `path` ends in `ext` (".exr"), ignoring case.
+std::vector<std::pair<std::string, std::string>> renderInputs(const RenderArgs& a) {
+  std::vector<std::pair<std::string, std::string>> in = {{"--displace", a.displace}, {"--environment", a.env.environment}};
+  // Integrator parameters naming files (containment's and ssat's map=,
+  // multibounce's fit=): any value that is an existing file.
+  const auto params = [&](const std::string& option, const std::vector<std::string>& assignments) {
+    for (const std::string& p : assignments) {
+      const size_t eq = p.find('=');
+      std::error_code ec;
+      if (eq != std::string::npos && std::filesystem::is_regular_file(p.substr(eq + 1), ec))
+        in.push_back({option + p.substr(0, eq) + "=", p.substr(eq + 1)});
+    }
+  };
+  params("-p ", a.params);
+  for (const std::string& text : a.passes) {
+    const size_t colon = text.find(':');
+    if (colon == std::string::npos) continue;
+    std::vector<std::string> assignments;
+    std::stringstream list(text.substr(colon + 1));
+    for (std::string item; std::getline(list, item, ',');) assignments.push_back(item);
+    params("--pass " + text.substr(0, text.find('=')) + ":", assignments);
+  }
+  return in;
+}
+
 bool hasExtension(const std::string& path, const std::string& ext) {
   if (path.size() < ext.size()) return false;
   for (size_t i = 0; i < ext.size(); ++i)
@@ -93,13 +118,23 @@ bool hasExtension(const std::string& path, const std::string& ext) {
   return true;
 }
 
-void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene) {
+void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene,
+                      const std::vector<std::pair<std::string, std::string>>& inputs) {
+  checkOutputName(output, "-o ");
+  if (!preview.empty()) checkOutputName(preview, "--preview ");
   checkWritable(output);
   if (samePath(output, scene)) throw Error("-o " + output + ": is the scene file; refusing to overwrite it");
   if (!preview.empty()) {
     checkWritable(preview);
     if (samePath(preview, output)) throw Error("--preview " + preview + ": is the same file as -o");
     if (samePath(preview, scene)) throw Error("--preview " + preview + ": is the scene file; refusing to overwrite it");
+  }
+  for (const auto& [option, input] : inputs) {
+    if (input.empty()) continue;
+    if (samePath(output, input))
+      throw Error("-o " + output + ": is the same file as " + option + " " + input + "; refusing to overwrite an input");
+    if (!preview.empty() && samePath(preview, input))
+      throw Error("--preview " + preview + ": is the same file as " + option + " " + input + "; refusing to overwrite an input");
   }
   // After the checks above, whose messages say more about such a path.
   if (!hasExtension(output, ".exr")) throw Error("-o " + output + ": must end in .exr (the pass is written as OpenEXR)");
@@ -235,6 +270,8 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBo
 void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSpace, const std::string& file) {
   if (!(a.checkpoint >= 0) || !std::isfinite(a.checkpoint))
     throw Error("--checkpoint: expected seconds >= 0 (0: after every tile), got " + formatFloat(a.checkpoint));
+  // The checkpoint's own temporary is FILE.tmp.
+  checkOutputName(file + ".tmp", "--checkpoint: ", 0);
   RenderSettings cs = s;
   Checkpoint probe(file, a.checkpoint);
   cs.checkpoint = &probe;

@@ -85,7 +85,17 @@ bool hasExtension(const std::string& path, const std::string& ext);
 // the scene or each other, or whose extension is not the format written (an
 // EXR under a .tif name: viewers and pipelines go by the name). `preview`
 // may be empty. Messages name -o and --preview.
-void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene);
+// `inputs`: the other files the render reads, as (option, path) pairs
+// (renderInputs); an output equal to one is refused naming both.
+void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene,
+                      const std::vector<std::pair<std::string, std::string>>& inputs = {});
+// True when a and b name the same file (by device and inode when both
+// exist, else by their normalised paths).
+bool samePath(const std::string& a, const std::string& b);
+// The files a render reads besides the scene, as (option, path):
+// --displace, --environment, and integrator parameters whose value is an
+// existing file (-p map=..., --pass L=containment:map=...).
+std::vector<std::pair<std::string, std::string>> renderInputs(const RenderArgs& a);
 
 // Refuses a render whose film (and what the render keeps beside it: a
 // screen-space pass's G-buffer, Cryptomatte, adaptive sums, the denoiser's

@@ -14,17 +14,7 @@
 namespace obscura {
 namespace fs = std::filesystem;
 
-void writeTextAtomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out) throw Error(path.string() + ": cannot write");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error(path.string() + ": cannot write: " + ec.message());
-}
+void writeTextAtomically(const fs::path& path, const std::string& text) { writeTextFile(path.string(), text); }
 
 std::string safeFileName(const std::string& s) {
   std::string out;

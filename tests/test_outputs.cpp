@@ -8,7 +8,14 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <obscura/error.h>
 #include "core/image/image_io.h"
@@ -23,6 +30,55 @@ std::string fileBytes(const std::string& path) {
   std::stringstream s;
   s << f.rdbuf();
   return s.str();
+}
+
+// Files in `dir` but the ones named: temporaries left behind.
+std::vector<std::string> otherFiles(const std::string& dir, const std::vector<std::string>& keep) {
+  std::vector<std::string> out;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (std::find(keep.begin(), keep.end(), e.path().filename().string()) == keep.end())
+      out.push_back(e.path().filename().string());
+  return out;
+}
+
+// Runs `body` in a child process whose files may not grow past `limit`
+// bytes (RLIMIT_FSIZE: a write beyond it fails with EFBIG, as on a full
+// disk, with SIGXFSZ ignored); returns the child's exit code.
+template <class F>
+int inChildWithFileLimit(rlim_t limit, F body) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    signal(SIGXFSZ, SIG_IGN);
+    const rlimit r{limit, limit};
+    if (setrlimit(RLIMIT_FSIZE, &r) != 0) _exit(100);
+    _exit(body());
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+}
+
+// The obscura program with `args` under a file-size limit; stderr to
+// stderrPath.
+CliResult runCliWithFileLimit(const std::vector<std::string>& args, const std::string& stderrPath, rlim_t limit) {
+  CliResult r;
+  r.exitCode = inChildWithFileLimit(limit, [&] {
+    const int err = ::open(stderrPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (err < 0 || null < 0) return 101;
+    dup2(null, 1);
+    dup2(err, 2);
+    std::vector<std::string> all = {obscuraBinary()};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (auto& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(obscuraBinary(), argv.data());
+    return 102;
+  });
+  r.stderrText = fileBytes(stderrPath);
+  return r;
 }
 
 Film rampFilm(int w, int h, bool aovs) {
@@ -148,6 +204,153 @@ TEST(Outputs, UncommittedSetLeavesNothing) {
     out.addPreviewPng(dir + "/a.png", rampFilm(4, 4, true));
   }
   EXPECT_TRUE(std::filesystem::is_empty(dir));
+}
+
+// A PNG that cannot be written whole (here a file-size limit; a full disk
+// alike) is an error naming it, and the previous file stays as it was with
+// no temporary left: stbi_write_png ignored fwrite's and fclose's results,
+// so a cut PNG replaced a good one and the write "succeeded". The same for
+// the text files (compare's SVG and JSON, fit's coefficients).
+TEST(Outputs, PreviewWriteFailureKeepsThePreviousPreview) {
+  const std::string dir = tempDir("outputs_png_limit");
+  const std::string png = dir + "/preview.png", svg = dir + "/sheet.svg";
+  const int w = 200, h = 100;
+  std::vector<unsigned char> noise(size_t(w) * h * 3);
+  uint32_t x = 1;
+  for (unsigned char& b : noise) b = (unsigned char)((x = x * 1664525u + 1013904223u) >> 24);
+  writePngRgb8(png, w, h, noise.data());
+  writeTextFile(svg, "<svg/>\n");
+  const std::string good = fileBytes(png), goodSvg = fileBytes(svg);
+  ASSERT_GT(good.size(), 16384u);
+  std::reverse(noise.begin(), noise.end());
+  const int code = inChildWithFileLimit(4096, [&] {
+    try {
+      writePngRgb8(png, w, h, noise.data());
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      if (m.find(png) == std::string::npos || m.find("File too large") == std::string::npos) return 3;
+      try {
+        writeTextFile(svg, std::string(8192, 'x'));
+      } catch (const Error& e2) {
+        return std::string(e2.what()).find(svg) == std::string::npos ? 4 : 2;
+      }
+      return 5;
+    }
+    return 0;
+  });
+  EXPECT_EQ(code, 2) << "0: the cut PNG was reported written; 3/4: the message does not name the file; 5: the text write";
+  EXPECT_EQ(fileBytes(png), good);
+  EXPECT_EQ(fileBytes(svg), goodSvg);
+  EXPECT_EQ(otherFiles(dir, {"preview.png", "sheet.svg"}), std::vector<std::string>{});
+}
+
+// The same through the CLI: a render whose EXR fits but whose --preview
+// does not exits 1 with one line naming the preview, and both the previous
+// pass and preview are kept. The camera looks away from the scene's one
+// triangle, so the image is flat: OpenEXR's zlib packs 1000 x 1000 pixels
+// into 20 kB, stb's PNG encoder into 29 kB; the limit is between.
+TEST(Outputs, CliPreviewWriteFailureExitsNonZero) {
+  const std::string dir = tempDir("outputs_cli_png_limit");
+  const std::string scene = dir + "/away.gltf";
+  {
+    std::ofstream f(scene);
+    f << R"({"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0,1]}],)"
+         R"("nodes":[{"mesh":0},{"camera":0,"translation":[0,0,-5]}],)"
+         R"("cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.01}}],)"
+         R"("meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],)"
+         R"("buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],)"
+         R"("bufferViews":[{"buffer":0,"byteLength":36}],)"
+         R"("accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}]})";
+  }
+  const std::string exr = dir + "/pass.exr", png = dir + "/pass.png";
+  std::vector<std::string> args = {"render", scene, "-o", exr, "--preview", png, "--res", "1000x1000", "--spp", "1", "--no-aovs", "-q"};
+  ASSERT_EQ(runCli(args, dir + "/e0.txt").exitCode, 0);
+  const std::string goodExr = fileBytes(exr), goodPng = fileBytes(png);
+  ASSERT_LT(goodExr.size(), 24000u);
+  ASSERT_GT(goodPng.size(), 26000u);
+  args.insert(args.end(), {"--seed", "7"});
+  const CliResult r = runCliWithFileLimit(args, dir + "/e1.txt", 24000);
+  EXPECT_EQ(r.exitCode, 1) << r.stderrText;
+  EXPECT_NE(r.stderrText.find(png + ": write failed: File too large"), std::string::npos) << r.stderrText;
+  EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  EXPECT_EQ(fileBytes(exr), goodExr);
+  EXPECT_EQ(fileBytes(png), goodPng);
+  EXPECT_EQ(otherFiles(dir, {"away.gltf", "pass.exr", "pass.png", "e0.txt", "e1.txt"}), std::vector<std::string>{});
+}
+
+// An output name that fits the file system but not the hidden temporary
+// written beside it (".NAME.tmpPID", 12 bytes more) is refused before the
+// scene loads, naming the option and the limit; it used to fail after the
+// render reached 100 %. The longest name that fits still renders.
+TEST(Outputs, LongOutputNamesAreRefusedBeforeLoading) {
+  const std::string dir = tempDir("outputs_long_names");
+  const std::string scene = sourcePath("scenes/default.gltf");
+  const auto name = [&](size_t bytes, const std::string& ext) { return dir + "/" + std::string(bytes - ext.size(), 'n') + ext; };
+  const std::string missing = dir + "/no_such_scene.gltf";  // an error about it would mean the scene was read first
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {{"-o", name(250, ".exr")}, "-o " + name(250, ".exr") + ": the file name is 250 bytes; at most 243 fit"},
+      {{"-o", name(255, ".exr")}, "the file name is 255 bytes; at most 243 fit (the file system's limit of 255 bytes"},
+      {{"-o", dir + "/p.exr", "--preview", name(249, ".png")}, "--preview " + name(249, ".png") + ": the file name is 249"},
+      {{"-o", name(241, ".exr"), "--checkpoint", "5"}, "--checkpoint: " + name(241, ".exr") + ".checkpoint.tmp: the file name is 256 bytes; at most 255"},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"render", missing, "-q", "--res", "16x9", "--spp", "1"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const CliResult r = runCli(args, dir + "/err" + std::to_string(k++) + ".txt");
+    EXPECT_EQ(r.exitCode, 1) << c.says << ": " << r.stderrText;
+    EXPECT_NE(r.stderrText.find(c.says), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
+  const std::string longest = name(243, ".exr");
+  const CliResult ok = runCli({"render", scene, "-o", longest, "--preview", name(243, ".png"), "-q", "--res", "16x9", "--spp", "1"},
+                              dir + "/ok.txt");
+  EXPECT_EQ(ok.exitCode, 0) << ok.stderrText;
+  EXPECT_TRUE(std::filesystem::exists(longest));
+}
+
+// An output that names a file the command reads is refused before any
+// work, naming both options, and the input is left as it was: a height map
+// (--displace, containment's map= by -p or --pass), an environment map, a
+// merge tile. merge also refuses an output not named .exr (it writes
+// OpenEXR). All of these used to exit 0 having replaced the input.
+TEST(Outputs, OutputEqualToAnInputIsRefused) {
+  const std::string dir = tempDir("outputs_inputs");
+  const std::string scene = sourcePath("scenes/default.gltf");
+  const std::string h = dir + "/h.exr", env = dir + "/env.exr", t0 = dir + "/t0.exr", t1 = dir + "/t1.exr";
+  const std::vector<float> rgb(8 * 4 * 3, 0.5f);
+  for (const std::string& f : {h, env, t0, t1}) writeRgbExr(f, 8, 4, rgb, {});
+  std::map<std::string, std::string> before;
+  for (const std::string& f : {h, env, t0, t1}) before[f] = fileBytes(f);
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {{"render", scene, "-o", h, "--displace", h}, "-o " + h + ": is the same file as --displace " + h},
+      {{"render", scene, "-o", dir + "/./h.exr", "-i", "containment", "-p", "distance=1", "-p", "map=" + h}, "is the same file as -p map= " + h},
+      {{"render", scene, "-o", h, "--pass", "c=containment:distance=1,map=" + h}, "is the same file as --pass c:map= " + h},
+      {{"render", scene, "-o", dir + "/p.exr", "--preview", env, "--environment", env}, "--preview " + env + ": is the same file as --environment"},
+      {{"render", scene, "-o", env, "--environment", env}, "-o " + env + ": is the same file as --environment " + env},
+      {{"merge", t1, t0, t1}, "merge: OUT.exr " + t1 + ": is the same file as TILE 2 " + t1},
+      {{"merge", dir + "/full.png", t0, t1}, "merge: OUT.exr " + dir + "/full.png: must end in .exr"},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    std::vector<std::string> args = c.args;
+    args.push_back(args[0] == "render" ? "-q" : t1);
+    if (args[0] == "merge") args.pop_back();
+    const CliResult r = runCli(args, dir + "/err" + std::to_string(k++) + ".txt");
+    EXPECT_EQ(r.exitCode, 1) << c.says << ": " << r.stderrText;
+    EXPECT_NE(r.stderrText.find(c.says), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
+  for (const auto& [f, bytes] : before) EXPECT_EQ(fileBytes(f), bytes) << f;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/full.png"));
 }
 
 // Bands of 64 scanlines: a film of several bands and a ragged last band

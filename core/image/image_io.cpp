@@ -15,6 +15,7 @@
 #include <OpenEXR/ImfStringAttribute.h>
 #include <OpenEXR/ImfThreading.h>
 #include <stb_image_write.h>
+#include <fcntl.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
@@ -150,14 +151,40 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
   }
 }
 
+// Writes `size` bytes to a new file `tmp`, checking every write and the
+// close (a full disk, a file-size limit, a quota), or throws naming `path`
+// with the temporary removed.
+void writeBytesFile(const std::string& path, const std::string& tmp, const void* data, size_t size) {
+  checkWritable(path);
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(path + ": write failed: " + std::strerror(errno));
+  const char* bytes = static_cast<const char*>(data);
+  int err = 0;
+  for (size_t done = 0; done < size && !err;) {
+    const ssize_t n = ::write(fd, bytes + done, size - done);
+    if (n > 0) done += size_t(n);
+    else if (n == 0) err = EIO;
+    else if (errno != EINTR) err = errno;
+  }
+  if (::close(fd) != 0 && !err) err = errno;
+  if (err) {
+    ::unlink(tmp.c_str());
+    throw Error(path + ": write failed: " + std::strerror(err));
+  }
+}
+
+// Encodes in memory, then writes through writeBytesFile: stbi_write_png
+// itself ignores what fwrite and fclose return, so a full disk left a
+// truncated PNG that was then moved over the previous one.
 void writePngFile(const std::string& path, const std::string& tmp, int width, int height, const unsigned char* rgb) {
   checkWritable(path);
-  errno = 0;
-  if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb, width * 3)) {
-    const std::string why = errno ? std::strerror(errno) : "cannot encode the image";
-    std::remove(tmp.c_str());
-    throw Error(path + ": write failed: " + why);
-  }
+  std::string png;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), size_t(size));
+  };
+  if (!stbi_write_png_to_func(append, &png, width, height, 3, rgb, width * 3))
+    throw Error(path + ": write failed: cannot encode the image");
+  writeBytesFile(path, tmp, png.data(), png.size());
 }
 
 std::vector<unsigned char> previewPixels(const Film& film) {
@@ -173,6 +200,17 @@ std::vector<unsigned char> previewPixels(const Film& film) {
 
 bool exrKeepsFloat(int channel) { return channel == kNX || channel == kNY || channel == kNZ || channel == kZ; }
 
+void checkOutputName(const std::string& path, const std::string& what, size_t extra) {
+  const fs::path p(path);
+  const fs::path parent = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  const long max = ::pathconf(parent.c_str(), _PC_NAME_MAX);
+  const size_t limit = max > 0 ? size_t(max) : 255, name = p.filename().string().size();
+  if (name + extra > limit)
+    throw Error(what + path + ": the file name is " + std::to_string(name) + " bytes; at most " +
+                std::to_string(limit > extra ? limit - extra : 0) + " fit (the file system's limit of " +
+                std::to_string(limit) + " bytes, less " + std::to_string(extra) + " for the temporary written beside it)");
+}
+
 void checkWritable(const std::string& path) {
   const fs::path p(path);
   const fs::path parent = p.parent_path().empty() ? fs::path(".") : p.parent_path();
@@ -182,6 +220,7 @@ void checkWritable(const std::string& path) {
   if (fs::is_directory(p, ec)) throw Error(path + ": cannot write: it is a directory");
   if (::access(parent.c_str(), W_OK | X_OK) != 0)
     throw Error(path + ": cannot write: directory '" + parent.string() + "' is not writable");
+  checkOutputName(path, "");
 }
 
 uint64_t filmBytes(int width, int height, bool aovs, bool albedo) {
@@ -217,6 +256,12 @@ void OutputSet::addExr(const std::string& path, const Film& film, const ExrOptio
 void OutputSet::addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
   Staged s{path, siblingPath(path, ".tmp")};
   writePngFile(path, s.tmp, width, height, rgb);
+  staged_.push_back(std::move(s));
+}
+
+void OutputSet::addText(const std::string& path, const std::string& bytes) {
+  Staged s{path, siblingPath(path, ".tmp")};
+  writeBytesFile(path, s.tmp, bytes.data(), bytes.size());
   staged_.push_back(std::move(s));
 }
 
@@ -316,6 +361,12 @@ unsigned char linearToSrgb8(float v) {
 void writePreviewPng(const std::string& path, const Film& film) {
   OutputSet out;
   out.addPreviewPng(path, film);
+  out.commit();
+}
+
+void writeTextFile(const std::string& path, const std::string& bytes) {
+  OutputSet out;
+  out.addText(path, bytes);
   out.commit();
 }
 

@@ -90,6 +90,8 @@ class OutputSet {
   void addPreviewPng(const std::string& path, const Film& film);
   // An 8-bit sRGB PNG from interleaved RGB bytes, row-major, top row first.
   void addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb);
+  // A file of these bytes (text: JSON, CSV, SVG), every write checked.
+  void addText(const std::string& path, const std::string& bytes);
   // A file written by `write`, which writes the temporary path it is given
   // or throws (the temporary is then removed): for writers of their own,
   // such as `obscura merge`.
@@ -106,7 +108,16 @@ class OutputSet {
 // Refuses, before any work, an output that cannot be written: its directory
 // is missing or not writable, or the path is a directory (the message names
 // the path).
+// and a file name too long for its temporary (checkOutputName).
 void checkWritable(const std::string& path);
+// Bytes the temporaries add to an output's file name: ".NAME.tmpPID" (and
+// ".bak"): a dot, four bytes and a process id of at most 7 digits.
+constexpr size_t kTemporaryNameExtra = 1 + 4 + 7;
+// Refuses an output whose file name plus `extra` bytes passes the file
+// system's NAME_MAX (pathconf of its directory, else 255): the temporary
+// written beside it could not be created, and the render would be lost at
+// 100 %. The message starts with `what` (e.g. "-o ") and gives the limit.
+void checkOutputName(const std::string& path, const std::string& what, size_t extra = kTemporaryNameExtra);
 // Bytes a film of w x h pixels takes (with or without AOVs, with or without
 // the albedo AOV).
 uint64_t filmBytes(int width, int height, bool aovs, bool albedo = true);
@@ -138,6 +149,8 @@ ExrImage readExrImage(const std::string& path);
 void writePreviewPng(const std::string& path, const Film& film);
 // An 8-bit sRGB PNG from interleaved RGB bytes, row-major, top row first.
 void writePngRgb8(const std::string& path, int width, int height, const unsigned char* rgb);
+// A file of these bytes, written atomically like writeExr (OutputSet::addText).
+void writeTextFile(const std::string& path, const std::string& bytes);
 // sRGB encoding of a linear value in [0, 1] (clamped), as a byte.
 unsigned char linearToSrgb8(float v);
 
