@@ -96,9 +96,33 @@ using Cell = ReportCell;
 // before configs carried render settings; those files are still read (their
 // cells are plain: no target, no denoiser, mean spp = spp).
 const char* kCsvHeaderV1 = "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass";
-const char* kCsvHeader =
+const char* kCsvHeaderV2 =
     "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
     "mean_spp,denoise_s";
+// The current columns: V2's, then each seed's MSE and time (';'-separated:
+// the intervals of docs/compare.md "Uncertainty" are computed from them),
+// then the intervals themselves (empty with one seed).
+const char* kCsvHeader =
+    "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
+    "mean_spp,denoise_s,seed_mse,seed_time_s,rmse_lo,rmse_hi,time_lo,time_hi";
+
+std::string joinSeeds(const std::vector<double>& v) {
+  std::string s;
+  for (const double x : v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", x);  // round-trips: a resumed cell's intervals are the same
+    s += (s.empty() ? "" : ";") + std::string(buf);
+  }
+  return s;
+}
+
+std::vector<double> splitSeeds(const std::string& s) {
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ';')) v.push_back(std::stod(item));
+  return v;
+}
 
 std::string csvQuote(const std::string& s) {
   std::string q = "\"";
@@ -112,13 +136,21 @@ std::string fmt(double v) {
   return buf;
 }
 
+// rmse_lo,rmse_hi,time_lo,time_hi, or four empty fields without intervals.
+std::string intervalColumns(const Cell& c) {
+  if (!c.hasIntervals()) return ",,,";
+  const CellIntervals ci = cellIntervals(c);
+  return fmt(ci.rmse.lo) + "," + fmt(ci.rmse.hi) + "," + fmt(ci.seconds.lo) + "," + fmt(ci.seconds.hi);
+}
+
 std::string csvRow(const Cell& c) {
   return c.key + "," + csvQuote(c.config) + "," + c.integrator + "," + csvQuote(c.params) + "," + std::to_string(c.spp) +
          "," + std::to_string(c.seeds) + "," + fmt(c.seconds) + "," + std::to_string(c.rays) + "," + fmt(c.error.rmse) +
          "," + fmt(c.error.relMse) + "," + fmt(c.error.mae) + "," + fmt(c.error.p99) + "," +
          (c.bv ? fmt(c.bv->bias2) : "") + "," + (c.bv ? fmt(c.bv->variance) : "") + "," + csvQuote(c.pass) + "," +
          (c.targetError > 0 ? fmt(c.targetError) : "") + "," + (c.minSpp > 0 ? std::to_string(c.minSpp) : "") + "," +
-         (c.denoise ? "on" : "off") + "," + fmt(c.meanSpp) + "," + fmt(c.denoiseSeconds);
+         (c.denoise ? "on" : "off") + "," + fmt(c.meanSpp) + "," + fmt(c.denoiseSeconds) + "," + joinSeeds(c.seedMse) +
+         "," + joinSeeds(c.seedSeconds) + "," + intervalColumns(c);
 }
 
 // Splits one CSV line (quoted fields with "" escapes).
@@ -148,8 +180,9 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
   std::map<std::string, Cell> cells;
   std::ifstream in(path);
   std::string line;
-  if (!in || !std::getline(in, line) || (line != kCsvHeader && line != kCsvHeaderV1)) return cells;
-  const size_t fields = line == kCsvHeader ? 20 : 15;
+  if (!in || !std::getline(in, line) || (line != kCsvHeader && line != kCsvHeaderV2 && line != kCsvHeaderV1))
+    return cells;
+  const size_t fields = line == kCsvHeader ? 26 : line == kCsvHeaderV2 ? 20 : 15;
   while (std::getline(in, line)) {
     const std::vector<std::string> f = csvFields(line);
     if (f.size() != fields) continue;
@@ -163,12 +196,16 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
       if (!f[12].empty()) c.bv = BiasVariance{std::stod(f[12]), std::stod(f[13])};
       c.pass = f[14];
       c.meanSpp = c.spp;
-      if (fields == 20) {
+      if (fields >= 20) {
         if (!f[15].empty()) c.targetError = std::stod(f[15]);
         if (!f[16].empty()) c.minSpp = std::stoi(f[16]);
         c.denoise = f[17] == "on";
         c.meanSpp = std::stod(f[18]), c.denoiseSeconds = std::stod(f[19]);
       }
+      if (fields >= 26) c.seedMse = splitSeeds(f[20]), c.seedSeconds = splitSeeds(f[21]);
+      // A row without one value per seed (an older file) cannot give the
+      // intervals: the cell is measured again.
+      if (c.seeds >= 2 && (c.seedMse.size() != size_t(c.seeds) || c.seedSeconds.size() != size_t(c.seeds))) continue;
       cells[c.key] = c;
     } catch (const std::exception&) {
       // a damaged row is recomputed
@@ -497,10 +534,12 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
     scaleRgb(*img, ref.scale);
     const ErrorMetrics e = errorMetrics(*img, ref.image);
     mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
+    c.seedMse.push_back(e.rmse * e.rmse);
     c.error.values = e.values;
     // The time to this pass: the render loop and the denoiser after it
     // (RenderStats keeps them apart; a denoised cell pays both).
     seconds.push_back(stats.seconds + stats.denoiseSeconds);
+    c.seedSeconds.push_back(seconds.back());
     denoiseSeconds.push_back(stats.denoiseSeconds);
     meanSpp += stats.meanSpp > 0 ? stats.meanSpp : double(spp);
     renders.push_back(std::move(*img));
@@ -585,6 +624,7 @@ void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells) co
     report.lighting = "uniform sky " + a_.sky + "; errors are of W (R,G,B)";
   }
   report.reference = &ref.image;
+  report.passScale = ref.scale;
   report.targets = plan_.targets;
   report.cells = cells;
   writeCompareReport(report);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "app/confidence.h"
 #include "core/image/metrics.h"
 
 namespace obscura {
@@ -34,11 +35,40 @@ struct ReportCell {
   ErrorMetrics error;
   std::optional<BiasVariance> bv;
   std::string pass;  // EXR relative to the report directory
+  // One value per seed (empty for a cell of a results.csv from before they
+  // were kept): the MSE of each render and its time. With two or more they
+  // give the intervals (app/confidence.h, docs/compare.md "Uncertainty").
+  std::vector<double> seedMse, seedSeconds;
+  bool hasIntervals() const { return seedMse.size() >= 2 && seedSeconds.size() >= 2; }
 };
+
+// The interval of a cell's RMSE and time (hasIntervals() must hold).
+struct CellIntervals {
+  Interval rmse, seconds;
+  double secondsConfidence = 0;  // medianRangeConfidence(seeds)
+};
+CellIntervals cellIntervals(const ReportCell& c);
+
+// The verdict for one RMSE target: the fastest cell reaching it (point
+// estimates), the fastest cell of another config reaching it (the
+// runner-up), and with intervals on both, Welch's test of their times
+// (docs/compare.md "Uncertainty"): distinguishable, or a tie.
+struct TargetVerdict {
+  double target = 0;
+  std::optional<size_t> winner, runnerUp;
+  std::optional<WelchResult> time;      // runner-up minus winner, seconds
+  std::optional<bool> winnerSurely;     // the winner's RMSE interval is below the target
+  // "distinguishable", "tie", "no runner-up", "one seed" or "not reached".
+  std::string status() const;
+};
+TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target);
 
 struct CompareReport {
   std::string dir, scene, camera, resolution, referencePath;
   std::string lighting;  // the light and what the errors measure, one line
+  // What a pass is multiplied by before it is compared (1 under a uniform
+  // sky; 1 / the reference's mean radiance under an environment map).
+  double passScale = 1;
   double referenceNoise = -1;  // RMSE of the reference itself; < 0: unknown
   const PassImage* reference = nullptr;
   std::vector<double> targets;  // RMSE targets, largest first
@@ -55,8 +85,15 @@ std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, doub
 // never see half a file. Throws obscura::Error naming the path.
 void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 
+// Text with < > & " escaped for XML and HTML (text and attribute values).
+std::string xmlEscape(const std::string& s);
+
 // A name safe in a file name: [A-Za-z0-9.=-] kept, the rest '_'.
 std::string safeFileName(const std::string& s);
+
+// The heat maps' colour map: six RGB (0-255) control points evenly spaced
+// over [0, 1], linearly interpolated (heatmaps/*.png and report.html).
+extern const double kHeatStops[6][3];
 
 // Writes every file of the report into report.dir; throws obscura::Error.
 void writeCompareReport(const CompareReport& report);
