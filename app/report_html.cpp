@@ -318,7 +318,8 @@ buildVerdicts();
 buildBar("bar", META.scale);
 buildGallery();
 loadScript("report_data/reference.js");
-select(pareto.size ? Math.min.apply(null, Array.from(pareto).filter(function (i) { return i >= 0; }).concat([cells.length - 1])) : 0);
+// The first cell of the Pareto front (the fastest worth looking at), else the first.
+if (cells.length) select(Math.min.apply(null, Array.from(pareto).filter(function (i) { return i >= 0; }).concat([cells.length - 1])));
 document.body.dataset.status = "ready";
 )JS";
 

@@ -9,19 +9,22 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <regex>
 #include <sstream>
 
+#include "app/report_html.h"
 #include "tests/support.h"
 
 namespace obscura::test {
 namespace {
 
 std::string chromiumBinary() {
-  if (const char* env = std::getenv("OBSCURA_CHROMIUM"); env && *env) return env;
+  if (const char* env = std::getenv("OBSCURA_CHROMIUM"); env && *env)
+    return std::filesystem::exists(env) ? std::string(env) : std::string();
   for (const char* p : {"/usr/bin/chromium", "/usr/bin/chromium-browser"})
     if (std::filesystem::exists(p)) return p;
   return "";
@@ -54,10 +57,37 @@ std::string chromiumCommand(const std::string& chromium, const std::string& dir,
          "--user-data-dir='" + dir + "/profile' --enable-logging=stderr --v=0 " + what + " 'file://" + page + "'";
 }
 
+TEST(CompareReportPage, Base64MatchesTheRfcVectors) {
+  // RFC 4648 section 10.
+  const std::pair<const char*, const char*> vectors[] = {{"", ""},         {"f", "Zg=="},         {"fo", "Zm8="},
+                                                         {"foo", "Zm9v"},  {"foob", "Zm9vYg=="},  {"fooba", "Zm9vYmE="},
+                                                         {"foobar", "Zm9vYmFy"}};
+  for (const auto& [in, out] : vectors)
+    EXPECT_EQ(base64(reinterpret_cast<const unsigned char*>(in), std::strlen(in)), out) << in;
+}
+
+TEST(CompareReportPage, FloatDataIsUnpremultipliedLittleEndianFloat32) {
+  // Two pixels: the first covered half (A = 0.5, R,G,B premultiplied: W =
+  // 1, 2, 0.5), the second not at all. The page reads W and the mask.
+  PassImage p;
+  p.width = 2, p.height = 1;
+  p.r = {0.5f, 0}, p.g = {1.0f, 0}, p.b = {0.25f, 0}, p.a = {0.5f, 0};
+  PassImage ref = p;
+  ref.a = {1.0f, 1.0f};
+  // 1.0f is 00 00 80 3F, 2.0f 00 00 00 40, 0.5f 00 00 00 3F, 0.0f 00 00 00 00.
+  const unsigned char expect[] = {0, 0, 0x80, 0x3f, 0, 0, 0, 0x40, 0, 0, 0, 0x3f, 0, 0, 0x80, 0x3f,
+                                  0, 0, 0,    0,    0, 0, 0, 0,    0, 0, 0, 0,    0, 0, 0,    0};
+  EXPECT_EQ(reportImageBase64(p, ref, false, 1), base64(expect, sizeof expect));
+  // Averaged 2x1 -> 1x0 is empty; a factor of 1 over the reference marks both compared.
+  EXPECT_EQ(reportImageBase64(p, ref, false, 2), "");
+}
+
 TEST(CompareReportPage, EveryCellIsOnThePageInHeadlessChromium) {
   const std::string chromium = chromiumBinary();
   if (chromium.empty()) {
-    const std::string why = "skipped: needs Debian's chromium (apt-get install chromium; scripts/setup.sh test installs it)";
+    const std::string why =
+        "skipped: needs Debian's chromium at /usr/bin/chromium or $OBSCURA_CHROMIUM (apt-get install chromium; "
+        "scripts/setup.sh test installs it)";
     if (browserRequired()) FAIL() << why;
     GTEST_SKIP() << why;
   }
@@ -70,6 +100,12 @@ TEST(CompareReportPage, EveryCellIsOnThePageInHeadlessChromium) {
   ASSERT_EQ(r.exitCode, 0) << r.stderrText;
   const std::string page = std::filesystem::absolute(dir + "/out/report.html").string();
   ASSERT_TRUE(std::filesystem::exists(page));
+
+  // Self-contained: nothing the page loads is on the network (the SVG's
+  // xmlns names a namespace, not a request).
+  const std::string source = readAll(page);
+  for (const char* remote : {"src=\"http", "href=\"http", "url(http", "fetch("})
+    EXPECT_EQ(source.find(remote), std::string::npos) << remote;
 
   const std::string dom = dir + "/dom.html", log = dir + "/chromium.txt";
   const int rc = std::system((chromiumCommand(chromium, dir, "--dump-dom", page) + " >'" + dom + "' 2>'" + log + "'").c_str());
