@@ -325,6 +325,9 @@ def test_compare_returns_the_table(tmp_path):
                            reference_spp=8, res=(32, 18))
     assert [r["config"] for r in rows] == ["ao:distance=1", "obscurance:distance=1"]
     assert all(r["spp"] == 2 and r["rmse"] > 0 and r["time_s"] > 0 for r in rows)
+    # One seed: one value per seed, and no interval (docs/compare.md "Uncertainty").
+    assert all(len(r["seed_mse"]) == 1 and r["rmse_lo"] is None for r in rows)
+    assert all(abs(r["seed_mse"][0] - r["rmse"] ** 2) <= 1e-6 * r["rmse"] ** 2 for r in rows)
     # The CLI resumes the same directory: every cell is already there.
     code, err = cli("compare", SCENE, "-o", str(tmp_path / "cmp"), "-c", "ao:distance=1", "-c", "obscurance:distance=1",
                     "--spp", "2", "--reference-spp", "8", "--res", "32x18")
