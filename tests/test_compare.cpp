@@ -89,6 +89,26 @@ TEST(CompareMetrics, BiasAndVarianceSplit) {
   EXPECT_NEAR(referenceNoise(grey(1, 1, {0.5f}), grey(1, 1, {0.7f})), 0.1, 1e-6);
 }
 
+// flipError's inputs (core/image/metrics.h): LDR-FLIP sees the pass clamped
+// to [0, 1] as its preview shows it, HDR-FLIP the linear values; only the
+// compared pixels are averaged.
+TEST(CompareMetrics, FlipSeesThePreviewForLdrAndTheLinearPassForHdr) {
+  const PassImage white = grey(8, 8, std::vector<float>(64, 1.0f)), bright = grey(8, 8, std::vector<float>(64, 3.0f));
+  const FlipError f = flipError(bright, white, kFlipDefaultPpd, true);
+  EXPECT_EQ(f.ldr, 0.0);  // both previews are white
+  EXPECT_GT(f.hdr, 0.1);  // 1.6 stops apart in the linear pass
+  // The uniform pair's HDR value is the same at every pixel: the mean is it.
+  EXPECT_NEAR(f.hdr, f.hdrMap[27], 1e-6);
+  // A pixel the reference does not cover is not averaged and reads 0 in the map.
+  std::vector<float> a(64, 1.0f);
+  a[0] = 0.0f;
+  const PassImage holed = grey(8, 8, std::vector<float>(64, 1.0f), a);
+  const FlipError g = flipError(bright, holed, kFlipDefaultPpd, true);
+  EXPECT_EQ(g.ldrMap[0], 0.0f);
+  EXPECT_EQ(g.hdrMap[0], 0.0f);
+  EXPECT_GT(g.hdrMap[63], 0.1f);
+}
+
 TEST(CompareReport, ParetoFrontAndTargets) {
   std::vector<ReportCell> cells(5);
   const double t[] = {1, 2, 3, 4, 0.5}, e[] = {0.3, 0.1, 0.2, 0.05, 0.5};

@@ -238,6 +238,27 @@ TEST(Flip, HdrUniformPairIsTheLargerColourDifferenceOverExposures) {
   for (const float v : hdrFlip(ref, test, range)) ASSERT_NEAR(v, expected, kConstantTolerance);
 }
 
+TEST(Flip, HdrDoesNotDependOnTheImagesScale) {
+  // Scaling both images by 2^k moves the reference's exposure range by -k
+  // stops and leaves every exposed image as it was (docs/compare.md "FLIP":
+  // why the normalised radiance under a map does not change HDR-FLIP).
+  // Powers of two scale floats exactly; what is left is the rounding of
+  // log2 and exp2 in the exposures (~1e-15 relative), far below 1e-5.
+  const FlipImage a = noise(29, 19, 7, 8.0f), b = noise(29, 19, 8, 8.0f);
+  const std::vector<float> m = hdrFlip(a, b, flipExposures(a));
+  for (const float s : {0.25f, 8.0f}) {
+    FlipImage as = a, bs = b;
+    for (FlipImage* im : {&as, &bs})
+      for (std::vector<float>* plane : {&im->r, &im->g, &im->b})
+        for (float& v : *plane) v *= s;
+    const FlipExposures e = flipExposures(as), e0 = flipExposures(a);
+    EXPECT_NEAR(e.start, e0.start - std::log2(s), 1e-9);
+    EXPECT_EQ(e.count, e0.count);
+    const std::vector<float> ms = hdrFlip(as, bs, e);
+    for (size_t i = 0; i < m.size(); ++i) ASSERT_NEAR(ms[i], m[i], 1e-5) << s;
+  }
+}
+
 TEST(Flip, BadInputIsOneClearError) {
   const FlipImage a = uniform(4, 4, 0, 0, 0), b = uniform(5, 4, 0, 0, 0);
   EXPECT_THROW(ldrFlip(a, b), Error);
