@@ -326,7 +326,7 @@ void writeCompareReport(const CompareReport& r) {
       if (t > 0) {
         const ReportCell& c = cells[finest[size_t(t - 1)].first];
         line1 = c.config + " @ " + std::to_string(c.spp) + " spp";
-        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse);
+        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse) + ", FLIP " + num(c.flip);
       }
       s << "<image x=\"" << x << "\" y=\"" << y << "\" width=\"" << w << "\" height=\"" << h << "\" href=\"" << file
         << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(line1)
