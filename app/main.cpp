@@ -405,6 +405,8 @@ int main(int argc, char** argv) {
       ->excludes(refOpt);
   compare->add_option("--seeds", cmp.seeds, "Renders per cell with seeds seed..seed+N-1 (>= 2: bias^2 and variance)");
   compare->add_option("--targets", cmp.targets, "RMSE targets for the summary (default 0.1,0.05,0.02,0.01)");
+  compare->add_option("--targets-flip", cmp.targetsFlip, "FLIP targets in (0, 1] for the summary (default none)");
+  compare->add_option("--flip-ppd", cmp.flipPpd, "FLIP's observer: pixels per degree (default 67.02: 4K, 0.7 m wide, at 0.7 m)");
   compare->add_option("--res", cmp.res, "Resolution WIDTHxHEIGHT");
   compare->add_option("--camera", cmp.camera, "Camera name or index in the file, or 'auto'");
   compare->add_option("--threads", cmp.threads, "Worker threads (0 = all cores)");

@@ -40,10 +40,12 @@ std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells) {
   return front;
 }
 
-std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target) {
+std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target, TargetMeasure measure) {
   std::optional<size_t> best;
-  for (size_t i = 0; i < cells.size(); ++i)
-    if (cells[i].error.rmse <= target && (!best || cells[i].seconds < cells[*best].seconds)) best = i;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    const double e = measure == TargetMeasure::Rmse ? cells[i].error.rmse : cells[i].flip;
+    if (e <= target && (!best || cells[i].seconds < cells[*best].seconds)) best = i;
+  }
   return best;
 }
 
@@ -215,13 +217,14 @@ std::string summaryMarkdown(const CompareReport& r) {
   bool bv = false;
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value();
   std::ostringstream s;
-  s << "| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 |" << (bv ? " bias² | variance |" : "")
-    << "\n";
-  s << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
+  s << "| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 | FLIP | HDR-FLIP |"
+    << (bv ? " bias² | variance |" : "") << "\n";
+  s << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
   for (const ReportCell& c : cells) {
     s << "| `" << c.config << "` | " << c.spp << " | " << num(c.meanSpp) << " | " << num(c.seconds) << " | "
       << (c.denoise ? num(c.denoiseSeconds) : "") << " | " << num(double(c.rays) * 1e-6) << " | "
-      << num(c.error.rmse) << " | " << num(c.error.relMse) << " | " << num(c.error.mae) << " | " << num(c.error.p99) << " |";
+      << num(c.error.rmse) << " | " << num(c.error.relMse) << " | " << num(c.error.mae) << " | " << num(c.error.p99) << " | "
+      << num(c.flip) << " | " << num(c.flipHdr) << " |";
     if (bv) s << " " << (c.bv ? num(c.bv->bias2) : "") << " | " << (c.bv ? num(c.bv->variance) : "") << " |";
     s << "\n";
   }
@@ -229,14 +232,22 @@ std::string summaryMarkdown(const CompareReport& r) {
   if (!r.lighting.empty()) s << "Lighting: " << r.lighting << ".\n\n";
   if (r.referenceNoise >= 0) s << "Reference noise (RMSE of the gi reference itself): " << num(r.referenceNoise) << ".\n\n";
   s << "Time includes the denoiser for `denoise=on` configs; spp is a `target=` config's most per pixel.\n\n";
-  s << "| RMSE target | fastest config reaching it |\n|---:|---|\n";
-  for (const double t : r.targets) {
-    const auto best = fastestReaching(cells, t);
-    s << "| " << num(t) << " | " << (best ? "`" + cells[*best].config + "` @ " + cellSpp(cells[*best]) + ", " +
-                                                num(cells[*best].seconds) + " s"
-                                          : std::string("not reached"))
-      << " |\n";
+  const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* what) {
+    s << "| " << what << " target | fastest config reaching it |\n|---:|---|\n";
+    for (const double t : targets) {
+      const auto best = fastestReaching(cells, t, measure);
+      s << "| " << num(t) << " | " << (best ? "`" + cells[*best].config + "` @ " + cellSpp(cells[*best]) + ", " +
+                                                  num(cells[*best].seconds) + " s"
+                                            : std::string("not reached"))
+        << " |\n";
+    }
+  };
+  verdicts(r.targets, TargetMeasure::Rmse, "RMSE");
+  if (!r.flipTargets.empty()) {
+    s << "\n";
+    verdicts(r.flipTargets, TargetMeasure::Flip, "FLIP");
   }
+  s << "\nFLIP at " << num(r.flipPpd, 4) << " pixels per degree (docs/compare.md \"FLIP\").\n";
   s << "\nPareto front:";
   for (const size_t i : paretoFront(cells)) s << " `" << cells[i].config << "`@" << cells[i].spp;
   s << "\n";
@@ -281,6 +292,25 @@ void writeCompareReport(const CompareReport& r) {
   }
   writePassPreview(dir / "previews" / "reference.png", ref);
 
+  // A FLIP heat map per cell (LDR and HDR), of its first seed's pass, on
+  // FLIP's own [0, 1] scale.
+  std::vector<std::pair<std::string, std::string>> flipMaps;
+  for (const ReportCell& c : cells) {
+    PassImage img = readPass((dir / c.pass).string());
+    scaleRgb(img, r.passScale);
+    const FlipError f = flipError(img, ref, r.flipPpd, true);
+    const std::string base = "heatmaps/" + safeFileName(c.config) + "@" + std::to_string(c.spp);
+    flipMaps.push_back({base + ".flip.png", base + ".flip-hdr.png"});
+    for (const auto& [file, map] : {std::pair{flipMaps.back().first, &f.ldrMap}, std::pair{flipMaps.back().second, &f.hdrMap}}) {
+      std::vector<unsigned char> px(img.pixels() * 3);
+      for (size_t i = 0; i < img.pixels(); ++i) {
+        if (!(ref.a[i] == 1.0f && img.a[i] > 0.0f)) px[i * 3] = px[i * 3 + 1] = px[i * 3 + 2] = 64;  // not compared: grey
+        else heatColour((*map)[i], &px[i * 3]);
+      }
+      writePngRgb8((dir / file).string(), img.width, img.height, px.data());
+    }
+  }
+
   // Contact sheet: the reference, then each config's finest pass, in a grid.
   const int tiles = int(finest.size()) + 1, cols = std::min(tiles, 4), rows = (tiles + cols - 1) / cols;
   const int w = ref.width, h = ref.height, label = 34;
@@ -296,7 +326,7 @@ void writeCompareReport(const CompareReport& r) {
       if (t > 0) {
         const ReportCell& c = cells[finest[size_t(t - 1)].first];
         line1 = c.config + " @ " + std::to_string(c.spp) + " spp";
-        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse);
+        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse) + ", FLIP " + num(c.flip);
       }
       s << "<image x=\"" << x << "\" y=\"" << y << "\" width=\"" << w << "\" height=\"" << h << "\" href=\"" << file
         << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(line1)
@@ -336,9 +366,15 @@ void writeCompareReport(const CompareReport& r) {
                   {"bias2", "mean (mean over seeds - W_ref)^2 - variance / seeds"},
                   {"variance", "mean per-value variance across seeds (of one render)"},
                   {"time", "render loop wall time plus the denoiser's (denoise=on), median over seeds"},
-                  {"meanSpp", "camera samples per pixel on average, mean over seeds (below spp only with a target)"}};
+                  {"meanSpp", "camera samples per pixel on average, mean over seeds (below spp only with a target)"},
+                  {"flip", "LDR-FLIP (Andersson et al. 2020) of the pass as displayed (R,G,B over black, clamped to [0,1]), "
+                           "mean over compared pixels, mean over seeds"},
+                  {"flipHdr", "HDR-FLIP (Andersson et al. 2021) of the linear pass, exposures from the reference, mean over "
+                              "compared pixels, mean over seeds"}};
+  j["flipPpd"] = r.flipPpd;
   j["cells"] = nlohmann::json::array();
-  for (const ReportCell& c : cells) {
+  for (size_t k = 0; k < cells.size(); ++k) {
+    const ReportCell& c = cells[k];
     nlohmann::json e = {{"config", c.config}, {"integrator", c.integrator}, {"params", c.params},
                         {"spp", c.spp}, {"seeds", c.seeds}, {"seconds", c.seconds}, {"rays", c.rays},
                         {"rmse", c.error.rmse}, {"relMse", c.error.relMse}, {"mae", c.error.mae},
@@ -347,20 +383,28 @@ void writeCompareReport(const CompareReport& r) {
     if (c.targetError > 0) e["targetError"] = c.targetError;
     if (c.minSpp > 0) e["minSpp"] = c.minSpp;
     if (c.bv) e["bias2"] = c.bv->bias2, e["variance"] = c.bv->variance;
+    e["flip"] = c.flip, e["flipHdr"] = c.flipHdr;
+    e["flipHeatmap"] = flipMaps[k].first, e["flipHdrHeatmap"] = flipMaps[k].second;
     j["cells"].push_back(e);
   }
   j["paretoFront"] = nlohmann::json::array();
   for (const size_t i : paretoFront(cells)) j["paretoFront"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
-  j["targets"] = nlohmann::json::array();
-  for (const double t : r.targets) {
-    const auto best = fastestReaching(cells, t);
-    nlohmann::json e = {{"rmse", t}};
-    if (best)
-      e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"meanSpp", cells[*best].meanSpp},
-                      {"seconds", cells[*best].seconds}};
-    else e["fastest"] = nullptr;
-    j["targets"].push_back(e);
-  }
+  // The verdicts: per target, the fastest cell reaching it (null: none).
+  const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* key) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const double t : targets) {
+      const auto best = fastestReaching(cells, t, measure);
+      nlohmann::json e = {{key, t}};
+      if (best)
+        e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"meanSpp", cells[*best].meanSpp},
+                        {"seconds", cells[*best].seconds}};
+      else e["fastest"] = nullptr;
+      list.push_back(e);
+    }
+    return list;
+  };
+  j["targets"] = verdicts(r.targets, TargetMeasure::Rmse, "rmse");
+  j["flipTargets"] = verdicts(r.flipTargets, TargetMeasure::Flip, "flip");
   j["heatmapScale"] = scale;
   writeTextAtomically(dir / "summary.md", summaryMarkdown(r));
   j["contactSheet"] = nlohmann::json::array({"reference"});
@@ -374,27 +418,35 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   size_t width = 6;
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), width = std::max(width, c.config.size());
   if (!r.lighting.empty()) std::fprintf(out, "lighting: %s\n", r.lighting.c_str());
-  std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s", "Mrays",
-               "RMSE", "relMSE", "MAE", "p99");
+  std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s",
+               "Mrays", "RMSE", "relMSE", "MAE", "p99", "FLIP", "HDR-FLIP");
   if (bv) std::fprintf(out, " %9s %9s", "bias^2", "variance");
   std::fprintf(out, "\n");
   for (const ReportCell& c : cells) {
-    std::fprintf(out, "%-*s %7d %8.4g %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp, c.meanSpp,
-                 c.seconds, double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99);
+    std::fprintf(out, "%-*s %7d %8.4g %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp,
+                 c.meanSpp, c.seconds, double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99, c.flip,
+                 c.flipHdr);
     if (c.bv) std::fprintf(out, " %9.3g %9.3g", c.bv->bias2, c.bv->variance);
     std::fprintf(out, "\n");
   }
   if (r.referenceNoise >= 0)
     std::fprintf(out, "\nreference noise (RMSE of the gi reference itself): %.3g — errors near it are not resolved\n",
                  r.referenceNoise);
+  const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* what) {
+    for (const double t : targets) {
+      const auto best = fastestReaching(cells, t, measure);
+      if (best)
+        std::fprintf(out, "  %s <= %-8.3g %s @ %s (%.3f s)\n", what, t, cells[*best].config.c_str(),
+                     cellSpp(cells[*best]).c_str(), cells[*best].seconds);
+      else
+        std::fprintf(out, "  %s <= %-8.3g not reached by any config\n", what, t);
+    }
+  };
   std::fprintf(out, "\nfastest config reaching each RMSE target (time includes the denoiser):\n");
-  for (const double t : r.targets) {
-    const auto best = fastestReaching(cells, t);
-    if (best)
-      std::fprintf(out, "  RMSE <= %-8.3g %s @ %s (%.3f s)\n", t, cells[*best].config.c_str(), cellSpp(cells[*best]).c_str(),
-                   cells[*best].seconds);
-    else
-      std::fprintf(out, "  RMSE <= %-8.3g not reached by any config\n", t);
+  verdicts(r.targets, TargetMeasure::Rmse, "RMSE");
+  if (!r.flipTargets.empty()) {
+    std::fprintf(out, "\nfastest config reaching each FLIP target (%.4g pixels per degree):\n", r.flipPpd);
+    verdicts(r.flipTargets, TargetMeasure::Flip, "FLIP");
   }
   std::fprintf(out, "\nPareto front (faster and more accurate than every other):");
   for (const size_t i : paretoFront(cells)) std::fprintf(out, "  %s@%d", cells[i].config.c_str(), cells[i].spp);

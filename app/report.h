@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/image/flip.h"
 #include "core/image/metrics.h"
 
 namespace obscura {
@@ -32,6 +33,10 @@ struct ReportCell {
   double seconds = 0;  // render loop + denoiser, median over seeds
   uint64_t rays = 0;
   ErrorMetrics error;
+  // FLIP (docs/compare.md "FLIP"): LDR-FLIP of the displayed pass and
+  // HDR-FLIP of the linear one, means over seeds, at flipPpd pixels per
+  // degree; flipPpd 0: not measured (a row from before the FLIP columns).
+  double flip = 0, flipHdr = 0, flipPpd = 0;
   std::optional<BiasVariance> bv;
   std::string pass;  // EXR relative to the report directory
 };
@@ -42,14 +47,20 @@ struct CompareReport {
   double referenceNoise = -1;  // RMSE of the reference itself; < 0: unknown
   const PassImage* reference = nullptr;
   std::vector<double> targets;  // RMSE targets, largest first
+  std::vector<double> flipTargets;  // FLIP targets, largest first (may be empty)
+  double flipPpd = kFlipDefaultPpd;
+  double passScale = 1.0;  // what the passes in passes/ are multiplied by before they are measured
   std::vector<ReportCell> cells;
 };
 
 // Indices of the cells on the Pareto front of (time, RMSE): no other cell is
 // both faster and at least as accurate. Sorted by time.
 std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells);
-// For an RMSE target, the fastest cell that reaches it, if any.
-std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target);
+// The error a target is of: RMSE or (LDR-)FLIP.
+enum class TargetMeasure { Rmse, Flip };
+// For a target, the fastest cell whose error is at most it, if any.
+std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target,
+                                      TargetMeasure measure = TargetMeasure::Rmse);
 
 // Writes text to a temporary sibling, then renames it over path: readers
 // never see half a file. Throws obscura::Error naming the path.

@@ -612,6 +612,8 @@ py::list compare(const py::object& scene, const std::string& output, const py::o
   kw.take("reference_spp", a.referenceSpp);
   kw.take("seeds", a.seeds);
   kw.takeText("targets", a.targets);
+  kw.takeText("targets_flip", a.targetsFlip);
+  kw.take("flip_ppd", a.flipPpd);
   kw.takeText("res", a.res, "x");
   kw.takeText("camera", a.camera);
   kw.take("threads", a.threads);

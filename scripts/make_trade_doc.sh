@@ -191,14 +191,16 @@ screen_space = lambda c: c["integrator"] in ("vo", "ssat")
 
 # mean spp: what a target= config's pixels took on average (spp is their
 # most); denoise s: the filter's share of the time (time includes it).
-print("| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 | bias² | variance |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+# FLIP, HDR-FLIP: the perceptual errors (docs/compare.md "FLIP").
+print("| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 | FLIP | HDR-FLIP | bias² | variance |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for c in cells:
     bv = (num(c["bias2"]), num(c["variance"])) if "bias2" in c else ("", "")
-    print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+    flip = (num(c["flip"]), num(c["flipHdr"])) if "flip" in c else ("", "")
+    print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
         c["config"], c["spp"], num(c.get("meanSpp", c["spp"])), num(c["seconds"]),
         num(c["denoiseSeconds"]) if c.get("denoise") else "", num(c["rays"] * 1e-6), num(c["rmse"]),
-        num(c["relMse"]), num(c["mae"]), num(c["p99"]), *bv))
+        num(c["relMse"]), num(c["mae"]), num(c["p99"]), *flip, *bv))
 print()
 noise = traced["reference"].get("noiseRmse")
 if noise is not None:

@@ -89,6 +89,26 @@ TEST(CompareMetrics, BiasAndVarianceSplit) {
   EXPECT_NEAR(referenceNoise(grey(1, 1, {0.5f}), grey(1, 1, {0.7f})), 0.1, 1e-6);
 }
 
+// flipError's inputs (core/image/metrics.h): LDR-FLIP sees the pass clamped
+// to [0, 1] as its preview shows it, HDR-FLIP the linear values; only the
+// compared pixels are averaged.
+TEST(CompareMetrics, FlipSeesThePreviewForLdrAndTheLinearPassForHdr) {
+  const PassImage white = grey(8, 8, std::vector<float>(64, 1.0f)), bright = grey(8, 8, std::vector<float>(64, 3.0f));
+  const FlipError f = flipError(bright, white, kFlipDefaultPpd, true);
+  EXPECT_EQ(f.ldr, 0.0);  // both previews are white
+  EXPECT_GT(f.hdr, 0.1);  // 1.6 stops apart in the linear pass
+  // The uniform pair's HDR value is the same at every pixel: the mean is it.
+  EXPECT_NEAR(f.hdr, f.hdrMap[27], 1e-6);
+  // A pixel the reference does not cover is not averaged and reads 0 in the map.
+  std::vector<float> a(64, 1.0f);
+  a[0] = 0.0f;
+  const PassImage holed = grey(8, 8, std::vector<float>(64, 1.0f), a);
+  const FlipError g = flipError(bright, holed, kFlipDefaultPpd, true);
+  EXPECT_EQ(g.ldrMap[0], 0.0f);
+  EXPECT_EQ(g.hdrMap[0], 0.0f);
+  EXPECT_GT(g.hdrMap[63], 0.1f);
+}
+
 TEST(CompareReport, ParetoFrontAndTargets) {
   std::vector<ReportCell> cells(5);
   const double t[] = {1, 2, 3, 4, 0.5}, e[] = {0.3, 0.1, 0.2, 0.05, 0.5};
@@ -98,6 +118,16 @@ TEST(CompareReport, ParetoFrontAndTargets) {
   EXPECT_EQ(fastestReaching(cells, 0.25), std::optional<size_t>(1));
   EXPECT_EQ(fastestReaching(cells, 0.05), std::optional<size_t>(3));
   EXPECT_EQ(fastestReaching(cells, 0.01), std::nullopt);
+}
+
+TEST(CompareReport, FlipTargetsReadTheFlipColumnNotRmse) {
+  std::vector<ReportCell> cells(3);
+  const double t[] = {1, 2, 3}, rmse[] = {0.05, 0.5, 0.5}, flip[] = {0.4, 0.1, 0.05};
+  for (size_t i = 0; i < 3; ++i) cells[i].seconds = t[i], cells[i].error.rmse = rmse[i], cells[i].flip = flip[i];
+  EXPECT_EQ(fastestReaching(cells, 0.1, TargetMeasure::Rmse), std::optional<size_t>(0));
+  EXPECT_EQ(fastestReaching(cells, 0.1, TargetMeasure::Flip), std::optional<size_t>(1));
+  EXPECT_EQ(fastestReaching(cells, 0.06, TargetMeasure::Flip), std::optional<size_t>(2));
+  EXPECT_EQ(fastestReaching(cells, 0.01, TargetMeasure::Flip), std::nullopt);
 }
 
 TEST(CompareConfig, ParsesAndCanonicalizes) {
@@ -395,8 +425,10 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
   const auto summary = readBytes(dir + "/out/summary.md");
   EXPECT_NE(std::string(summary.begin(), summary.end()).find("not reached"), std::string::npos);
 
-  // A results.csv of the format before these columns (its first 15) is still
-  // read: the plain cells are kept, the others recomputed.
+  // A results.csv of the format before these columns (its first 15; the
+  // five settings columns and the three FLIP columns cut) is still read: the
+  // plain cells are kept (their FLIP taken from their one-seed pass), the
+  // others recomputed.
   {
     std::ifstream csv(dir + "/out/results.csv");
     std::string header, line, old;
@@ -405,7 +437,7 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
     while (std::getline(csv, line))
       if (line.find("target=") == std::string::npos && line.find("denoise=") == std::string::npos) {
         size_t cut = line.size();
-        for (int k = 0; k < 5; ++k) cut = line.rfind(',', cut - 1);
+        for (int k = 0; k < 8; ++k) cut = line.rfind(',', cut - 1);
         old += line.substr(0, cut) + "\n";
       }
     std::ofstream(dir + "/out/results.csv") << old;
@@ -414,6 +446,83 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
   ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
   EXPECT_EQ(keptCells(r3.stderrText), 2u) << r3.stderrText;
   EXPECT_EQ(readCsvRows(dir + "/out/results.csv").size(), 6u);
+}
+
+// FLIP in compare (docs/compare.md "FLIP"): every cell's flip and flip_hdr
+// are the FLIP of its pass (passes/) against the cached reference, recomputed
+// here from those files; each cell has its two heat maps; the "fastest cell
+// per FLIP target" is the one a scan of the CSV finds; another --flip-ppd
+// keeps the one-seed cells and recomputes their FLIP at it; a bad value is
+// one error line naming the option.
+TEST(CompareEndToEnd, FlipColumnsHeatMapsAndTargets) {
+  const std::string dir = tempDir("compare_flip");
+  const std::vector<std::string> args = {"compare", "-o", dir + "/out", "--res", "32x18", "--reference-spp", "16",
+                                         "--spp", "4,32", "-q", "-c", "ao", "-c", "gi", "--targets-flip", "0.5,0.15,1e-6"};
+  const CliResult r1 = runCli(args, dir + "/err1.txt");
+  ASSERT_EQ(r1.exitCode, 0) << r1.stderrText;
+  std::string cached;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/out/cache")) cached = e.path().string();
+  const PassImage ref = readPass(cached);
+  const auto check = [&](double ppd) {
+    const auto rows = readCsvRows(dir + "/out/results.csv");
+    std::ifstream in(dir + "/out/results.json");
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_NEAR(j["flipPpd"].get<double>(), ppd, 1e-9);
+    EXPECT_EQ(rows.size(), 4u);
+    EXPECT_EQ(j["cells"].size(), rows.size());
+    for (size_t k = 0; k < rows.size(); ++k) {
+      const auto& row = rows[k];
+      const FlipError f = flipError(readPass(dir + "/out/" + row.at("pass")), ref, ppd);
+      // The CSV keeps 9 significant digits.
+      EXPECT_NEAR(std::stod(row.at("flip")), f.ldr, 1e-8 * f.ldr) << row.at("config");
+      EXPECT_NEAR(std::stod(row.at("flip_hdr")), f.hdr, 1e-8 * f.hdr) << row.at("config");
+      EXPECT_NEAR(std::stod(row.at("flip_ppd")), ppd, 1e-7 * ppd);
+      EXPECT_GT(f.ldr, 0.0);
+      EXPECT_LT(f.ldr, 1.0);
+      const nlohmann::json& c = j["cells"][k];
+      EXPECT_DOUBLE_EQ(c["flip"].get<double>(), f.ldr);
+      for (const char* map : {"flipHeatmap", "flipHdrHeatmap"})
+        EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + c[map].get<std::string>())) << c[map];
+    }
+    // More samples of the same config: less noise, lower FLIP.
+    EXPECT_LT(std::stod(rows[1].at("flip")), std::stod(rows[0].at("flip")));
+    EXPECT_LT(std::stod(rows[3].at("flip")), std::stod(rows[2].at("flip")));
+    ASSERT_EQ(j["flipTargets"].size(), 3u);
+    for (const auto& t : j["flipTargets"]) {
+      double best = INFINITY;
+      std::string bestConfig;
+      for (const auto& row : rows)
+        if (std::stod(row.at("flip")) <= t["flip"].get<double>() && std::stod(row.at("time_s")) < best)
+          best = std::stod(row.at("time_s")), bestConfig = row.at("config");
+      if (std::isinf(best)) {
+        EXPECT_TRUE(t["fastest"].is_null()) << t;
+      } else {
+        ASSERT_FALSE(t["fastest"].is_null()) << t;
+        EXPECT_EQ(t["fastest"]["config"].get<std::string>(), bestConfig);
+        EXPECT_DOUBLE_EQ(t["fastest"]["seconds"].get<double>(), best);
+      }
+    }
+    EXPECT_TRUE(j["flipTargets"][2]["fastest"].is_null());  // 1e-6: no noisy pass looks the same
+  };
+  check(kFlipDefaultPpd);
+  const auto summary = readBytes(dir + "/out/summary.md");
+  EXPECT_NE(std::string(summary.begin(), summary.end()).find("| FLIP target |"), std::string::npos);
+
+  std::vector<std::string> again = args;
+  again.insert(again.end(), {"--flip-ppd", "30"});
+  const CliResult r2 = runVerbose(again, dir + "/err2.txt");
+  ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+  EXPECT_EQ(keptCells(r2.stderrText), 4u) << r2.stderrText;
+  check(30.0);
+
+  for (const auto& [option, value] : {std::pair{"--targets-flip", "1.5"}, std::pair{"--flip-ppd", "0"}}) {
+    std::vector<std::string> bad = args;
+    bad.insert(bad.end(), {option, value});
+    const CliResult r = runCli(bad, dir + "/err_bad.txt");
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.stderrText.find(option), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
 }
 
 // Ctrl-C: the run stops with exit code 130, says so, and results.csv holds
