@@ -215,7 +215,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   }
   s.timeLimit = args.timeLimit;
   s.denoise = args.denoise;
-  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
+  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W_error); drop --no-aovs");
   checkAdaptiveSettings(s);
   s.seed = uint32_t(args.seed);
   s.threads = args.threads;

@@ -225,7 +225,7 @@ void checkWritable(const std::string& path) {
 
 uint64_t filmBytes(int width, int height, bool aovs, bool albedo) {
   // With the AOVs, the fixed channels (but albedo.* and shaded.* without
-  // the albedo AOV) and the W.error and spp planes.
+  // the albedo AOV) and the W_error and spp planes.
   const uint64_t planes = !aovs ? 4 : kChannelCount + 2 - (albedo ? 0 : 6);
   return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * planes * sizeof(float);
 }
