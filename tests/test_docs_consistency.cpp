@@ -12,6 +12,7 @@
 //   in double quotes) is a heading of that file, and no file cites the design
 //   notes that lived outside the repository.
 // - README.md is a front door: at most 300 lines.
+// - docs/exr.md's list of the layer names --pass refuses is the code's list.
 // - The Python hints (setup.sh's closing line, docs/python.md) run the
 //   interpreter the module is built for, not whichever python3 PATH finds.
 #include <gtest/gtest.h>
@@ -29,6 +30,7 @@
 #include <vector>
 
 #include <obscura/integrator.h>
+#include "app/render_setup.h"
 #include "tests/integrator_table.h"
 #include "tests/support.h"
 
@@ -371,6 +373,33 @@ TEST(DocsConsistency, ReadmeIsAtMost300Lines) {
   const long lines = std::count(readme.begin(), readme.end(), '\n') + (readme.back() == '\n' ? 0 : 1);
   EXPECT_LE(lines, 300) << "README.md has " << lines
                         << " lines: it is the front door; move reference material into docs/ (README \"Documentation\")";
+}
+
+// --- The reserved layer names ------------------------------------------------
+
+// docs/exr.md "Layer names --pass refuses" lists, in its bullets, every name
+// reservedLayerNames() holds (a prefix written `Name*`) and no other.
+TEST(DocsConsistency, ReservedLayerNamesMatchTheCode) {
+  const std::string doc = readFile(fs::path(sourceDir()) / "docs" / "exr.md");
+  const std::string heading = "\n## Layer names --pass refuses\n";
+  const size_t from = doc.find(heading);
+  ASSERT_NE(from, std::string::npos) << "docs/exr.md has no heading \"Layer names --pass refuses\"";
+  const size_t to = doc.find("\n## ", from + heading.size());
+  std::istringstream in(doc.substr(from, to == std::string::npos ? std::string::npos : to - from));
+  std::set<std::string> documented;
+  const std::regex name("`([A-Za-z][A-Za-z0-9_]*\\*?)`");
+  std::string line;
+  bool inList = false;
+  while (std::getline(in, line)) {
+    if (line.rfind("- ", 0) == 0) inList = true;
+    else if (line.empty() || line.rfind("  ", 0) != 0) inList = false;  // a bullet's continuation is indented
+    if (!inList) continue;
+    for (std::sregex_iterator it(line.begin(), line.end(), name), end; it != end; ++it) documented.insert((*it)[1]);
+  }
+  std::set<std::string> code;
+  for (const ReservedLayerName& r : reservedLayerNames()) code.insert(std::string(r.name) + (r.prefix ? "*" : ""));
+  EXPECT_EQ(documented, code);
+  EXPECT_GE(code.size(), size_t(40));
 }
 
 // --- The Python hints name the interpreter the module is built for -------------
