@@ -393,7 +393,7 @@ class CompareRun {
       s.targetError = float(cfg->targetError);
       s.minSpp = std::min(cfg->minSpp, spp);
       s.denoise = cfg->denoise;
-      s.aovs = s.aovs || cfg->denoise;  // the denoiser is guided by N, Z and W.error
+      s.aovs = s.aovs || cfg->denoise;  // the denoiser is guided by N, Z and W_error
     }
     return s;
   }

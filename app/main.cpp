@@ -343,7 +343,7 @@ int main(int argc, char** argv) {
       ->type_name("E")
       ->default_str("off");
   render->add_flag("--denoise", r.denoise,
-                   "Edge-aware denoise of the pass, guided by N, Z, W.error and the objects (docs/sampling.md \"Denoising\"); the raw "
+                   "Edge-aware denoise of the pass, guided by N, Z, W_error and the objects (docs/sampling.md \"Denoising\"); the raw "
                    "pass is kept as noisy.R/G/B");
   render->add_option("--min-spp", r.minSpp, "Adaptive sampling: the samples every pixel takes before any may stop (but the background, see --background-spp)")
       ->default_str("min(16, --spp)");

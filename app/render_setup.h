@@ -61,6 +61,17 @@ struct PassSetup {
   IntegratorNeeds needs;
 };
 
+// A --pass layer name that is refused: a layer of Obscura's own, or one a
+// compositor reads as its own pass or layer (docs/exr.md "Layer names
+// --pass refuses"). `prefix`: every name starting with it. Matched
+// case-sensitively, as Blender's multilayer reader and Nuke match them.
+struct ReservedLayerName {
+  const char* name;
+  bool prefix;
+  const char* owner;  // completes "is reserved: ..."
+};
+const std::vector<ReservedLayerName>& reservedLayerNames();
+
 // The passes of a render, the primary first: --pass (with --primary), or
 // the single pass of -i/-p. Throws obscura::Error naming the option.
 std::vector<PassSetup> passSetups(const RenderArgs& a);

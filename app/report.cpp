@@ -1,5 +1,7 @@
 #include "app/report.h"
 
+#include "app/bitmap_font.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -256,6 +258,17 @@ std::string summaryMarkdown(const CompareReport& r) {
 
 }  // namespace
 
+ContactSheetLayout contactSheetLayout(int tileWidth, const std::vector<std::pair<std::string, std::string>>& labels) {
+  ContactSheetLayout L;
+  // As many glyphs as fit the tile: the last one needs no blank column after it.
+  L.columns = std::max(1, (tileWidth + 1) / kGlyphAdvance);
+  int lines = 2;
+  for (const auto& [first, second] : labels)
+    lines = std::max(lines, int(wrapText(first, L.columns).size() + wrapText(second, L.columns).size()));
+  L.labelHeight = kContactSheetLabelGap + lines * kLineAdvance;
+  return L;
+}
+
 void writeCompareReport(const CompareReport& r) {
   const fs::path dir(r.dir);
   std::error_code ec;
@@ -311,9 +324,20 @@ void writeCompareReport(const CompareReport& r) {
     }
   }
 
-  // Contact sheet: the reference, then each config's finest pass, in a grid.
+  // Contact sheet: the reference, then each config's finest pass, in a grid,
+  // each labelled with two lines: what it is, and its time and error.
   const int tiles = int(finest.size()) + 1, cols = std::min(tiles, 4), rows = (tiles + cols - 1) / cols;
   const int w = ref.width, h = ref.height, label = 34;
+  std::vector<std::pair<std::string, std::string>> labels;
+  for (int t = 0; t < tiles; ++t) {
+    if (t == 0) {
+      labels.push_back({"gi reference", r.referenceNoise >= 0 ? "noise RMSE " + num(r.referenceNoise) : "given"});
+      continue;
+    }
+    const ReportCell& c = cells[finest[size_t(t - 1)].first];
+    labels.push_back({c.config + " @ " + std::to_string(c.spp) + " spp",
+                      num(c.seconds) + " s, RMSE " + num(c.error.rmse) + ", FLIP " + num(c.flip)});
+  }
   {
     std::ostringstream s;
     s << "<svg xmlns=\"http://www.w3.org/2000/svg\" xmlns:xlink=\"http://www.w3.org/1999/xlink\" width=\"" << cols * (w + 8)
@@ -322,29 +346,33 @@ void writeCompareReport(const CompareReport& r) {
     for (int t = 0; t < tiles; ++t) {
       const int x = (t % cols) * (w + 8) + 4, y = (t / cols) * (h + label + 8) + 4;
       const std::string file = t == 0 ? "previews/reference.png" : "previews/" + names[size_t(t - 1)] + ".png";
-      std::string line1 = "gi reference", line2 = r.referenceNoise >= 0 ? "noise RMSE " + num(r.referenceNoise) : "given";
-      if (t > 0) {
-        const ReportCell& c = cells[finest[size_t(t - 1)].first];
-        line1 = c.config + " @ " + std::to_string(c.spp) + " spp";
-        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse) + ", FLIP " + num(c.flip);
-      }
       s << "<image x=\"" << x << "\" y=\"" << y << "\" width=\"" << w << "\" height=\"" << h << "\" href=\"" << file
-        << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(line1)
-        << "</text><text x=\"" << x << "\" y=\"" << y + h + 28 << "\" fill=\"#555\">" << xmlEscape(line2) << "</text>\n";
+        << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(labels[size_t(t)].first)
+        << "</text><text x=\"" << x << "\" y=\"" << y + h + 28 << "\" fill=\"#555\">" << xmlEscape(labels[size_t(t)].second)
+        << "</text>\n";
     }
     s << "</svg>\n";
     writeTextAtomically(dir / "contact_sheet.svg", s.str());
-    // The same grid as one PNG (without the labels; their order is the
-    // SVG's and results.json's "contactSheet").
-    const int W = cols * (w + 4) + 4, H = rows * (h + 4) + 4;
+    // The same grid as one PNG, with the same labels in the 5 x 7 bitmap
+    // font (app/bitmap_font.h), wrapped to the tile's width; the label band
+    // is as tall as the longest label needs.
+    const ContactSheetLayout L = contactSheetLayout(w, labels);
+    const int W = cols * (w + 4) + 4, H = rows * (h + L.labelHeight + 4) + 4;
     std::vector<unsigned char> px(size_t(W) * H * 3, 255);
+    const unsigned char ink[3] = {0, 0, 0}, grey[3] = {0x55, 0x55, 0x55};
     for (int t = 0; t < tiles; ++t) {
       const PassImage& img = t == 0 ? ref : finest[size_t(t - 1)].second;
-      const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + 4) + 4;
+      const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + L.labelHeight + 4) + 4;
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
           const size_t i = size_t(y) * w + x, o = (size_t(y0 + y) * W + x0 + x) * 3;
           px[o] = linearToSrgb8(img.r[i]), px[o + 1] = linearToSrgb8(img.g[i]), px[o + 2] = linearToSrgb8(img.b[i]);
+        }
+      int ly = y0 + h + kContactSheetLabelGap;
+      for (int part = 0; part < 2; ++part)
+        for (const std::string& line : wrapText(part == 0 ? labels[size_t(t)].first : labels[size_t(t)].second, L.columns)) {
+          drawText(px.data(), W, H, x0, ly, x0 + w, line, part == 0 ? ink : grey);
+          ly += kLineAdvance;
         }
     }
     writePngRgb8((dir / "contact_sheet.png").string(), W, H, px.data());

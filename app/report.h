@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/image/flip.h"
@@ -71,6 +72,18 @@ std::string safeFileName(const std::string& s);
 
 // Writes every file of the report into report.dir; throws obscura::Error.
 void writeCompareReport(const CompareReport& report);
+
+// contact_sheet.png's grid: tiles (the reference, then each config's finest
+// pass) of the pass's size, 4 pixels apart, 4 from the edges, at most 4 to
+// a row; below each, after kContactSheetLabelGap blank rows, its label's two
+// parts (what it is; its time and error), each wrapped to `columns`
+// glyphs (app/bitmap_font.h), one line every kLineAdvance rows.
+inline constexpr int kContactSheetLabelGap = 3;
+struct ContactSheetLayout {
+  int columns = 1;      // glyphs per label line
+  int labelHeight = 0;  // rows from a tile's bottom to the next tile's gap
+};
+ContactSheetLayout contactSheetLayout(int tileWidth, const std::vector<std::pair<std::string, std::string>>& labels);
 void printCompareSummary(const CompareReport& report, FILE* out);
 
 }  // namespace obscura

@@ -6,13 +6,18 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <map>
 #include <thread>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <nlohmann/json.hpp>
 
+#include "app/bitmap_font.h"
 #include "app/compare.h"
 #include "app/report.h"
 #include <obscura/error.h>
@@ -568,6 +573,116 @@ TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + file)) << file;
   const auto summary = readBytes(dir + "/out/summary.md");
   EXPECT_NE(std::string(summary.begin(), summary.end()).find("fastest config reaching it"), std::string::npos);
+}
+
+// The font the labels are drawn in: every printable character has a glyph
+// of its own (so a label reads back unambiguously), inked but for the space.
+TEST(ContactSheetFont, EveryGlyphIsDistinct) {
+  std::map<std::vector<uint8_t>, char> seen;
+  for (int c = 32; c <= 126; ++c) {
+    const uint8_t* rows = glyphRows(char(c));
+    const std::vector<uint8_t> bits(rows, rows + kGlyphHeight);
+    for (uint8_t r : bits) EXPECT_EQ(r >> kGlyphWidth, 0) << char(c);
+    EXPECT_EQ(std::count(bits.begin(), bits.end(), 0) == kGlyphHeight, c == ' ') << char(c);
+    EXPECT_TRUE(seen.emplace(bits, char(c)).second) << char(c) << " looks like " << seen[bits];
+  }
+  EXPECT_EQ(glyphRows('\x80'), glyphRows('?'));
+  EXPECT_EQ(wrapText("abcdefg", 3), (std::vector<std::string>{"abc", "def", "g"}));
+  EXPECT_EQ(wrapText("", 3), std::vector<std::string>{""});
+}
+
+// Issue #37: contact_sheet.png had no labels (its SVG had them). Each tile
+// carries the SVG's two lines under it: read back glyph by glyph at the
+// place report.h's layout gives (derived here from the image's size), they
+// are "gi reference" and "CONFIG @ SPP spp" in results.json's contactSheet
+// order, in black, then the time and error in grey; the blank column and
+// rows around every glyph are white, and the tile above the label is the
+// pass's preview, untouched.
+TEST(CompareEndToEnd, ContactSheetPngLabelsReadBackUnderEachTile) {
+  const std::string dir = tempDir("compare_contact_labels");
+  const int w = 64, h = 40;  // 10 glyphs a line: the longer labels wrap
+  const CliResult r = runCli({"compare", sourcePath("scenes/default.gltf"), "-o", dir + "/out", "--res", "64x40",
+                              "--reference-spp", "4", "--spp", "2", "-q", "-c", "ao", "-c", "obscurance:falloff=sqrt"},
+                             dir + "/err.txt");
+  ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  std::ifstream in(dir + "/out/results.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  std::vector<std::string> want = {"gi reference"};
+  std::vector<std::string> previews = {"reference"};
+  for (const auto& c : j["contactSheet"]) {
+    if (!c.is_object()) continue;  // "reference", first
+    want.push_back(c["config"].get<std::string>() + " @ " + std::to_string(c["spp"].get<int>()) + " spp");
+    previews.push_back(safeFileName(c["config"].get<std::string>()));
+  }
+  ASSERT_EQ(want.size(), 3u);
+
+  auto readRgb8 = [](const std::string& path, int& W, int& H) {
+    auto img = OIIO::ImageInput::open(path);
+    EXPECT_TRUE(img) << OIIO::geterror();
+    if (!img) return std::vector<unsigned char>();
+    W = img->spec().width, H = img->spec().height;
+    std::vector<unsigned char> px(size_t(W) * H * 3);
+    EXPECT_TRUE(img->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
+    return px;
+  };
+  int W = 0, H = 0;
+  const std::vector<unsigned char> sheet = readRgb8(dir + "/out/contact_sheet.png", W, H);
+  const int tiles = 3, cols = 3, rows = 1;
+  ASSERT_EQ(W, cols * (w + 4) + 4);
+  const int labelHeight = (H - 4) / rows - h - 4;
+  ASSERT_EQ((H - 4) % rows, 0);
+  const int columns = (w + 1) / kGlyphAdvance, lines = (labelHeight - kContactSheetLabelGap) / kLineAdvance;
+  ASSERT_EQ(labelHeight, kContactSheetLabelGap + lines * kLineAdvance);
+  const std::regex timing("[0-9.e+-]+ s, RMSE [0-9.e+-]+, FLIP [0-9.e+-]+"), noise("noise RMSE [0-9.e+-]+");
+  auto pixel = [&](int x, int y) { return &sheet[(size_t(y) * W + x) * 3]; };
+  auto white = [&](int x, int y) { const unsigned char* p = pixel(x, y); return p[0] == 255 && p[1] == 255 && p[2] == 255; };
+  for (int t = 0; t < tiles; ++t) {
+    SCOPED_TRACE("tile " + std::to_string(t));
+    const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + labelHeight + 4) + 4;
+    std::string text[2];  // black, grey
+    for (int l = 0; l < lines; ++l) {
+      const int ly = y0 + h + kContactSheetLabelGap + l * kLineAdvance;
+      std::string line;
+      int part = -1;
+      for (int k = 0; k < columns; ++k) {
+        const int gx = x0 + k * kGlyphAdvance;
+        std::vector<uint8_t> bits(kGlyphHeight, 0);
+        for (int y = 0; y < kGlyphHeight; ++y)
+          for (int x = 0; x < kGlyphWidth; ++x) {
+            if (white(gx + x, ly + y)) continue;
+            const unsigned char* p = pixel(gx + x, ly + y);
+            const int colour = p[0] == 0 && p[1] == 0 && p[2] == 0 ? 0 : p[0] == 0x55 && p[1] == 0x55 && p[2] == 0x55 ? 1 : -1;
+            ASSERT_GE(colour, 0) << "ink neither black nor grey at " << gx + x << "," << ly + y;
+            ASSERT_TRUE(part < 0 || part == colour) << "a line mixes black and grey";
+            part = colour;
+            bits[size_t(y)] |= uint8_t(1 << (kGlyphWidth - 1 - x));
+          }
+        char c = 0;
+        for (int g = 32; g <= 126 && !c; ++g)
+          if (std::equal(bits.begin(), bits.end(), glyphRows(char(g)))) c = char(g);
+        ASSERT_NE(c, 0) << "no glyph at " << gx << "," << ly;
+        line += c;
+        // The blank column after a glyph (inside the tile) is white.
+        if (gx + kGlyphWidth < x0 + w)
+          for (int y = 0; y < kGlyphHeight; ++y) EXPECT_TRUE(white(gx + kGlyphWidth, ly + y));
+      }
+      for (int x = x0; x < x0 + w; ++x)
+        for (int y = ly + kGlyphHeight; y < ly + kLineAdvance; ++y) EXPECT_TRUE(white(x, y)) << x << "," << y;
+      if (part >= 0) text[part] += line;
+    }
+    for (std::string& s : text) s.erase(s.find_last_not_of(' ') + 1);
+    EXPECT_EQ(text[0], want[size_t(t)]);
+    EXPECT_TRUE(std::regex_match(text[1], t == 0 ? noise : timing)) << text[1];
+    // The image above the label is the pass's preview, untouched.
+    int pw = 0, ph = 0;
+    const std::vector<unsigned char> preview = readRgb8(dir + "/out/previews/" + previews[size_t(t)] + ".png", pw, ph);
+    ASSERT_EQ(pw, w);
+    ASSERT_EQ(ph, h);
+    size_t differ = 0;
+    for (int y = 0; y < h; ++y)
+      differ += std::memcmp(pixel(x0, y0 + y), &preview[size_t(y) * w * 3], size_t(w) * 3) != 0;
+    EXPECT_EQ(differ, 0u) << "rows of the tile differ from its preview";
+  }
 }
 
 }  // namespace
