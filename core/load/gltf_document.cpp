@@ -564,7 +564,7 @@ void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::ve
     if (size_t(n.mesh) >= model_->meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
     // Named by the node, else by its mesh (what exporters name), else by its place.
     const std::string& meshName = model_->meshes[size_t(n.mesh)].name;
-    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index, stack});
+    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index});
     useVisits_.push_back(slot);
   }
   if (n.camera >= 0) {
@@ -573,13 +573,17 @@ void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::ve
     cameraVisits_.push_back({slot, n.camera});
   }
   stack.push_back(index);
-  for (int c : n.children) visit(c, int(slot), stack, visited);
+  for (int c : n.children) {
+    if (c >= 0 && size_t(c) < parents_.size() && !visited[size_t(c)]) parents_[size_t(c)] = index;
+    visit(c, int(slot), stack, visited);
+  }
   stack.pop_back();
 }
 
 void GltfDocument::decodeNodes() {
   std::vector<char> visited(model_->nodes.size(), 0);
   staticLocal_.assign(model_->nodes.size(), identity4());
+  parents_.assign(model_->nodes.size(), -1);
   std::vector<int> roots;
   if (!model_->scenes.empty()) {
     int s = model_->defaultScene >= 0 ? model_->defaultScene : 0;

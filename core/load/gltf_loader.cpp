@@ -305,13 +305,28 @@ class Builder {
     return r;
   }
 
-  // Each mesh use is an object named by its node, with the roles of its
-  // ancestors' extras and then its own (a child overrides its parent).
+  // The roles nodes[node] passes down: its ancestors' extras root first,
+  // then its own (a child overrides its parent). Computed once per node, so
+  // that the leaves of a deep hierarchy do not each walk it again.
+  const ObjectRoles& inheritedRoles(int node) {
+    if (inherited_.empty()) inherited_.resize(doc_.model().nodes.size());
+    std::vector<int> chain;  // the nodes still to compute, deepest first
+    for (int n = node; n >= 0 && !inherited_[size_t(n)]; n = doc_.parentNode(n)) chain.push_back(n);
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      const int parent = doc_.parentNode(*it);
+      ObjectRoles r = parent >= 0 ? *inherited_[size_t(parent)] : ObjectRoles{};
+      nodeRoles(*it).applyTo(r);
+      inherited_[size_t(*it)] = r;
+    }
+    return *inherited_[size_t(node)];
+  }
+
+  // Each mesh use is an object named by its node, with the roles its node
+  // inherits (inheritedRoles).
   uint32_t addObject(const GltfDocument::MeshUse& u) {
     SceneObject o;
     o.name = u.node;
-    for (const int a : u.ancestors) nodeRoles(a).applyTo(o.roles);
-    nodeRoles(u.nodeIndex).applyTo(o.roles);
+    o.roles = inheritedRoles(u.nodeIndex);
     scene_->objects.push_back(std::move(o));
     return uint32_t(scene_->objects.size() - 1);
   }
@@ -406,6 +421,12 @@ class Builder {
     const auto [open, close] = *options_.shutter;
     useGrid_.assign(pose_.uses.size(), {});
     cameraGrid_.assign(pose_.cameras.size(), {});
+    // Each grid at its final size: grown by push_back, a grid of 513 ends
+    // with room for 1024, after copies at every doubling on the way.
+    for (size_t i = 0; i < pose_.uses.size(); ++i)
+      if (pose_.uses[i].animated) useGrid_[i].reserve(kMotionGrid + 1);
+    for (size_t c = 0; c < pose_.cameras.size(); ++c)
+      if (pose_.cameras[c].animated) cameraGrid_[c].reserve(kMotionGrid + 1);
     for (int j = 0; j <= kMotionGrid; ++j) {
       const GltfDocument::Pose p = doc_.pose(open + (close - open) * double(j) / kMotionGrid, options_.animations);
       for (size_t i = 0; i < p.uses.size(); ++i)
@@ -457,6 +478,7 @@ class Builder {
   std::unique_ptr<Scene> scene_;
   std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;
+  std::vector<std::optional<ObjectRoles>> inherited_;  // by node index: inheritedRoles()
 };
 
 }  // namespace
