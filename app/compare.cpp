@@ -13,6 +13,7 @@
 // seeds it is the median. A config may carry render settings beside its
 // parameters (target=E, min-spp=N, denoise=on; parseCompareConfig).
 #include "app/compare.h"
+#include "core/util/input_file.h"
 
 #include "core/util/hash.h"
 
@@ -46,6 +47,7 @@ namespace {
 using Hash64 = Fnv1a64;
 
 std::string fileHash(const std::string& path) {
+  checkInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot read");
   Hash64 h;

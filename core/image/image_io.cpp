@@ -1,4 +1,5 @@
 #include "core/image/image_io.h"
+#include "core/util/input_file.h"
 
 #include "core/util/large_vector.h"
 
@@ -389,6 +390,7 @@ ExrCompression exrCompressionFromName(const std::string& name, const std::string
 }
 
 bool isExrFile(const std::string& path) {
+  checkInputFile(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
   unsigned char magic[4] = {0, 0, 0, 0};
