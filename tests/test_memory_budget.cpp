@@ -1,22 +1,69 @@
 // Issue #37: memory nobody refused up front, and inputs that are not
-// regular files (a FIFO blocks a read forever, /dev/zero never ends). Each
-// hostile input is built here; a refusal is asserted as its one error line.
+// regular files (a FIFO blocks a read forever, /dev/zero never ends). Each hostile input is built here (a PNG header claiming
+// 30000^2, a GLB declaring a 16384^2 texture, an edited display window,
+// a FIFO, /dev/zero); each refusal is asserted as its one error line, and
+// run under an address-space limit below the allocation it replaces, so a
+// refusal that came after the allocation would fail as "out of memory"
+// instead (docs/cli.md "Memory").
 #include <gtest/gtest.h>
 
+#include <OpenImageIO/imagebuf.h>
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
 
+#include "core/image/texture_size.h"
 #include "tests/gltf_builder.h"
 #include "tests/limited_cli.h"
 #include "tests/support.h"
 
 namespace obscura::test {
 namespace {
+
+constexpr uint64_t kGiB = uint64_t(1) << 30;
+// The limit the refused runs work under: room for the program (its
+// libraries, thread stacks, a small scene) but not for any of the
+// allocations refused below (2 GiB and more each).
+constexpr uint64_t kAddressSpace = kGiB + kGiB / 2;
+
+uint32_t crc32(const unsigned char* p, size_t n) {
+  uint32_t c = 0xffffffffu;
+  for (size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return ~c;
+}
+
+void chunk(std::vector<unsigned char>& png, const char* type, const std::vector<unsigned char>& data) {
+  const auto be32 = [&](uint32_t v) {
+    for (int s = 24; s >= 0; s -= 8) png.push_back((unsigned char)(v >> s));
+  };
+  be32(uint32_t(data.size()));
+  const size_t at = png.size();
+  png.insert(png.end(), type, type + 4);
+  png.insert(png.end(), data.begin(), data.end());
+  be32(crc32(png.data() + at, png.size() - at));
+}
+
+// A 65-byte PNG: an IHDR claiming w x h 8-bit grey pixels, an IDAT of an
+// empty zlib stream, IEND. Readers size their buffers from the IHDR.
+std::vector<unsigned char> pngHeader(uint32_t w, uint32_t h) {
+  std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  std::vector<unsigned char> ihdr;
+  for (uint32_t v : {w, h})
+    for (int s = 24; s >= 0; s -= 8) ihdr.push_back((unsigned char)(v >> s));
+  ihdr.insert(ihdr.end(), {8, 0, 0, 0, 0});  // 8 bits, grey, deflate, no filter, not interlaced
+  chunk(png, "IHDR", ihdr);
+  chunk(png, "IDAT", {0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01});
+  chunk(png, "IEND", {});
+  return png;
+}
 
 // A quad cage with a texture coordinate at every corner (for --displace).
 std::string writeCage(const std::string& dir, const std::string& head = "") {
@@ -30,7 +77,93 @@ void expectRefusal(const CliResult& r, const std::vector<std::string>& parts) {
   EXPECT_EQ(r.exitCode, 1) << r.stderrText;
   EXPECT_EQ(r.signal, 0) << r.stderrText;
   EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  EXPECT_EQ(r.stderrText.find("out of memory"), std::string::npos) << r.stderrText;
   for (const std::string& p : parts) EXPECT_NE(r.stderrText.find(p), std::string::npos) << p << "\n" << r.stderrText;
+}
+
+TEST(MemoryBudget, TextureSizeComesFromTheHeaderAlone) {
+  // decode() keeps one word per texel of an 8-bit image and stb's RGBA
+  // buffer (4 bytes a texel) while it runs.
+  const DecodedImageSize d = decodedImageSize(pngHeader(16384, 16384));
+  EXPECT_EQ(d.width, 16384);
+  EXPECT_EQ(d.height, 16384);
+  EXPECT_EQ(d.kept, uint64_t(16384) * 16384 * 4);
+  EXPECT_EQ(d.transient, uint64_t(16384) * 16384 * 4);
+  EXPECT_EQ(decodedImageSize({1, 2, 3}).kept, 0u);  // no header: decode() reports it
+}
+
+TEST(MemoryBudget, RefusesAGlbDeclaringAHugeTextureBeforeDecoding) {
+  const std::string dir = tempDir("budget_texture");
+  GltfBuilder g;
+  const std::vector<unsigned char> png = pngHeader(16384, 16384);
+  g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
+  g.push("textures", {{"source", 0}});
+  g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+  g.node({{"mesh", g.quadMesh(1, 0, true)}});
+  g.push("cameras", perspective("", 0.8, 0.01));
+  g.node({{"camera", 0}, {"translation", {0, 0, 3}}});
+  g.scene({0, 1});
+  const std::string glb = g.writeGlb(dir, "texture");
+  // 16384^2 texels at 4 bytes kept and 4 decoding: 2.0 GiB, over 1 GiB.
+  const LimitedCliResult r = runCliLimited(
+      {"render", glb, "-o", dir + "/out.exr", "--res", "8x8", "--spp", "1", "-q", "--max-memory", "1"}, dir + "/err.txt",
+      kAddressSpace);
+  expectRefusal(r, {glb + ": needs an estimated ", "textures 2.0 GiB", "over the --max-memory budget of 1.0 GiB"});
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.exr"));
+}
+
+TEST(MemoryBudget, RefusesAHeightMapHeaderOf30000SquaredBeforeReading) {
+  const std::string dir = tempDir("budget_heightmap");
+  const std::vector<unsigned char> png = pngHeader(30000, 30000);
+  ASSERT_EQ(png.size(), 65u);
+  writeBytes(dir + "/big.png", png.data(), png.size());
+  // 30000^2 float texels: 3.35 GiB.
+  const LimitedCliResult r = runCliLimited(
+      {"info", writeCage(dir), "--subdiv", "catmull-clark", "--displace", dir + "/big.png", "--max-memory", "1"},
+      dir + "/err.txt", kAddressSpace);
+  expectRefusal(r, {dir + "/big.png: the height map's 30000x30000 texels: needs 3.4 GiB, over the --max-memory budget of 1.0 GiB"});
+}
+
+TEST(MemoryBudget, CompareRefusesItsFilmsBeforeLoadingTheScene) {
+  const std::string dir = tempDir("budget_compare");
+  const LimitedCliResult r =
+      runCliLimited({"compare", sourcePath("scenes/default.gltf"), "-o", dir + "/cmp", "--res", "9000x9000", "-c", "ao",
+                     "-q", "--max-memory", "1"},
+                    dir + "/err.txt", kAddressSpace);
+  expectRefusal(r, {"--res 9000x9000: the films: needs ", "over the --max-memory budget of 1.0 GiB"});
+  EXPECT_FALSE(std::filesystem::exists(dir + "/cmp"));
+}
+
+TEST(MemoryBudget, MergeRefusesAnEditedDisplayWindowBeforeAllocating) {
+  const std::string dir = tempDir("budget_merge");
+  const CliResult tile = runCli({"render", "-q", "--res", "37x23", "--spp", "1", "--no-aovs", "--region", "0,0,37,23",
+                                 "-o", dir + "/tile.exr"},
+                                dir + "/render_err.txt");
+  ASSERT_EQ(tile.exitCode, 0) << tile.stderrText;
+  // The same tile with its display window edited to 60000^2.
+  OIIO::ImageBuf buf(dir + "/tile.exr");
+  ASSERT_TRUE(buf.read(0, 0, true, OIIO::TypeDesc::FLOAT)) << buf.geterror();
+  buf.specmod().full_width = buf.specmod().full_height = 60000;
+  ASSERT_TRUE(buf.write(dir + "/edited.exr")) << buf.geterror();
+  // The coverage map alone is 3.4 GiB, the frame 4 channels of 60000^2.
+  const LimitedCliResult r =
+      runCliLimited({"merge", dir + "/merged.exr", dir + "/edited.exr"}, dir + "/err.txt", kAddressSpace);
+  expectRefusal(r, {dir + "/edited.exr: display window 60000x60000 at (0,0), 4 channels: needs ",
+                    "over the --max-memory budget of 8.0 GiB"});
+  EXPECT_FALSE(std::filesystem::exists(dir + "/merged.exr"));
+}
+
+TEST(MemoryBudget, InfoPrintsTheEstimate) {
+  const std::string dir = tempDir("budget_info");
+  const std::string out = dir + "/info.txt";
+  const std::string cmd = std::string(obscuraBinary()) + " info " + sourcePath("scenes/default.gltf") + " > " + out;
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const std::vector<unsigned char> bytes = readBytes(out);
+  const std::string text(bytes.begin(), bytes.end());
+  // The default film (960x540, every AOV) is part of it, and the default budget.
+  EXPECT_NE(text.find("\nestimate   "), std::string::npos) << text;
+  EXPECT_NE(text.find("film at --res"), std::string::npos) << text;
+  EXPECT_NE(text.find(" of 8.0 GiB budget"), std::string::npos) << text;
 }
 
 // The cause of 3.8 GB for 400k leaves under 998 levels: every mesh use

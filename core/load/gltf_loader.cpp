@@ -10,8 +10,10 @@
 #include <optional>
 
 #include "core/load/cage.h"
+#include "core/image/texture_size.h"
 #include <obscura/error.h>
 #include "core/scene/motion.h"
+#include "core/util/memory_budget.h"
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -28,6 +30,8 @@ class Builder {
   Builder(const GltfDocument& doc, const LoadOptions& options) : doc_(doc), options_(options) {}
 
   std::unique_ptr<Scene> build() {
+    // Refused before any of it is allocated (core/util/memory_budget.h).
+    if (!options_.unrefined) requireMemory(estimateSceneMemory(doc_, options_), doc_.path());
     scene_ = std::make_unique<Scene>();
     scene_->sourcePath = doc_.path();
     scene_->sourceMeshes = doc_.model().meshes.size();
@@ -482,6 +486,59 @@ class Builder {
 };
 
 }  // namespace
+
+MemoryEstimate estimateSceneMemory(const GltfDocument& doc, const LoadOptions& options) {
+  MemoryEstimate e;
+  // Textures as decode() will hold them, from their headers; decodes may
+  // run at once on every thread, so every transient is counted.
+  for (const auto* list : {&doc.textures(), &doc.dataTextures()})
+    for (const auto& t : *list) {
+      const DecodedImageSize d = decodedImageSize(t.encoded);
+      e.add("textures", d.kept + d.transient);
+    }
+  // The parsed file, held for the extras (tinygltf's node records dominate
+  // a large hierarchy).
+  e.add("parsed file", uint64_t(doc.model().nodes.size()) * sizeof(tinygltf::Node));
+  // The mesh uses: the document's and a pose's tables, an object and an
+  // instance each (their names beyond the string's own buffer counted).
+  const auto& uses = doc.meshUses();
+  uint64_t names = 0;
+  for (const auto& u : uses) names += u.node.capacity() > 15 ? u.node.capacity() + 1 : 0;
+  e.add("node tables", uint64_t(uses.size()) * (2 * sizeof(GltfDocument::MeshUse) + sizeof(SceneObject) + sizeof(Instance)) +
+                           3 * names);
+  // Triangles as the file declares them (each use of a mesh baked or
+  // instanced): positions, indices, normals and uvs, and the BVH over them
+  // (docs/cli.md "Memory" gives the per-triangle figure's origin).
+  uint64_t triangles = 0, vertices = 0;
+  std::vector<uint64_t> meshTriangles(doc.model().meshes.size(), 0), meshVertices(doc.model().meshes.size(), 0);
+  for (size_t m = 0; m < doc.model().meshes.size(); ++m)
+    for (const auto& p : doc.model().meshes[m].primitives) {
+      const auto pos = p.attributes.find("POSITION");
+      const auto count = [&](int a) -> uint64_t {
+        return a >= 0 && size_t(a) < doc.model().accessors.size() ? doc.model().accessors[size_t(a)].count : 0;
+      };
+      const uint64_t v = pos == p.attributes.end() ? 0 : count(pos->second);
+      meshVertices[m] += v;
+      meshTriangles[m] += (p.indices >= 0 ? count(p.indices) : v) / 3;
+    }
+  std::vector<char> seen(doc.model().meshes.size(), 0);
+  for (const auto& u : uses) {
+    if (seen[size_t(u.mesh)]) continue;  // instanced: its triangles once
+    seen[size_t(u.mesh)] = 1;
+    triangles += meshTriangles[size_t(u.mesh)];
+    vertices += meshVertices[size_t(u.mesh)];
+  }
+  e.add("geometry", vertices * (2 * sizeof(Vec3) + 2 * sizeof(float)) + triangles * 3 * sizeof(uint32_t));
+  e.add("BVH", (triangles + uses.size()) * kBvhBytesPerPrimitive);
+  // Motion blur: every animated use sampled at kMotionGrid + 1 times.
+  if (options.shutter && !options.unrefined) {
+    const GltfDocument::Pose p = doc.pose(options.time, options.animations);
+    uint64_t animated = 0;
+    for (const auto& u : p.uses) animated += u.animated ? 1 : 0;
+    e.add("motion grids", animated * (kMotionGrid + 1) * sizeof(Affine));
+  }
+  return e;
+}
 
 std::unique_ptr<Scene> buildGltfScene(const GltfDocument& doc, const LoadOptions& options) {
   return Builder(doc, options).build();
