@@ -53,13 +53,16 @@ void chunk(std::vector<unsigned char>& png, const char* type, const std::vector<
 
 // A 65-byte PNG: an IHDR claiming w x h 8-bit grey pixels, an IDAT of an
 // empty zlib stream, IEND. Readers size their buffers from the IHDR.
-std::vector<unsigned char> pngHeader(uint32_t w, uint32_t h) {
+// `padding` bytes of an ancillary chunk after the IHDR make the file as
+// large as a real one of that size could be.
+std::vector<unsigned char> pngHeader(uint32_t w, uint32_t h, size_t padding = 0) {
   std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   std::vector<unsigned char> ihdr;
   for (uint32_t v : {w, h})
     for (int s = 24; s >= 0; s -= 8) ihdr.push_back((unsigned char)(v >> s));
   ihdr.insert(ihdr.end(), {8, 0, 0, 0, 0});  // 8 bits, grey, deflate, no filter, not interlaced
   chunk(png, "IHDR", ihdr);
+  if (padding > 0) chunk(png, "obPd", std::vector<unsigned char>(padding, 0));
   chunk(png, "IDAT", {0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01});
   chunk(png, "IEND", {});
   return png;
@@ -112,16 +115,36 @@ TEST(MemoryBudget, RefusesAGlbDeclaringAHugeTextureBeforeDecoding) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/out.exr"));
 }
 
-TEST(MemoryBudget, RefusesAHeightMapHeaderOf30000SquaredBeforeReading) {
+TEST(MemoryBudget, RefusesAHeightMapOf30000SquaredOverTheBudgetBeforeReading) {
   const std::string dir = tempDir("budget_heightmap");
-  const std::vector<unsigned char> png = pngHeader(30000, 30000);
-  ASSERT_EQ(png.size(), 65u);
+  // As large as deflate needs for 30000 x 30001 filtered bytes (1032:1),
+  // so the size bound (the test below) passes it and the budget decides.
+  const std::vector<unsigned char> png = pngHeader(30000, 30000, 30000ull * 30001ull / 1032 + 1);
   writeBytes(dir + "/big.png", png.data(), png.size());
   // 30000^2 float texels: 3.35 GiB.
   const LimitedCliResult r = runCliLimited(
       {"info", writeCage(dir), "--subdiv", "catmull-clark", "--displace", dir + "/big.png", "--max-memory", "1"},
       dir + "/err.txt", kAddressSpace);
   expectRefusal(r, {dir + "/big.png: the height map's 30000x30000 texels: needs 3.4 GiB, over the --max-memory budget of 1.0 GiB"});
+}
+
+// Whatever the budget: deflate packs at most 1032 bytes into one, so 65
+// bytes cannot hold 30000 x 30001 filtered bytes (grey, a filter byte a row).
+TEST(MemoryBudget, RefusesAPngHeaderItsFileCannotHoldAtAnyBudget) {
+  const std::string dir = tempDir("budget_png_bound");
+  const std::vector<unsigned char> png = pngHeader(30000, 30000), small = pngHeader(1, 1);
+  ASSERT_EQ(png.size(), 65u);
+  writeBytes(dir + "/big.png", png.data(), png.size());
+  const LimitedCliResult r = runCliLimited(
+      {"info", writeCage(dir), "--subdiv", "catmull-clark", "--displace", dir + "/big.png", "--max-memory", "100"},
+      dir + "/err.txt", kAddressSpace);
+  expectRefusal(r, {dir + "/big.png: the PNG header declares 30000x30000 pixels (" + std::to_string(30000ull * 30001ull) +
+                    " bytes of image data), more than its 65 bytes can hold"});
+  // 1 x 1 (2 filtered bytes) fits: that file fails later, in its reader.
+  writeBytes(dir + "/small.png", small.data(), small.size());
+  const CliResult ok = runCli({"info", writeCage(dir), "--subdiv", "catmull-clark", "--displace", dir + "/small.png"},
+                              dir + "/small_err.txt");
+  EXPECT_EQ(ok.stderrText.find("can hold"), std::string::npos) << ok.stderrText;
 }
 
 TEST(MemoryBudget, CompareRefusesItsFilmsBeforeLoadingTheScene) {
