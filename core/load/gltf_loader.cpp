@@ -489,13 +489,17 @@ class Builder {
 
 MemoryEstimate estimateSceneMemory(const GltfDocument& doc, const LoadOptions& options) {
   MemoryEstimate e;
-  // Textures as decode() will hold them, from their headers; decodes may
-  // run at once on every thread, so every transient is counted.
+  // Textures as decode() will hold them, from their headers, and the
+  // largest decoder buffer: each is freed as its decode ends, and textures
+  // decode one at a time unless threads meet two first uses at once.
+  uint64_t transient = 0;
   for (const auto* list : {&doc.textures(), &doc.dataTextures()})
     for (const auto& t : *list) {
       const DecodedImageSize d = decodedImageSize(t.encoded);
-      e.add("textures", d.kept + d.transient);
+      e.add("textures", d.kept);
+      transient = std::max(transient, d.transient);
     }
+  e.add("textures", transient);
   // The parsed file, held for the extras (tinygltf's node records dominate
   // a large hierarchy).
   e.add("parsed file", uint64_t(doc.model().nodes.size()) * sizeof(tinygltf::Node));
