@@ -13,6 +13,8 @@
 // seeds it is the median. A config may carry render settings beside its
 // parameters (target=E, min-spp=N, denoise=on; parseCompareConfig).
 #include "app/compare.h"
+#include "core/util/input_file.h"
+#include "core/util/memory_budget.h"
 
 #include "core/util/hash.h"
 
@@ -46,6 +48,7 @@ namespace {
 using Hash64 = Fnv1a64;
 
 std::string fileHash(const std::string& path) {
+  checkInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot read");
   Hash64 h;
@@ -298,6 +301,7 @@ ComparePlan planCompare(const CompareArgs& a) {
   if (a.seed < 0 || a.seed > 0xffffffffLL - 64) throw Error("--seed: must be in [0, 4294967231]");
   checkThreads(a.threads);
   parseResolution(a.res, p.base.width, p.base.height);
+  sceneOptions(a);  // --max-memory, before the first allocation it bounds
   p.base.sky = parseSky(a.sky);
   // Under a map the cells are measured by their shaded.* (the radiance),
   // which needs the albedo AOV.
@@ -307,6 +311,17 @@ ComparePlan planCompare(const CompareArgs& a) {
   p.base.motionBlur = !a.shutter.empty();
   p.base.aovs = p.lit;
   p.base.progress = !a.quiet;
+  // What compare holds at once besides the scene: a render's film, the
+  // reference, and a cell's pass with the film made of it (RGBA planes
+  // each): refused up front, as render's checkFilmMemory does.
+  {
+    const uint64_t pixels = uint64_t(p.base.width) * uint64_t(p.base.height);
+    const uint64_t need = filmBytes(p.base.width, p.base.height, p.base.aovs) + 3 * pixels * 4 * sizeof(float);
+    requireMemory(need, "--res " + a.res + ": the films");
+    if (const uint64_t avail = availableMemoryBytes(); avail > 0 && need > avail)
+      throw Error("--res " + a.res + ": the films need " + formatBytes(need) + ", but only " + formatBytes(avail) +
+                  " of memory is available");
+  }
   if (a.output.empty()) throw Error("-o: an output directory is required");
   p.dir = fs::path(a.output);
   if (fs::exists(p.dir) && !fs::is_directory(p.dir)) throw Error(a.output + ": exists and is not a directory");

@@ -22,6 +22,7 @@
 #include <obscura/integrator.h>
 #include "core/render/plugin_loader.h"
 #include <obscura/plugin.h>
+#include "core/util/memory_budget.h"
 #include "core/util/progress.h"
 #include "core/render/pixel_sums.h"
 #include "core/render/render.h"
@@ -59,7 +60,8 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
                   "osd: OpenSubdiv refines to triangles at load; embree: Embree's subdivision surfaces (Catmull-Clark), tessellated while the BVH builds");
   cmd->add_option("--subdiv-edge", a.subdivEdge,
                   "Adaptive refinement instead of --subdiv-level: longest refined edge in pixels from the render camera (osd: per mesh, embree: per edge)");
-  cmd->add_option("--max-memory", a.maxMemoryGiB, "Refuse a subdivision that would need more than this many GiB");
+  cmd->add_option("--max-memory", a.maxMemoryGiB,
+                  "Memory budget of the process in GiB: a scene, film, texture or image estimated to need more is refused before the work");
   cmd->add_option("--displace", a.displace, "Height map (PNG/EXR/...) displacing a subdivided OBJ cage along its limit normals");
   cmd->add_option("--displace-scale", a.displaceScale, "Displacement: scene units per unit of height");
   cmd->add_option("--displace-midlevel", a.displaceMidlevel, "Displacement: the height that does not move the surface");
@@ -311,6 +313,13 @@ int runInfo(const InfoArgs& a) {
   std::printf("bvh build  %.3f s\n", scene->buildSeconds());
   std::printf("memory     %.1f MiB in Embree (peak %.1f), %.1f MiB of attributes\n", double(scene->embreeBytes()) / (1 << 20),
               double(scene->embreePeakBytes()) / (1 << 20), double(scene->attributeBytes()) / (1 << 20));
+  // What the loader estimated before building (and held to --max-memory),
+  // beside the film of a render at --res (docs/cli.md "Memory").
+  if (const GltfDocument* doc = source.document()) {
+    MemoryEstimate e = estimateSceneMemory(*doc, sceneOptions(a));
+    e.add("film at --res", filmBytes(w, h, true));
+    std::printf("estimate   %s of %s budget\n", e.describe().c_str(), formatBytes(memoryBudget()).c_str());
+  }
   if (environment) std::printf("%s", describeEnvironment(*environment).c_str());
   return 0;
 }
@@ -441,6 +450,8 @@ int main(int argc, char** argv) {
   CLI::App* merge = app.add_subcommand("merge", "Assemble region renders (render --region) into the full frame");
   merge->add_option("output", mergeOutput, "The full-frame EXR to write (atomically)")->required();
   merge->add_option("tiles", mergeTiles, "Region EXRs of one render that together cover the frame exactly once")->required();
+  double mergeMaxMemoryGiB = double(kDefaultMemoryBudget) / double(uint64_t(1) << 30);
+  merge->add_option("--max-memory", mergeMaxMemoryGiB, "Refuse a merge whose frame would need more than this many GiB");
   merge->footer(
       "The result equals a single full render bit for bit: every channel, the data window the frame, the header the "
       "tiles' with obscura:region the frame, obscura:rays:*, renderTime and bvhBuildTime summed over the tiles and "
@@ -501,6 +512,9 @@ int main(int argc, char** argv) {
     if (info->parsed()) return runInfo(infoArgs);
     if (sky->parsed()) return runSky(skyArgs);
     if (merge->parsed()) {
+      if (!(mergeMaxMemoryGiB > 0) || !std::isfinite(mergeMaxMemoryGiB) || mergeMaxMemoryGiB > 1e6)
+        throw Error("--max-memory: expected a positive number of GiB");
+      setMemoryBudget(uint64_t(mergeMaxMemoryGiB * double(uint64_t(1) << 30)));
       mergeRegions(mergeOutput, mergeTiles);
       return 0;
     }

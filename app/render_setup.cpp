@@ -1,4 +1,5 @@
 #include "app/render_setup.h"
+#include "core/util/input_file.h"
 
 #include <algorithm>
 #include <cmath>
@@ -38,6 +39,7 @@ void checkLayerName(const std::string& layer, const std::string& text) {
 
 // FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
 std::string fileHash(const std::string& path) {
+  checkInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) return "";
   uint64_t h = 1469598103934665603ull, size = 0;

@@ -1,4 +1,6 @@
 #include "core/image/image_io.h"
+#include "core/util/memory_budget.h"
+#include "core/util/input_file.h"
 
 #include "core/util/large_vector.h"
 
@@ -440,6 +442,7 @@ ExrCompression exrCompressionFromName(const std::string& name, const std::string
 }
 
 bool isExrFile(const std::string& path) {
+  checkInputFile(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
   unsigned char magic[4] = {0, 0, 0, 0};
@@ -472,6 +475,9 @@ ExrImage readExrImage(const std::string& path) {
     const size_t pixels = size_t(img.width) * size_t(img.height);
     Imf::FrameBuffer frame;
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it) img.names.push_back(it.name());
+    requireMemory(uint64_t(pixels) * img.names.size() * sizeof(float),
+                  path + ": data window " + std::to_string(img.width) + "x" + std::to_string(img.height) + ", " +
+                      std::to_string(img.names.size()) + " channels");
     img.planes.resize(img.names.size());
     for (size_t c = 0; c < img.names.size(); ++c) {
       img.planes[c].resize(pixels);

@@ -1,4 +1,5 @@
 #include "core/image/metrics.h"
+#include "core/util/memory_budget.h"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -74,6 +75,8 @@ PassImage readPass(const std::string& path, const std::string& prefix) {
     const Imath::Box2i data = in.header().dataWindow();
     p.width = data.max.x - data.min.x + 1;
     p.height = data.max.y - data.min.y + 1;
+    requireMemory(uint64_t(p.width) * uint64_t(p.height) * 4 * sizeof(float),
+                  path + ": data window " + std::to_string(p.width) + "x" + std::to_string(p.height));
     std::vector<float>* planes[4] = {&p.r, &p.g, &p.b, &p.a};
     Imf::FrameBuffer frame;
     for (int c = 0; c < 4; ++c) {

@@ -17,6 +17,7 @@
 
 #include <obscura/error.h>
 #include <obscura/params.h>
+#include "core/util/input_file.h"
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -316,7 +317,7 @@ void GltfDocument::warn(const std::string& what) const { Log::warnOnce(path_ + "
 void GltfDocument::read() {
   std::error_code ec;
   if (!fs::exists(path_, ec)) throw Error(path_ + ": cannot open scene: no such file");
-  if (fs::is_directory(path_, ec)) throw Error(path_ + ": cannot open scene: is a directory");
+  checkInputFile(path_);
   std::ifstream in(path_, std::ios::binary);
   if (!in) throw Error(path_ + ": cannot open scene: " + std::strerror(errno));
   // In one read when the size is known (a regular file): a byte-wise
@@ -375,9 +376,9 @@ void GltfDocument::read() {
         if (uri == (*it)[i].end() || uri->get<std::string>().rfind("data:", 0) == 0) continue;
         const std::string name = decodeUri(uri->get<std::string>());
         const fs::path file = fs::path(name).is_absolute() ? fs::path(name) : fs::path(base.empty() ? "." : base) / name;
-        if (name.empty() || (fs::exists(file, ec) && !fs::is_regular_file(file, ec)))
-          fail(std::string(array) + "[" + std::to_string(i) + "].uri",
-               "'" + uri->get<std::string>() + "' is not a file" + (fs::is_directory(file, ec) || name.empty() ? " (a directory)" : ""));
+        const std::string kind = name.empty() ? "a directory" : nonRegularKind(file.string());
+        if (!kind.empty())
+          fail(std::string(array) + "[" + std::to_string(i) + "].uri", "'" + uri->get<std::string>() + "' is not a file (" + kind + ")");
       }
     }
   }
@@ -564,7 +565,7 @@ void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::ve
     if (size_t(n.mesh) >= model_->meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
     // Named by the node, else by its mesh (what exporters name), else by its place.
     const std::string& meshName = model_->meshes[size_t(n.mesh)].name;
-    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index, stack});
+    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index});
     useVisits_.push_back(slot);
   }
   if (n.camera >= 0) {
@@ -573,13 +574,17 @@ void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::ve
     cameraVisits_.push_back({slot, n.camera});
   }
   stack.push_back(index);
-  for (int c : n.children) visit(c, int(slot), stack, visited);
+  for (int c : n.children) {
+    if (c >= 0 && size_t(c) < parents_.size() && !visited[size_t(c)]) parents_[size_t(c)] = index;
+    visit(c, int(slot), stack, visited);
+  }
   stack.pop_back();
 }
 
 void GltfDocument::decodeNodes() {
   std::vector<char> visited(model_->nodes.size(), 0);
   staticLocal_.assign(model_->nodes.size(), identity4());
+  parents_.assign(model_->nodes.size(), -1);
   std::vector<int> roots;
   if (!model_->scenes.empty()) {
     int s = model_->defaultScene >= 0 ? model_->defaultScene : 0;

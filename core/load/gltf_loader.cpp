@@ -10,8 +10,10 @@
 #include <optional>
 
 #include "core/load/cage.h"
+#include "core/image/texture_size.h"
 #include <obscura/error.h>
 #include "core/scene/motion.h"
+#include "core/util/memory_budget.h"
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -28,6 +30,8 @@ class Builder {
   Builder(const GltfDocument& doc, const LoadOptions& options) : doc_(doc), options_(options) {}
 
   std::unique_ptr<Scene> build() {
+    // Refused before any of it is allocated (core/util/memory_budget.h).
+    if (!options_.unrefined) requireMemory(estimateSceneMemory(doc_, options_), doc_.path());
     scene_ = std::make_unique<Scene>();
     scene_->sourcePath = doc_.path();
     scene_->sourceMeshes = doc_.model().meshes.size();
@@ -305,13 +309,28 @@ class Builder {
     return r;
   }
 
-  // Each mesh use is an object named by its node, with the roles of its
-  // ancestors' extras and then its own (a child overrides its parent).
+  // The roles nodes[node] passes down: its ancestors' extras root first,
+  // then its own (a child overrides its parent). Computed once per node, so
+  // that the leaves of a deep hierarchy do not each walk it again.
+  const ObjectRoles& inheritedRoles(int node) {
+    if (inherited_.empty()) inherited_.resize(doc_.model().nodes.size());
+    std::vector<int> chain;  // the nodes still to compute, deepest first
+    for (int n = node; n >= 0 && !inherited_[size_t(n)]; n = doc_.parentNode(n)) chain.push_back(n);
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      const int parent = doc_.parentNode(*it);
+      ObjectRoles r = parent >= 0 ? *inherited_[size_t(parent)] : ObjectRoles{};
+      nodeRoles(*it).applyTo(r);
+      inherited_[size_t(*it)] = r;
+    }
+    return *inherited_[size_t(node)];
+  }
+
+  // Each mesh use is an object named by its node, with the roles its node
+  // inherits (inheritedRoles).
   uint32_t addObject(const GltfDocument::MeshUse& u) {
     SceneObject o;
     o.name = u.node;
-    for (const int a : u.ancestors) nodeRoles(a).applyTo(o.roles);
-    nodeRoles(u.nodeIndex).applyTo(o.roles);
+    o.roles = inheritedRoles(u.nodeIndex);
     scene_->objects.push_back(std::move(o));
     return uint32_t(scene_->objects.size() - 1);
   }
@@ -406,6 +425,12 @@ class Builder {
     const auto [open, close] = *options_.shutter;
     useGrid_.assign(pose_.uses.size(), {});
     cameraGrid_.assign(pose_.cameras.size(), {});
+    // Each grid at its final size: grown by push_back, a grid of 513 ends
+    // with room for 1024, after copies at every doubling on the way.
+    for (size_t i = 0; i < pose_.uses.size(); ++i)
+      if (pose_.uses[i].animated) useGrid_[i].reserve(kMotionGrid + 1);
+    for (size_t c = 0; c < pose_.cameras.size(); ++c)
+      if (pose_.cameras[c].animated) cameraGrid_[c].reserve(kMotionGrid + 1);
     for (int j = 0; j <= kMotionGrid; ++j) {
       const GltfDocument::Pose p = doc_.pose(open + (close - open) * double(j) / kMotionGrid, options_.animations);
       for (size_t i = 0; i < p.uses.size(); ++i)
@@ -457,9 +482,67 @@ class Builder {
   std::unique_ptr<Scene> scene_;
   std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;
+  std::vector<std::optional<ObjectRoles>> inherited_;  // by node index: inheritedRoles()
 };
 
 }  // namespace
+
+MemoryEstimate estimateSceneMemory(const GltfDocument& doc, const LoadOptions& options) {
+  MemoryEstimate e;
+  // Textures as decode() will hold them, from their headers, and the
+  // largest decoder buffer: each is freed as its decode ends, and textures
+  // decode one at a time unless threads meet two first uses at once.
+  uint64_t transient = 0;
+  for (const auto* list : {&doc.textures(), &doc.dataTextures()})
+    for (const auto& t : *list) {
+      const DecodedImageSize d = decodedImageSize(t.encoded);
+      e.add("textures", d.kept);
+      transient = std::max(transient, d.transient);
+    }
+  e.add("textures", transient);
+  // The parsed file, held for the extras (tinygltf's node records dominate
+  // a large hierarchy).
+  e.add("parsed file", uint64_t(doc.model().nodes.size()) * sizeof(tinygltf::Node));
+  // The mesh uses: the document's and a pose's tables, an object and an
+  // instance each (their names beyond the string's own buffer counted).
+  const auto& uses = doc.meshUses();
+  uint64_t names = 0;
+  for (const auto& u : uses) names += u.node.capacity() > 15 ? u.node.capacity() + 1 : 0;
+  e.add("node tables", uint64_t(uses.size()) * (2 * sizeof(GltfDocument::MeshUse) + sizeof(SceneObject) + sizeof(Instance)) +
+                           3 * names);
+  // Triangles as the file declares them (each use of a mesh baked or
+  // instanced): positions, indices, normals and uvs, and the BVH over them
+  // (docs/cli.md "Memory" gives the per-triangle figure's origin).
+  uint64_t triangles = 0, vertices = 0;
+  std::vector<uint64_t> meshTriangles(doc.model().meshes.size(), 0), meshVertices(doc.model().meshes.size(), 0);
+  for (size_t m = 0; m < doc.model().meshes.size(); ++m)
+    for (const auto& p : doc.model().meshes[m].primitives) {
+      const auto pos = p.attributes.find("POSITION");
+      const auto count = [&](int a) -> uint64_t {
+        return a >= 0 && size_t(a) < doc.model().accessors.size() ? doc.model().accessors[size_t(a)].count : 0;
+      };
+      const uint64_t v = pos == p.attributes.end() ? 0 : count(pos->second);
+      meshVertices[m] += v;
+      meshTriangles[m] += (p.indices >= 0 ? count(p.indices) : v) / 3;
+    }
+  std::vector<char> seen(doc.model().meshes.size(), 0);
+  for (const auto& u : uses) {
+    if (seen[size_t(u.mesh)]) continue;  // instanced: its triangles once
+    seen[size_t(u.mesh)] = 1;
+    triangles += meshTriangles[size_t(u.mesh)];
+    vertices += meshVertices[size_t(u.mesh)];
+  }
+  e.add("geometry", vertices * (2 * sizeof(Vec3) + 2 * sizeof(float)) + triangles * 3 * sizeof(uint32_t));
+  e.add("BVH", (triangles + uses.size()) * kBvhBytesPerPrimitive);
+  // Motion blur: every animated use sampled at kMotionGrid + 1 times.
+  if (options.shutter && !options.unrefined) {
+    const GltfDocument::Pose p = doc.pose(options.time, options.animations);
+    uint64_t animated = 0;
+    for (const auto& u : p.uses) animated += u.animated ? 1 : 0;
+    e.add("motion grids", animated * (kMotionGrid + 1) * sizeof(Affine));
+  }
+  return e;
+}
 
 std::unique_ptr<Scene> buildGltfScene(const GltfDocument& doc, const LoadOptions& options) {
   return Builder(doc, options).build();

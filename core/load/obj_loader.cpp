@@ -1,4 +1,5 @@
 #include "core/load/obj_loader.h"
+#include "core/util/input_file.h"
 
 #include <tiny_obj_loader.h>
 
@@ -42,6 +43,14 @@ void prescanObj(const std::string& path) {
       if (i > b) tok.push_back(s.substr(b, i - b));
     }
     if (tok.empty()) continue;
+    // tinyobjloader reads a material library to its end: a FIFO or a
+    // device named here would block it or take all memory.
+    if (tok[0] == "mtllib")
+      for (size_t k = 1; k < tok.size(); ++k) {
+        const std::filesystem::path lib = std::filesystem::path(path).parent_path() / std::string(tok[k]);
+        const std::string kind = nonRegularKind(lib.string());
+        if (!kind.empty()) fail("mtllib " + lib.string() + ": is " + kind + ", not a regular file");
+      }
     if (tok[0] == "f" && tok.size() - 1 > 255)
       fail("face has " + std::to_string(tok.size() - 1) + " vertices (at most 255)");
     if (tok[0] != "v" && tok[0] != "vt") continue;
@@ -61,6 +70,7 @@ void prescanObj(const std::string& path) {
 }  // namespace
 
 std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& options) {
+  checkInputFile(path);
   if (!std::filesystem::is_regular_file(path)) throw Error(path + ": cannot open: no such file");
   prescanObj(path);
   tinyobj::ObjReaderConfig config;

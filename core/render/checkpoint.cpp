@@ -1,4 +1,5 @@
 #include "core/render/checkpoint.h"
+#include "core/util/input_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -82,6 +83,7 @@ Checkpoint::~Checkpoint() = default;
 bool Checkpoint::read() {
   std::error_code ec;
   if (!std::filesystem::exists(path_, ec)) return false;
+  checkInputFile(path_, "--checkpoint ");
   {
     std::ifstream in(path_, std::ios::binary);
     if (!in) throw Error(path_ + ": cannot read the checkpoint");
