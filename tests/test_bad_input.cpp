@@ -13,6 +13,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <obscura/error.h>
@@ -335,6 +336,115 @@ TEST(BadInputFile, RequiredCompressionExtension) {
   expectLoadError(d.writeGltf(dir, "draco"), {"extensionsRequired", "KHR_draco_mesh_compression"});
 }
 
+// --- issue #37: malformed fields that rendered a plausible wrong pass ---------
+
+// tinygltf keeps a transform array of the wrong length and the decoding took
+// it as absent: a 15-number matrix, a 4-number translation, a 3-number
+// rotation placed the node at the identity without a word.
+TEST(BadInputFile, NodeTransformArrayOfTheWrongLengthIsRefused) {
+  const std::string dir = tempDir("bad_trs_length");
+  const std::vector<std::tuple<const char*, size_t, const char*>> cases = {
+      {"matrix", 15, "expected 16 numbers, got 15"},
+      {"translation", 4, "expected 3 numbers, got 4"},
+      {"rotation", 3, "expected 4 numbers, got 3"},
+      {"scale", 2, "expected 3 numbers, got 2"}};
+  for (const auto& [key, n, why] : cases) {
+    GltfBuilder d = quad();
+    std::vector<double> v(n, 0.0);
+    v[0] = 1.0;
+    d.doc["nodes"][0][key] = v;
+    expectLoadError(d.writeGltf(dir, key), {std::string("nodes[0].") + key, why});
+  }
+  GltfBuilder both = quad();
+  both.doc["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  both.doc["nodes"][0]["translation"] = {1, 2, 3};
+  expectLoadError(both.writeGltf(dir, "both"), {"nodes[0].translation", "matrix"});
+}
+
+// tinygltf wraps an integer beyond int in extras: a subdivision level of
+// 4294967298 became 2 and refined the mesh twice.
+TEST(BadInputFile, ExtrasIntegerBeyondIntIsRefused) {
+  const std::string dir = tempDir("bad_extras_int");
+  GltfBuilder d = quad();
+  d.doc["meshes"][0]["extras"] = {{"obscura", {{"subdivision", {{"level", 4294967298ULL}}}}}};
+  expectLoadError(d.writeGltf(dir, "level"), {"meshes[0].extras.obscura.subdivision.level", "4294967298", "2147483647"});
+  GltfBuilder neg = quad();
+  neg.doc["nodes"][0]["extras"] = {{"tool", {{"id", -3000000000LL}}}};
+  expectLoadError(neg.writeGltf(dir, "negative"), {"nodes[0].extras.tool.id", "-3000000000"});
+}
+
+// A misspelt extras.obscura key ("occludr") was ignored: the object kept
+// its default roles and the pass looked right.
+TEST(BadInputFile, UnknownObscuraExtrasKeyIsRefusedWithTheNearestKey) {
+  const std::string dir = tempDir("bad_extras_key");
+  GltfBuilder d = quad();
+  d.doc["nodes"][0]["extras"] = {{"obscura", {{"occludr", false}}}};
+  expectLoadError(d.writeGltf(dir, "node"), {"nodes[0].extras.obscura.occludr", "did you mean 'occluder'"});
+  GltfBuilder m = quad();
+  m.doc["meshes"][0]["extras"] = {{"obscura", {{"subdivision", {{"levle", 2}}}}}};
+  expectLoadError(m.writeGltf(dir, "mesh"), {"meshes[0].extras.obscura.subdivision.levle", "did you mean 'level'"});
+  GltfBuilder far = quad();
+  far.doc["nodes"][0]["extras"] = {{"obscura", {{"xyzzy", 1}}}};
+  expectLoadError(far.writeGltf(dir, "far"), {"nodes[0].extras.obscura.xyzzy", "one of: displacement, occluder"});
+}
+
+// glTF 2.0 §3.12: a loader MUST fail on a required extension it does not
+// support; it only warned, and rendered without it.
+TEST(BadInputFile, UnsupportedRequiredExtensionIsAnError) {
+  const std::string dir = tempDir("bad_required_ext");
+  GltfBuilder d = quad();
+  d.doc["extensionsUsed"] = {"KHR_texture_transform"};
+  d.doc["extensionsRequired"] = {"KHR_texture_transform"};
+  expectLoadError(d.writeGltf(dir, "transform"), {"extensionsRequired[0]", "KHR_texture_transform", "KHR_mesh_quantization"});
+  GltfBuilder ok = quad();
+  ok.doc["extensionsUsed"] = {"KHR_mesh_quantization"};
+  ok.doc["extensionsRequired"] = {"KHR_mesh_quantization"};
+  WarningCapture quiet;
+  EXPECT_NO_THROW(loadGltf(ok.writeGltf(dir, "quantized")));
+}
+
+// zfar at or before znear clipped every camera ray: an empty pass, exit 0.
+TEST(BadInputFile, ZfarNotBeyondZnearIsRefused) {
+  const std::string dir = tempDir("bad_zfar");
+  GltfBuilder d = quad();
+  d.push("cameras", perspective("c", 0.8, 1.0, 0.5));
+  d.push("nodes", {{"camera", 0}, {"translation", {0, 0, 3}}});
+  d.doc["scenes"][0]["nodes"] = {0, 1};
+  expectLoadError(d.writeGltf(dir, "zfar"), {"cameras[0].perspective.zfar", "greater than znear (1)", "0.5"});
+}
+
+// A zero scale on every axis hides the node and its children (glTF 2.0's
+// animation note): skipped with a warning naming it; when it hides every
+// mesh the load fails saying so. Before, the collapsed mesh rendered as an
+// empty pass with exit status 0.
+TEST(BadInputFile, ZeroScaleHidesTheNodeWithAWarning) {
+  const std::string dir = tempDir("bad_zero_scale");
+  GltfBuilder d = quad();
+  d.node({{"mesh", 0}, {"scale", {0, 0, 0}}, {"translation", {3, 0, 0}}});
+  d.doc["scenes"][0]["nodes"] = {0, 1};
+  {
+    WarningCapture w;
+    const auto scene = loadGltf(d.writeGltf(dir, "one_hidden"));
+    EXPECT_EQ(scene->stats().renderedTriangles, 2u);
+    EXPECT_EQ(w.count("nodes[1] has a zero scale on every axis"), 1u) << w.all();
+  }
+  GltfBuilder all = quad();
+  all.doc["nodes"][0]["scale"] = {0, 0, 0};
+  expectLoadError(all.writeGltf(dir, "all_hidden"), {"no triangles", "hidden by a zero scale"});
+}
+
+// A singular transform that is not a zero scale flattens the meshes below
+// into a plane or a line: refused naming the node.
+TEST(BadInputFile, SingularTransformIsRefusedNamingTheNode) {
+  const std::string dir = tempDir("bad_singular");
+  GltfBuilder d = quad();
+  d.doc["nodes"][0]["scale"] = {1, 0, 1};
+  expectLoadError(d.writeGltf(dir, "flat"), {"nodes[0]", "singular"});
+  GltfBuilder m = quad();
+  m.doc["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0, 1};  // z axis in the xy plane
+  expectLoadError(m.writeGltf(dir, "coplanar"), {"nodes[0]", "singular"});
+}
+
 // Random damage to the binary buffer (positions and indices) and to numbers
 // in the JSON: every outcome is a scene or an obscura::Error.
 TEST(BadInputFile, RandomDamageNeverCrashes) {
@@ -538,10 +648,11 @@ TEST(BadInputCli, DegenerateSceneWithAutomaticCameraIsOneErrorLine) {
   }
   // Each is now refused by the load, before a camera is chosen: a scene
   // without extent, or below 2^-40 across, by its size (docs/scenes.md
-  // "Scene scale").
+  // "Scene scale"); a zero scale hides the mesh (docs/scenes.md "What the
+  // loader refuses").
   const std::vector<std::string> why = {"the scene is 0 across (its largest extent), below 9.09495e-13",
                                         "the scene is 0 across (its largest extent), below 9.09495e-13",
-                                        "the scene is 0 across (its largest extent), below 9.09495e-13",
+                                        "the scene has no triangles to render (every mesh is hidden by a zero scale)",
                                         "the scene is 1e-25 across (its largest extent), below 9.09495e-13"};
   std::vector<CliRun> runs;
   for (const std::string& sc : scenes) {

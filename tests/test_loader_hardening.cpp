@@ -89,6 +89,26 @@ TEST(LoaderHardening, BufferUriThatIsADirectory) {
   EXPECT_NE(loadError(g.writeGltf(dir, "image")).find("images[0].uri: '.' is not a file (a directory)"), std::string::npos);
 }
 
+// "%zz.bin" said only "out of memory": tinygltf decoded "%zz" to a NUL byte,
+// which named the scene's directory, and read it. A malformed escape is now
+// named; and whatever tinygltf's own decoding makes of a uri ("a+b" is "a b"
+// to it, not to the check above), its read refuses what is not a file.
+TEST(LoaderHardening, MalformedUriEscapeAndTinygltfDecodingAreNamed) {
+  const std::string dir = tempDir("hard_uri_escape");
+  GltfBuilder g = quadScene();
+  g.doc["buffers"] = json::array({{{"uri", "%zz.bin"}, {"byteLength", g.bin.size()}}});
+  const std::string path = g.writeGltf(dir, "zz");
+  EXPECT_EQ(loadError(path), path + ": buffers[0].uri: '%zz.bin' has a malformed percent escape at character 0 "
+                                    "(a '%' takes two hex digits: %20 for a space)");
+  std::filesystem::create_directories(dir + "/a b.bin");
+  g.doc["buffers"][0]["uri"] = "a+b.bin";
+  const std::string plus = g.writeGltf(dir, "plus");
+  const std::string m = loadError(plus);
+  EXPECT_EQ(m.rfind(plus + ": ", 0), 0u) << m;
+  EXPECT_NE(m.find("a b.bin' is not a regular file (a directory)"), std::string::npos) << m;
+  EXPECT_EQ(m.find("memory"), std::string::npos) << m;
+}
+
 // --- JSON types tinygltf silently ignores ---------------------------------------
 
 // Each used to load with the field dropped (the mesh, the transform, the
