@@ -445,6 +445,29 @@ TEST(BadInputFile, SingularTransformIsRefusedNamingTheNode) {
   expectLoadError(m.writeGltf(dir, "coplanar"), {"nodes[0]", "singular"});
 }
 
+// tinyobjloader wrapped an index beyond int: 99999999999999999999 rendered,
+// 2147483648 was reported as -2147483644.
+TEST(BadInputFile, ObjIndexBeyondIntIsRefusedNamingTheLine) {
+  const std::string dir = tempDir("bad_obj_index");
+  const std::string head = "v 0 0 0\nv 1 0 0\nv 1 1 0\n";
+  for (const std::string index : {"99999999999999999999", "2147483648", "-2147483648"}) {
+    const std::string path = dir + "/i" + index.substr(0, 3) + ".obj";
+    writeText(path, head + "f 1 2 " + index + "\n");
+    try {
+      loadScene(path);
+      ADD_FAILURE() << index << " loaded";
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(path + ": line 4"), std::string::npos) << m;
+      EXPECT_NE(m.find("'" + index + "'"), std::string::npos) << m;
+      EXPECT_NE(m.find("2147483647"), std::string::npos) << m;
+    }
+  }
+  const std::string slashes = dir + "/slashes.obj";
+  writeText(slashes, head + "vn 0 0 1\nf 1//1 2//1 3//1\n");
+  EXPECT_NO_THROW(loadScene(slashes));
+}
+
 // Random damage to the binary buffer (positions and indices) and to numbers
 // in the JSON: every outcome is a scene or an obscura::Error.
 TEST(BadInputFile, RandomDamageNeverCrashes) {
