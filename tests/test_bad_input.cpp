@@ -759,5 +759,30 @@ TEST(BadInputCli, FailedRenderLeavesTheExistingOutputUntouched) {
   }
 }
 
+// Messages that did not say what was wrong: a checkpoint path that is a
+// directory (a libstdc++ message), --target-error 1e300 ("must be finite"),
+// an empty --frame (taken as no frame: out.####.exr written literally).
+TEST(BadInputCli, UnclearMessagesNameTheOptionAndTheLimit) {
+  const std::string dir = tempDir("bad_cli_messages");
+  const std::string scene = writeGoodScene(dir);
+  fs::create_directories(dir + "/cp.exr.checkpoint");
+  std::vector<CliRun> runs(3);
+  runs[0].name = "checkpoint is a directory";
+  runs[0].args = {"render", scene, "-o", dir + "/cp.exr", "--res", "8x8", "--spp", "1", "-q", "--checkpoint", "0"};
+  runs[0].output = dir + "/cp.exr";
+  runs[0].mention = "cp.exr.checkpoint: the checkpoint path is a directory";
+  runs[1].name = "target error beyond float";
+  runs[1].args = {"render", scene, "-o", dir + "/te.exr", "--res", "8x8", "--spp", "1", "-q", "--target-error", "1e300"};
+  runs[1].output = dir + "/te.exr";
+  runs[1].mention = "--target-error: 1e+300 is above the largest standard error a pass holds (3.40282";
+  runs[2].name = "empty frame";
+  runs[2].args = {"render", scene, "-o", dir + "/f.####.exr", "--res", "8x8", "--spp", "1", "-q", "--frame", ""};
+  runs[2].output = dir + "/f.####.exr";
+  runs[2].mention = "--frame";
+  runAll(runs, dir);
+  for (const CliRun& r : runs) expectOneErrorLine(r);
+  EXPECT_NE(runs[2].stderrText.find("empty frame number"), std::string::npos) << runs[2].stderrText;
+}
+
 }  // namespace
 }  // namespace obscura::test

@@ -79,9 +79,21 @@ Checkpoint::Checkpoint(std::string path, double intervalSeconds) : path_(std::mo
 
 Checkpoint::~Checkpoint() = default;
 
+void Checkpoint::checkPath() const {
+  // A directory (or a device) at the path: reading it failed inside
+  // libstdc++ ("basic_filebuf::underflow error reading the file: Is a
+  // directory"), a message that names neither the file nor the option.
+  std::error_code ec;
+  if (std::filesystem::exists(path_, ec) && !std::filesystem::is_regular_file(path_, ec))
+    throw Error(path_ + ": the checkpoint path is " +
+                (std::filesystem::is_directory(path_, ec) ? "a directory" : "not a regular file") +
+                "; move it away or write the output elsewhere");
+}
+
 bool Checkpoint::read() {
   std::error_code ec;
   if (!std::filesystem::exists(path_, ec)) return false;
+  checkPath();
   {
     std::ifstream in(path_, std::ios::binary);
     if (!in) throw Error(path_ + ": cannot read the checkpoint");
