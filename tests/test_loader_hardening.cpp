@@ -6,6 +6,8 @@
 #include <functional>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "app/options.h"
 #include <obscura/error.h>
 #include "core/load/gltf_loader.h"
@@ -341,6 +343,7 @@ TEST(LoaderHardening, FuzzSeedsAreValid) {
     EXPECT_GT(scene->stats().renderedTriangles, 0u);
     ++gltf;
   }
+  size_t badObj = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir + "/obj")) {
     SCOPED_TRACE(e.path().string());
     const std::string text = readText(e.path().string());
@@ -351,9 +354,38 @@ TEST(LoaderHardening, FuzzSeedsAreValid) {
     o.subdivision = true;
     o.scheme = text[0] & 1 ? SubdivisionScheme::Loop : SubdivisionScheme::CatmullClark;
     o.subdivisionLevel = (text[0] >> 1) & 3;
+    if (e.path().filename().string().rfind("bad_", 0) == 0) {  // the error path's seeds
+      EXPECT_THROW(loadScene(path, o), Error);
+      ++badObj;
+      continue;
+    }
+    WarningCapture quiet;  // mtllib names a file that is not there
     EXPECT_GT(loadScene(path, o)->stats().renderedTriangles, 0u);
     ++obj;
   }
+  // fuzz/fuzz_json.cpp's whole documents (mode byte even) load; the extras
+  // seeds are JSON values.
+  size_t jsonSeeds = 0, cameraSeeds = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/json")) {
+    SCOPED_TRACE(e.path().string());
+    const std::string text = readText(e.path().string());
+    ASSERT_FALSE(text.empty());
+    ++jsonSeeds;
+    if (text[0] % 2) {
+      EXPECT_FALSE(nlohmann::json::parse(text.substr(1), nullptr, false).is_discarded());
+      continue;
+    }
+    writeText(dir + "/doc.gltf", text.substr(1));
+    WarningCapture quiet;
+    EXPECT_GT(loadScene(dir + "/doc.gltf")->stats().renderedTriangles, 0u);
+  }
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/camera")) {
+    EXPECT_EQ((readText(e.path().string()).size() - 1) % 8, 0u) << e.path();
+    ++cameraSeeds;
+  }
+  EXPECT_EQ(badObj, 4u);
+  EXPECT_EQ(jsonSeeds, 7u);
+  EXPECT_EQ(cameraSeeds, 12u);
   for (const auto& e : std::filesystem::directory_iterator(dir + "/params")) {
     SCOPED_TRACE(e.path().string());
     std::istringstream in(readText(e.path().string()));
@@ -365,7 +397,7 @@ TEST(LoaderHardening, FuzzSeedsAreValid) {
     ++params;
   }
   EXPECT_EQ(gltf, 5u);
-  EXPECT_EQ(obj, 6u);
+  EXPECT_EQ(obj, 14u);
   EXPECT_GE(params, IntegratorRegistry::instance().all().size());
 }
 
