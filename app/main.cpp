@@ -68,8 +68,14 @@ void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
   cmd->add_option("--object", a.objects,
                   "Roles of objects by name (glob): GLOB:role=value[,role=value...], roles occluder, camera, matte "
                   "(true/false) and occlusion (all/self/others); repeatable, applied in order after the file's extras");
+  // An empty value is refused, not taken as no frame: a farm script whose
+  // variable is unset passes `--frame ""`, and out.####.exr would then be
+  // written under that very name, every task over the last.
   cmd->add_option("--frame", a.frame,
-                  "Apply the glTF animations at this frame (time = FRAME / --fps; fractional allowed; default: the static pose)");
+                  "Apply the glTF animations at this frame (time = FRAME / --fps; fractional allowed; default: the static pose)")
+      ->check(CLI::Validator(
+          [](std::string& v) { return v.empty() ? std::string("empty frame number (an unset variable?); give a number or leave --frame out") : std::string(); },
+          "FRAME"));
   cmd->add_option("--fps", a.fps, "Frames per second of --frame and --frames (> 0)");
   cmd->add_option("--animation", a.animations, "Animations a frame plays: names or indices, comma-separated (default: all)")
       ->delimiter(',');

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
@@ -242,7 +243,12 @@ RenderSettings renderSettings(const RenderArgs& args) {
   else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
   else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
   s.spp = args.spp;
-  s.targetError = args.targetError;
+  // Read as a double so that a value beyond float's range is named as such
+  // (converted first, 1e300 became inf and was reported as "not finite").
+  if (args.targetError > double(std::numeric_limits<float>::max()))
+    throw Error("--target-error: " + formatFloat(args.targetError) + " is above the largest standard error a pass holds (" +
+                formatFloat(double(std::numeric_limits<float>::max())) + ")");
+  s.targetError = float(args.targetError);
   s.minSpp = args.minSpp;
   if (args.backgroundSpp) {
     // As --min-spp: a setting that would change nothing is refused.
@@ -311,6 +317,7 @@ void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSp
   checkOutputName(file + ".tmp", "--checkpoint: ", 0);
   RenderSettings cs = s;
   Checkpoint probe(file, a.checkpoint);
+  probe.checkPath();
   cs.checkpoint = &probe;
   checkCheckpointPasses(cs, screenSpace);
 }

@@ -24,7 +24,7 @@ struct RenderArgs : SceneArgs {
   std::vector<std::string> passes;   // --pass LAYER=integrator[:key=value,...]
   std::string primary;               // --primary LAYER
   int spp = 16;
-  float targetError = 0;  // --target-error; 0 = off
+  double targetError = 0;  // --target-error; 0 = off (double: a value beyond float's range is refused by name)
   int minSpp = 0;         // --min-spp; 0 = min(16, spp)
   std::optional<int> backgroundSpp;  // --background-spp (default 4); 0 = no survey
   double timeLimit = 0;   // --time-limit SECONDS; 0 = none

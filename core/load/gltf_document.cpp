@@ -141,6 +141,16 @@ class JsonChecker {
   void fields(const json& obj, const std::string& where, std::initializer_list<Rule> rules) const {
     for (const Rule& r : rules) field(obj, where, r);
   }
+  struct Length {
+    const char* key;
+    size_t n;
+  };
+  // obj.key, when present (an array: field() has checked), has exactly n elements.
+  void lengths(const json& obj, const std::string& where, std::initializer_list<Length> rules) const {
+    for (const Length& r : rules)
+      if (auto it = obj.find(r.key); it != obj.end() && it->size() != r.n)
+        doc_.fail(where + "." + r.key, "expected " + std::to_string(r.n) + " numbers, got " + std::to_string(it->size()));
+  }
   // obj.key[i] (an array of objects) with the rules, each.
   template <class F>
   void each(const json& obj, const std::string& where, const char* key, F&& check) const {
@@ -151,7 +161,24 @@ class JsonChecker {
     for (size_t i = 0; i < it->size(); ++i) check((*it)[i], prefix + "[" + std::to_string(i) + "]");
   }
 
+  // tinygltf reads an integer in extras or extensions into an int, wrapping
+  // one beyond its range (an extras.obscura.subdivision.level of 4294967298
+  // became 2), so such an integer is refused wherever it is, naming its path.
+  // Recursive: the nesting is at most kMaxJsonDepth, checked before parsing.
+  void extrasIntegers(const json& v, const std::string& path, bool inExtras) const {
+    if (v.is_object()) {
+      for (const auto& [key, e] : v.items())
+        extrasIntegers(e, path.empty() ? key : path + "." + key, inExtras || key == "extras" || key == "extensions");
+    } else if (v.is_array()) {
+      for (size_t i = 0; i < v.size(); ++i) extrasIntegers(v[i], path + "[" + std::to_string(i) + "]", inExtras);
+    } else if (inExtras && (v.is_number_unsigned() ? v.get<uint64_t>() > uint64_t(INT_MAX) : !matches(v, Kind::Int) && v.is_number_integer())) {
+      doc_.fail(path, "the integer " + v.dump() + " is outside [" + std::to_string(INT_MIN) + ", " + std::to_string(INT_MAX) +
+                          "], the range a glTF reader keeps");
+    }
+  }
+
   void document(const json& root) const {
+    extrasIntegers(root, "", false);
     // Top-level arrays are named without a leading dot.
     const auto arr = [&](const char* key, auto&& check) {
       auto it = root.find(key);
@@ -172,6 +199,15 @@ class JsonChecker {
       fields(n, w, {{"mesh", Kind::Index}, {"camera", Kind::Index}, {"skin", Kind::Index}, {"children", Kind::IndexArray},
                     {"matrix", Kind::NumberArray}, {"translation", Kind::NumberArray}, {"rotation", Kind::NumberArray},
                     {"scale", Kind::NumberArray}, {"name", Kind::String}});
+      // tinygltf keeps an array of the wrong length and the decoding took it
+      // as absent: a matrix of 15 numbers placed the node at the identity.
+      lengths(n, w, {{"matrix", 16}, {"translation", 3}, {"rotation", 4}, {"scale", 3}});
+      // glTF 2.0 §5.25: a node has a matrix or TRS properties, not both; the
+      // decoding would take the matrix and drop the rest without a word.
+      if (n.contains("matrix"))
+        for (const char* trs : {"translation", "rotation", "scale"})
+          if (n.contains(trs))
+            doc_.fail(w + "." + trs, std::string("a node with a matrix must not have a ") + trs + " (glTF 2.0: one or the other)");
     });
     arr("meshes", [&](const json& m, const std::string& w) {
       fields(m, w, {{"name", Kind::String}});
@@ -208,11 +244,13 @@ class JsonChecker {
     arr("materials", [&](const json& m, const std::string& w) {
       fields(m, w, {{"name", Kind::String}, {"pbrMetallicRoughness", Kind::Object}, {"alphaMode", Kind::String},
                     {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}});
+      lengths(m, w, {{"emissiveFactor", 3}});
       if (auto pbr = m.find("pbrMetallicRoughness"); pbr != m.end()) {
         const std::string pw = w + ".pbrMetallicRoughness";
         fields(*pbr, pw, {{"baseColorFactor", Kind::NumberArray}, {"baseColorTexture", Kind::Object},
                           {"roughnessFactor", Kind::Number}, {"metallicFactor", Kind::Number},
                           {"metallicRoughnessTexture", Kind::Object}});
+        lengths(*pbr, pw, {{"baseColorFactor", 4}});
         for (const char* key : {"baseColorTexture", "metallicRoughnessTexture"})
           if (auto t = pbr->find(key); t != pbr->end())
             fields(*t, pw + "." + key, {{"index", Kind::Index}, {"texCoord", Kind::Uint}});
@@ -244,6 +282,51 @@ class JsonChecker {
  private:
   const GltfDocument& doc_;
 };
+
+// tinygltf's file access, replaced: it decodes a uri its own way (a "+" as a
+// space, "%zz" as a NUL byte, so "%zz.bin" named the scene's directory) and
+// then read whatever that named - a directory came back as a file of
+// 2^63 bytes, "out of memory". Whatever tinygltf decoded, the read goes
+// through here and refuses anything that is not a regular file; no shell
+// expansion of the name either (tinygltf's default runs wordexp on it).
+bool uriFileExists(const std::string& path, void*) {
+  std::error_code ec;
+  return fs::exists(path, ec);
+}
+std::string uriFilePath(const std::string& path, void*) { return path; }
+bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    if (err) *err += "'" + path + "' is not a regular file" + (fs::is_directory(path, ec) ? " (a directory)" : "");
+    return false;
+  }
+  std::ifstream in(path, std::ios::binary);
+  const auto size = fs::file_size(path, ec);
+  if (!in || ec) {
+    if (err) *err += "cannot read '" + path + "': " + std::strerror(errno);
+    return false;
+  }
+  out->resize(size_t(size));
+  in.read(reinterpret_cast<char*>(out->data()), std::streamsize(out->size()));
+  if (in.gcount() != std::streamsize(out->size())) {
+    if (err) *err += "cannot read '" + path + "'";
+    return false;
+  }
+  return true;
+}
+bool refuseWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "writing is not supported";
+  return false;
+}
+
+// A percent sign not followed by two hex digits (RFC 3986 allows no other).
+size_t malformedEscape(const std::string& uri) {
+  for (size_t i = 0; i < uri.size(); ++i)
+    if (uri[i] == '%' && !(i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
+                           std::isxdigit(static_cast<unsigned char>(uri[i + 2]))))
+      return i;
+  return std::string::npos;
+}
 
 // The uri as a file name: percent-escapes decoded, as tinygltf reads it.
 std::string decodeUri(const std::string& uri) {
@@ -374,7 +457,12 @@ void GltfDocument::read() {
       for (size_t i = 0; i < it->size(); ++i) {
         auto uri = (*it)[i].find("uri");
         if (uri == (*it)[i].end() || uri->get<std::string>().rfind("data:", 0) == 0) continue;
-        const std::string name = decodeUri(uri->get<std::string>());
+        const std::string& text = uri->get<std::string>();
+        if (const size_t at = malformedEscape(text); at != std::string::npos)
+          fail(std::string(array) + "[" + std::to_string(i) + "].uri",
+               "'" + text + "' has a malformed percent escape at character " + std::to_string(at) +
+                   " (a '%' takes two hex digits: %20 for a space)");
+        const std::string name = decodeUri(text);
         const fs::path file = fs::path(name).is_absolute() ? fs::path(name) : fs::path(base.empty() ? "." : base) / name;
         const std::string kind = name.empty() ? "a directory" : nonRegularKind(file.string());
         if (!kind.empty())
@@ -400,6 +488,7 @@ void GltfDocument::read() {
 
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(keepImageBytes, &imageBytes_);
+  loader.SetFsCallbacks({uriFileExists, uriFilePath, readUriFile, refuseWrite, nullptr});
   std::string err, warning;
   const std::string baseDir = fs::path(path_).parent_path().string();
   const bool ok = binary ? loader.LoadBinaryFromMemory(model_.get(), &err, &warning, bytes.data(), unsigned(bytes.size()), baseDir)
@@ -409,12 +498,25 @@ void GltfDocument::read() {
 }
 
 void GltfDocument::warnUnsupported() {
-  static const std::set<std::string> harmless = {"KHR_materials_emissive_strength", "KHR_mesh_quantization"};
+  // The extensions the decoding honours: quantized attributes are read as
+  // any normalized or integer accessor (component()), and an emission
+  // strength changes nothing an ambient pass computes.
+  static const std::set<std::string> supported = {"KHR_materials_emissive_strength", "KHR_mesh_quantization"};
   for (const auto& e : model_->extensionsUsed)
-    if (!harmless.count(e)) warn("extension " + e + " is not supported (ignored)");
-  for (const auto& e : model_->extensionsRequired)
-    if (e == "KHR_draco_mesh_compression" || e == "EXT_meshopt_compression")
-      fail("extensionsRequired", e + " is not supported; decompress the file first");
+    if (!supported.count(e)) warn("extension " + e + " is not supported (ignored)");
+  // glTF 2.0 §3.12: a loader that does not support an extension listed in
+  // extensionsRequired MUST fail to load the file; a render that ignored it
+  // (a compressed mesh left out, a transform not applied) would look
+  // plausible and be wrong.
+  for (size_t i = 0; i < model_->extensionsRequired.size(); ++i) {
+    const std::string& e = model_->extensionsRequired[i];
+    if (supported.count(e)) continue;
+    std::string all;
+    for (const auto& k : supported) all += (all.empty() ? "" : ", ") + k;
+    const bool compression = e == "KHR_draco_mesh_compression" || e == "EXT_meshopt_compression";
+    fail("extensionsRequired[" + std::to_string(i) + "]",
+         e + " is not supported" + (compression ? "; decompress the file first" : "") + " (supported: " + all + ")");
+  }
   if (!model_->skins.empty()) warn("skins are not supported (meshes render in bind pose)");
   if (!model_->lights.empty()) warn("KHR_lights_punctual lights are ignored (the sky is the only light)");
 }
@@ -543,6 +645,29 @@ Matrix4d GltfDocument::trsMatrix(const double tr[3], const double rot[4], const 
   return m;
 }
 
+// Whether a node's local transform hides its subtree (true: a zero scale on
+// all three axes, the upper 3 x 3 all zero), refusing a singular one that
+// does not: a zero on one or two axes, or axes that are coplanar, flatten the
+// meshes below into a plane or a line whose normals are meaningless - a pass
+// that looks plausible and is wrong. glTF 2.0 §3.5.3 requires transforms
+// that decompose into translation, rotation and scale, and its
+// implementation note on animation lets a zero scale on all axes hide a node
+// and its children (docs/scenes.md "What the loader refuses").
+bool GltfDocument::checkLinear(const Matrix4d& m, const std::string& field) const {
+  double len[3];
+  for (int c = 0; c < 3; ++c) len[c] = std::sqrt(m[4 * c] * m[4 * c] + m[4 * c + 1] * m[4 * c + 1] + m[4 * c + 2] * m[4 * c + 2]);
+  if (len[0] == 0 && len[1] == 0 && len[2] == 0) return true;
+  const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
+  // |det| relative to the product of the axes' lengths: the sine-like volume
+  // of the unit axes, 1 for any rotation and scale, 0 when they collapse.
+  // 1e-6 leaves room for a matrix written with float's 7 digits.
+  if (!(std::abs(det) > 1e-6 * len[0] * len[1] * len[2]))
+    fail(field, "the transform is singular (axis lengths " + number(len[0]) + ", " + number(len[1]) + ", " + number(len[2]) +
+                    ", determinant " + number(det) + "): it flattens the meshes below it; a zero scale is allowed on all three "
+                    "axes only (it hides the node)");
+  return false;
+}
+
 // Checks the hierarchy below `index` and records it in traversal order:
 // nodes, their static transforms, the mesh uses and the cameras. Poses
 // (pose()) walk the record.
@@ -646,22 +771,26 @@ GltfDocument::Pose GltfDocument::pose(std::optional<double> seconds, const std::
   }
   std::vector<Matrix4d> world(visits_.size());
   std::vector<char> moved(visits_.size(), 0);
+  std::vector<int> hiddenBy(visits_.size(), -1);  // the node whose zero scale hides the visit, -1: none
   for (size_t i = 0; i < visits_.size(); ++i) {
     const Visit& v = visits_[i];
     auto it = animated.find(v.node);
-    const Matrix4d local =
-        it == animated.end()
-            ? staticLocal_[size_t(v.node)]
-            : trsMatrix(it->second.t, it->second.r, it->second.s,
-                        "nodes[" + std::to_string(v.node) + "] (animated, at " + formatFloat(*seconds) + " s)");
+    const std::string field = it == animated.end() ? "nodes[" + std::to_string(v.node) + "]"
+                                                   : "nodes[" + std::to_string(v.node) + "] (animated, at " + formatFloat(*seconds) + " s)";
+    const Matrix4d local = it == animated.end() ? staticLocal_[size_t(v.node)] : trsMatrix(it->second.t, it->second.r, it->second.s, field);
     world[i] = mul(v.parent < 0 ? identity4() : world[size_t(v.parent)], local);
     moved[i] = it != animated.end() || (v.parent >= 0 && moved[size_t(v.parent)]);
+    hiddenBy[i] = v.parent >= 0 ? hiddenBy[size_t(v.parent)] : -1;
+    if (hiddenBy[i] < 0 && checkLinear(local, field)) hiddenBy[i] = v.node;
   }
   Pose p;
   p.uses = uses_;  // the static pose's (or, while decoding, the uses without transforms)
   for (size_t i = 0; i < p.uses.size(); ++i) {
     p.uses[i].world = world[useVisits_[i]];
     p.uses[i].animated = moved[useVisits_[i]] != 0;
+    const int by = hiddenBy[useVisits_[i]];
+    p.uses[i].hidden = by >= 0;
+    p.uses[i].hiddenBy = by >= 0 ? "nodes[" + std::to_string(by) + "]" : "";
   }
   for (const CameraVisit& c : cameraVisits_) {
     const int node = visits_[c.visit].node;
@@ -694,6 +823,12 @@ std::optional<Camera> GltfDocument::makeCamera(int nodeIndex, int index, const M
   if (!inTraceableRange(c.znear))
     fail(cfield + ".perspective.znear", number(gc.perspective.znear) + " is outside the range Embree traces (<= 1e+16)");
   // A zfar beyond any coordinate the scene may have is as good as none.
+  // glTF 2.0: zfar, when given, is > 0 and > znear (tinygltf's 0 stands for
+  // an absent zfar, an infinite projection). One at or before znear clipped
+  // every ray: an empty pass with exit status 0.
+  if (gc.perspective.zfar < 0 || (gc.perspective.zfar > 0 && !(gc.perspective.zfar > gc.perspective.znear)))
+    fail(cfield + ".perspective.zfar", "must be greater than znear (" + number(gc.perspective.znear) + "), got " +
+                                           number(gc.perspective.zfar));
   c.zfar = gc.perspective.zfar > 0 && gc.perspective.zfar <= double(kMaxCoordinate) ? float(gc.perspective.zfar) : kInfinity;
   // Rigid part of the node transform: orthonormalized axes, so a scaled
   // camera node (legal in files, meaningless for a pinhole) still works.

@@ -69,6 +69,10 @@ class GltfDocument {
     std::string node;  // its name, else its mesh's name, else "nodes[i]"
     int nodeIndex;  // its ancestors (whose extras it inherits) through parentNode()
     bool animated = false;  // in a pose: the node or an ancestor is the target of a played channel
+    // In a pose: the node or an ancestor has a zero scale on all three axes,
+    // which glTF 2.0 lets a file use to hide a subtree; the use renders nothing.
+    bool hidden = false;
+    std::string hiddenBy;  // the node with the zero scale, "nodes[i]" (for the warning)
   };
   // The static pose: the file's node transforms, no animation applied.
   const std::vector<MeshUse>& meshUses() const { return uses_; }
@@ -129,6 +133,8 @@ class GltfDocument {
   void visit(int index, int parent, std::vector<int>& stack, std::vector<char>& visited);
   // A node's transform: its matrix, else translation x rotation x scale.
   Matrix4d localMatrix(int index, const std::string& field) const;
+  // True when `m`'s zero scale hides the subtree; throws on a singular one.
+  bool checkLinear(const Matrix4d& m, const std::string& field) const;
   Matrix4d trsMatrix(const double t[3], const double r[4], const double s[3], const std::string& field) const;
   std::optional<Camera> makeCamera(int node, int index, const Matrix4d& world, const std::string& field) const;
   friend std::vector<Animation> readAnimations(const GltfDocument& document);

@@ -52,7 +52,11 @@ class Builder {
     scene_->commit();
     const SceneStats s = scene_->stats();
     // An empty pass with exit status 0 would pass for a render: refused.
-    if (s.renderedTriangles == 0 && s.subdivisionFaces == 0) throw Error(doc_.path() + ": the scene has no triangles to render");
+    if (s.renderedTriangles == 0 && s.subdivisionFaces == 0)
+      throw Error(doc_.path() + ": the scene has no triangles to render" +
+                  (hidden_.empty() ? "" : " (every mesh is hidden by a zero scale)"));
+    // Warned once the scene is known to render (else the error says it all).
+    for (const std::string& w : hidden_) warn(w);
     return std::move(scene_);
   }
 
@@ -94,11 +98,23 @@ class Builder {
 
   // The object `extras.obscura` of a mesh or node (`owner` names it in
   // errors), or null if there is none.
+  // Every key is one Obscura reads for that owner (a mesh or a node): a
+  // misspelt one ("occludr") used to be ignored, a render without the role
+  // that looked right.
   const tinygltf::Value* obscuraExtras(const tinygltf::Value& extras, const std::string& owner) const {
     if (!extras.IsObject() || !extras.Has("obscura")) return nullptr;
     const tinygltf::Value& ob = extras.Get("obscura");
-    if (!ob.IsObject()) fail(owner + ".extras.obscura", "must be an object");
+    const std::string field = owner + ".extras.obscura";
+    if (!ob.IsObject()) fail(field, "must be an object");
+    static const std::vector<std::string> meshKeys = {"subdivision", "displacement"},
+                                          nodeKeys = {"displacement", "occluder", "camera", "matte", "occlusion"};
+    knownKeys(ob, field, owner.rfind("meshes[", 0) == 0 ? meshKeys : nodeKeys);
     return &ob;
+  }
+  void knownKeys(const tinygltf::Value& object, const std::string& field, const std::vector<std::string>& known) const {
+    for (const std::string& key : object.Keys())
+      if (std::find(known.begin(), known.end(), key) == known.end())
+        fail(field + "." + key, "unknown key" + nearestNameHint(key, known));
   }
 
   // meshes[i].extras.obscura.subdivision = {"scheme": "catmull-clark"|"loop",
@@ -110,6 +126,7 @@ class Builder {
     const std::string field = owner + ".extras.obscura";
     const tinygltf::Value& sub = ob->Get("subdivision");
     if (!sub.IsObject()) fail(field + ".subdivision", "must be an object");
+    knownKeys(sub, field + ".subdivision", {"scheme", "level"});
     SubdivisionRequest r{SubdivisionScheme::CatmullClark, options_.subdivisionLevel};
     if (sub.Has("scheme")) {
       const tinygltf::Value& v = sub.Get("scheme");
@@ -144,6 +161,7 @@ class Builder {
                           owner + ".extras.obscura.displacement", ""};
     const tinygltf::Value& d = ob->Get("displacement");
     if (!d.IsObject()) fail(r.field, "must be an object");
+    knownKeys(d, r.field, {"map", "scale", "midlevel"});
     const tinygltf::Value& map = d.Get("map");  // a null value when absent
     if (!map.IsString() || map.Get<std::string>().empty()) fail(r.field + ".map", "expected the path of a height map");
     r.map = map.Get<std::string>();
@@ -366,6 +384,11 @@ class Builder {
     };
     for (size_t i = 0; i < pose_.uses.size(); ++i) {
       const GltfDocument::MeshUse& u = pose_.uses[i];
+      if (u.hidden) {  // a zero scale on every axis (GltfDocument::checkLinear): glTF's way to hide a subtree
+        hidden_.push_back(u.hiddenBy + " has a zero scale on every axis: " + u.node + " (meshes[" + std::to_string(u.mesh) +
+                          "]) is hidden and not rendered");
+        continue;
+      }
       scene_->setCurrentObject(addObject(u));
       Affine xf = Affine::fromColumnMajor4x4(u.world.data());
       const auto k = key(u);
@@ -483,6 +506,7 @@ class Builder {
   std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;
   std::vector<std::optional<ObjectRoles>> inherited_;  // by node index: inheritedRoles()
+  std::vector<std::string> hidden_;  // a warning per mesh use a zero scale hides
 };
 
 }  // namespace

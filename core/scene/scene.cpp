@@ -264,6 +264,27 @@ void Scene::commit() {
         throw Error((sourcePath.empty() ? "" : sourcePath + ": ") + "the scene's bounds reach " + buf +
                     " (after node transforms), outside the range Embree traces (|x| <= 1e+16)");
       }
+  // And below: Embree's triangle tests are single precision and form
+  // products of three lengths (an edge, an edge and the distance along the
+  // ray: T = Ng . C); once those leave float's normal range (2^-126) hits
+  // are lost at corners, then everywhere (a cornell box scaled by 1e-16 came
+  // out blank, exit status 0). The pass is scale-invariant above the limit
+  // (tests/test_scene_scale.cpp): 2^-40 keeps size^3 at 2^-120, a margin of
+  // 2^6 for the smaller triangles and distances of a scene. Embree's robust
+  // (watertight) test loses occlusion much earlier - measured on the cornell
+  // box, wrong at 1.7e-9 across and right at 5.6e-9 - so it needs 2^-28
+  // (docs/scenes.md "Scene scale").
+  if (!all.empty()) {
+    const Vec3 d = all.diagonal();
+    const double size = std::max({double(d.x), double(d.y), double(d.z)});
+    const double limit = robust_ ? 0x1p-28 : 0x1p-40;
+    if (!(size >= limit)) {
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "the scene is %g across (its largest extent), below %g", size, limit);
+      throw Error((sourcePath.empty() ? "" : sourcePath + ": ") + buf + (robust_ ? " (robust traversal)" : "") +
+                  ", the smallest scale single-precision ray tracing renders correctly; scale it up (e.g. a node scale)");
+    }
+  }
   for (const SceneObject& o : objects)
     if (o.roles.occlusion != OcclusionScope::All) {
       scopes_.objectCount = uint32_t(objects.size());

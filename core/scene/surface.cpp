@@ -21,6 +21,21 @@ Vec3 materialFactor(const Scene& scene, const Primitive& prim) {
 
 float absMax(Vec3 a) { return std::max(std::abs(a.x), std::max(std::abs(a.y), std::abs(a.z))); }
 
+// Normals before normalization scale with the scene: a cross product of two
+// edges as its size squared, a normal through an instance's cofactor matrix
+// likewise, and |n|^2 as the fourth power. For a scene scaled by 1e-12
+// |n|^2 (~1e-48) is below float's range and the length came out 0: every
+// triangle took the degenerate fallback (facing the ray) and the pass was
+// wrong (docs/scenes.md "Scene scale"). Below kTinyNormal2 the vector is
+// first divided by its largest component (magnitude 1); above, nothing
+// changes, so a render of an ordinary scene keeps its bits.
+constexpr float kTinyNormal2 = 0x1p-100f;
+Vec3 rescaledIfTiny(Vec3 n) {
+  if (!(dot(n, n) < kTinyNormal2)) return n;  // NaN and infinite as they were
+  const float m = absMax(n);
+  return m > 0.0f ? n * (1.0f / m) : n;
+}
+
 // The limit surface of an Embree subdivision face at patch coordinates
 // (u, v): its tangents dP/du, dP/dv.
 void limitTangents(const Primitive& prim, unsigned face, float u, float v, Vec3& du, Vec3& dv) {
@@ -104,7 +119,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
   // o + t d errs by ulps of |o| and of t|d|; the grid test by ulps of |p|.
   const float mag = std::max(absMax(out.p), absMax(org) + out.t * absMax(dir));
   out.eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
-  Vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  Vec3 ng = rescaledIfTiny(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
   const float ngLen = length(ng);
   ng = (ngLen > 0.0f && std::isfinite(ngLen)) ? ng * (1.0f / ngLen) : normalize(-dir);
   if (dot(ng, dir) > 0.0f) ng = -ng;
@@ -113,7 +128,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
   const SubdivisionSurface& s = *prim.subdivision;
   Vec3 du, dv;
   limitTangents(prim, face, u, v, du, dv);
-  Vec3 n = cross(du, dv);
+  Vec3 n = rescaledIfTiny(cross(du, dv));
   if (s.height) {
     // Differences divide by the span patchStep actually took.
     const float h = 0.5f / s.faceRate[face];
@@ -125,7 +140,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) {
       const Vec3 N = n * (1.0f / len);
-      n = cross(du + N * ddu, dv + N * ddv);
+      n = rescaledIfTiny(cross(du + N * ddu, dv + N * ddv));
     }
   }
   const float len = length(n);
@@ -197,7 +212,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
 
   // Geometric normal, facing the incoming ray. A (numerically) degenerate
   // triangle falls back to facing the ray head-on.
-  Vec3 ng = cross(v1 - v0, v2 - v0);
+  Vec3 ng = rescaledIfTiny(cross(v1 - v0, v2 - v0));
   const float ngLen = length(ng);
   ng = (ngLen > 0.0f && std::isfinite(ngLen)) ? ng * (1.0f / ngLen) : normalize(-dir);
   const bool flipped = dot(ng, dir) > 0.0f;
@@ -208,6 +223,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   if (!prim.normals.empty()) {
     Vec3 n = prim.normals[i0] * w + prim.normals[i1] * u + prim.normals[i2] * v;
     if (toWorld) n = toWorld->normal(n);
+    n = rescaledIfTiny(n);
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) {
       n = n * (1.0f / len);
@@ -266,6 +282,18 @@ inline V4 select(__m128 mask, V4 a, V4 b) { return {select(mask, a.x, b.x), sele
 inline __m128 absv(__m128 a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
 // absMax(a) = max(|x|, max(|y|, |z|)) in std::max's operand order.
 inline __m128 absMax(V4 a) { return _mm_max_ps(_mm_max_ps(absv(a.z), absv(a.y)), absv(a.x)); }
+// The scalar rescaledIfTiny per lane (the same operations: the same bits);
+// the division only when a lane needs it.
+inline V4 rescaledIfTiny(V4 n) {
+  const __m128 d = dot(n, n);
+  // !(d < kTinyNormal2) lanes keep n: NaN compares false, as in the scalar test.
+  const __m128 tiny = _mm_cmplt_ps(d, _mm_set1_ps(kTinyNormal2));
+  if (_mm_movemask_ps(tiny) == 0) return n;
+  const __m128 m = absMax(n);
+  const __m128 use = _mm_and_ps(tiny, _mm_cmpgt_ps(m, _mm_setzero_ps()));
+  const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), m);
+  return select(use, mul(n, inv), n);
+}
 // Scalar length's test: len > 0 and finite (len = sqrt(...) is never -inf).
 inline __m128 usableLength(__m128 len) {
   return _mm_and_ps(_mm_cmpgt_ps(len, _mm_setzero_ps()), _mm_cmplt_ps(len, _mm_set1_ps(kInfinity)));
@@ -316,7 +344,7 @@ void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, Surfa
   const __m128 eps =
       _mm_max_ps(_mm_set1_ps(std::numeric_limits<float>::min()), _mm_mul_ps(mag, _mm_set1_ps(kRayOffsetRelative)));
   // Geometric normal facing the ray; degenerate: -unit dir (= normalize(-dir) bit for bit).
-  V4 ng = cross(sub(v1, v0), sub(v2, v0));
+  V4 ng = rescaledIfTiny(cross(sub(v1, v0), sub(v2, v0)));
   const __m128 ngLen = _mm_sqrt_ps(dot(ng, ng));
   ng = select(usableLength(ngLen), mul(ng, _mm_div_ps(one, ngLen)), negateWhere(unitDir, _mm_castsi128_ps(_mm_set1_epi32(-1))));
   ng = negateWhere(ng, _mm_cmpgt_ps(dot(ng, dir), _mm_setzero_ps()));
@@ -335,6 +363,7 @@ void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, Surfa
       }
     n = {_mm_load_ps(t[0]), _mm_load_ps(t[1]), _mm_load_ps(t[2])};
   }
+  n = rescaledIfTiny(n);
   const __m128 nLen = _mm_sqrt_ps(dot(n, n));
   n = mul(n, _mm_div_ps(one, nLen));
   n = negateWhere(n, _mm_cmplt_ps(dot(n, ng), _mm_setzero_ps()));
