@@ -216,6 +216,48 @@ TEST(NormalMaps, AFlatMapRendersAsNoMap) {
     }
 }
 
+// A mirroring node transform (scale -1 in x) mirrors the map's bumps with the
+// surface: the bent normal of the mirrored copy is (-nx, ny, nz) of the
+// plain one's (nx, ny, nz) - for a mesh baked into world space (the
+// loader flips TANGENT.w) and for an instanced one (the hit flips it),
+// whose frames docs/math.md §16.1 derives.
+TEST(NormalMaps, MirroredCopiesMirrorTheBentNormal) {
+  const std::string dir = tempDir("normal_maps_mirror");
+  const Vec3 texel(0.7f, 0.4f, 0.9f);
+  writeRgbTexture(dir + "/m.png", 4, 4, [&](double, double) { return texel; });
+  const auto n = mappedNormal(decodedTexel(dir + "/m.png"), 1.0);
+  for (bool instanced : {false, true}) {
+    SCOPED_TRACE(instanced ? "instanced" : "baked");
+    GltfBuilder g;
+    g.push("images", {{"uri", "m.png"}});
+    g.push("textures", {{"source", 0}});
+    const int m = g.push("materials", {{"normalTexture", {{"index", 0}}}});
+    const int a = g.quadMesh(1.0f, m, true);
+    const int b = instanced ? a : g.quadMesh(1.0f, m, true);
+    g.node({{"mesh", a}, {"translation", {1.5, 0, 0}}});
+    g.node({{"mesh", b}, {"translation", {-1.5, 0, 0}}, {"scale", {-1, 1, 1}}});
+    g.scene({0, 1});
+    auto scene = loadGltf(g.writeGltf(dir, instanced ? "instanced" : "baked"));
+    EXPECT_EQ(scene->instances().size(), instanced ? 2u : 0u);
+    const Camera cam = makeLookAtCamera({0, 0, 5}, {0, 0, 0}, {0, 1, 0}, 0.58f, "top");
+    RenderSettings s = aovSettings(32, 2);
+    s.width = 64;
+    const Film f = renderWith(*scene, cam, "ao", {}, s);
+    size_t left = 0, right = 0;
+    for (int y = 10; y < 22; ++y)
+      for (int x = 0; x < 64; ++x) {
+        if (f.at(kA, x, y) < 1) continue;
+        const bool mirrored = x < 32;
+        (mirrored ? left : right)++;
+        ASSERT_NEAR(f.at(kNX, x, y), mirrored ? -n[0] : n[0], 4e-6) << x << "," << y;
+        ASSERT_NEAR(f.at(kNY, x, y), n[1], 4e-6) << x << "," << y;
+        ASSERT_NEAR(f.at(kNZ, x, y), n[2], 4e-6) << x << "," << y;
+      }
+    EXPECT_GT(left, 50u);
+    EXPECT_GT(right, 50u);
+  }
+}
+
 // --normal-maps off (LoadOptions::normalMaps = false) loads the file as if
 // it had no normalTexture: no tangents, nothing decoded, the same bits.
 TEST(NormalMaps, OffRendersAsTheUnmappedFile) {

@@ -408,11 +408,18 @@ class Builder {
           // Tangents are surface directions; a mirroring transform reverses
           // the bitangent's sign against cross(N, T) (as for instances,
           // core/scene/surface.cpp normalMapped).
-          const float handedness = xf.determinant() < 0.0f ? -1.0f : 1.0f;
+          // Its winding is reversed too, so that a mesh without normals keeps
+          // the front the normal map's frame is built on (the mirrored
+          // winding would face the other way). Only normal-mapped primitives:
+          // every other one keeps its bits.
+          const bool mirrors = xf.determinant() < 0.0f;
           for (size_t t = 0; t + 3 < p.tangents.size(); t += 4) {
             const Vec3 v = xf.vector(Vec3(p.tangents[t], p.tangents[t + 1], p.tangents[t + 2]));
-            p.tangents[t] = v.x, p.tangents[t + 1] = v.y, p.tangents[t + 2] = v.z, p.tangents[t + 3] *= handedness;
+            p.tangents[t] = v.x, p.tangents[t + 1] = v.y, p.tangents[t + 2] = v.z;
+            if (mirrors) p.tangents[t + 3] = -p.tangents[t + 3];
           }
+          if (mirrors && !p.tangents.empty())
+            for (size_t t = 0; t + 2 < p.indices.size(); t += 3) std::swap(p.indices[t + 1], p.indices[t + 2]);
           scene_->setPrimitiveName(
               scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material,
                                         std::move(p.tangents)),

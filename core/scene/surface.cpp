@@ -172,9 +172,14 @@ Vec3 normalMapped(const Scene& scene, const Primitive& prim, const uint32_t* tri
   float sign = q0[3] * w + q1[3] * u + q2[3] * v < 0.0f ? -1.0f : 1.0f;
   if (toWorld) {
     // Tangents are surface directions (vectors); a mirroring transform
-    // reverses cross(N, T) against the transformed bitangent.
+    // reverses cross(N, T) against the transformed bitangent, and the
+    // world winding of a mesh without normals against its object-space
+    // front (Affine::normal keeps the latter).
     t = toWorld->vector(t);
-    if (toWorld->determinant() < 0.0f) sign = -sign;
+    if (toWorld->determinant() < 0.0f) {
+      sign = -sign;
+      if (prim.normals.empty()) front = -front;
+    }
   }
   // Gram-Schmidt: T in the plane of the (interpolated) normal.
   t = t - front * dot(front, t);
