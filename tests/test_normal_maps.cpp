@@ -339,6 +339,29 @@ std::array<double, 2> khr(double u, double v, const double off[2], double rot, c
   return {c * sc[0] * u + s * sc[1] * v + off[0], -s * sc[0] * u + c * sc[1] * v + off[1]};
 }
 
+// The KHR_texture_transform extension object of (off, rot, sc).
+json khrJson(const double off[2], double rot, const double sc[2]) {
+  return {{"KHR_texture_transform", {{"offset", {off[0], off[1]}}, {"rotation", rot}, {"scale", {sc[0], sc[1]}}}}};
+}
+
+// A mesh of one quad [-1, 1]^2 (z = 0) with `material`, its uvs the
+// builder quad's, or (baked) their image under the transform; the scene
+// of one node using it.
+void transformQuad(GltfBuilder& g, int material, bool baked, const double off[2], double rot, const double sc[2]) {
+  const double uv[4][2] = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+  std::vector<std::array<float, 2>> uvs;
+  for (const auto& t : uv) {
+    const auto st = baked ? khr(t[0], t[1], off, rot, sc) : std::array<double, 2>{t[0], t[1]};
+    uvs.push_back({float(st[0]), float(st[1])});
+  }
+  json prim = {{"attributes",
+                {{"POSITION", g.positions({{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}})}, {"TEXCOORD_0", g.vec2(uvs)}}},
+               {"indices", g.indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3})},
+               {"material", material}};
+  g.node({{"mesh", g.push("meshes", {{"primitives", json::array({prim})}})}});
+  g.scene({0});
+}
+
 // A MASK cut-out (and an albedo) read through KHR_texture_transform equals
 // the same material with the transform baked into the quad's uvs: the same
 // coverage, and albedo to the rounding of the uv (the texture's slope, at
@@ -354,24 +377,9 @@ TEST(TextureTransform, TransformedCutoutEqualsTheTransformBakedIntoTheUvs) {
     g.push("images", {{"uri", "mask.png"}});
     g.push("textures", {{"source", 0}});
     json info = {{"index", 0}};
-    if (!baked)
-      info["extensions"] = {{"KHR_texture_transform",
-                             {{"offset", {off[0], off[1]}}, {"rotation", rot}, {"scale", {sc[0], sc[1]}}}}};
+    if (!baked) info["extensions"] = khrJson(off, rot, sc);
     const int m = g.push("materials", {{"alphaMode", "MASK"}, {"pbrMetallicRoughness", {{"baseColorTexture", info}}}});
-    const float h = 1.0f;
-    const double uv[4][2] = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
-    std::vector<std::array<float, 2>> uvs;
-    for (const auto& t : uv) {
-      const auto s = baked ? khr(t[0], t[1], off, rot, sc) : std::array<double, 2>{t[0], t[1]};
-      uvs.push_back({float(s[0]), float(s[1])});
-    }
-    json prim = {{"attributes",
-                  {{"POSITION", g.positions({{-h, -h, 0}, {h, -h, 0}, {h, h, 0}, {-h, h, 0}})}, {"TEXCOORD_0", g.vec2(uvs)}}},
-                 {"indices", g.indices(std::vector<uint16_t>{0, 1, 2, 0, 2, 3})},
-                 {"material", m}};
-    g.push("meshes", {{"primitives", json::array({prim})}});
-    g.node({{"mesh", 0}});
-    g.scene({0});
+    transformQuad(g, m, baked, off, rot, sc);
     return g.writeGltf(dir, baked ? "baked" : "transformed");
   };
   WarningCapture warnings;
@@ -396,6 +404,50 @@ TEST(TextureTransform, TransformedCutoutEqualsTheTransformBakedIntoTheUvs) {
   // Both some holes and some surface.
   EXPECT_GT(covered, 48u * 48u / 8);
   EXPECT_LT(covered, 48u * 48u * 7 / 8);
+}
+
+// Albedo (baseColorTexture) and roughness (metallicRoughnessTexture) read
+// through their transforms equal the transforms baked into the uvs, hit by
+// hit. Both textures are smooth and periodic (16 texels of
+// 0.5 + 0.4 sin 2 pi u ...): bilinear slopes of at most 0.4 * 2 pi = 2.5 per
+// uv unit (times at most 2.4 for the sRGB decoding of albedo), and the two
+// uvs differ by a few float ulps of values below 4 (~2e-6): 1.2e-5 at most.
+TEST(TextureTransform, AlbedoAndRoughnessReadTheTransformedUvs) {
+  const std::string dir = tempDir("texture_transform_albedo");
+  const auto wave = [](double u, double v) {
+    return Vec3(float(0.5 + 0.4 * std::sin(2 * kPi * u)), float(0.5 + 0.4 * std::cos(2 * kPi * v)),
+                float(0.5 + 0.4 * std::sin(2 * kPi * (u + v))));
+  };
+  writeRgbTexture(dir + "/wave.png", 16, 16, wave);
+  const double off[2] = {-0.35, 0.6}, rot = -1.1, sc[2] = {0.8, 2.5};
+  const json ext = khrJson(off, rot, sc);
+  const auto build = [&](bool baked) {
+    GltfBuilder g;
+    g.push("images", {{"uri", "wave.png"}});
+    g.push("textures", {{"source", 0}});
+    json base = {{"index", 0}}, rough = {{"index", 0}};
+    if (!baked) base["extensions"] = ext, rough["extensions"] = ext;
+    const int m = g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", base}, {"metallicRoughnessTexture", rough}}}});
+    transformQuad(g, m, baked, off, rot, sc);
+    return loadGltf(g.writeGltf(dir, baked ? "baked" : "transformed"));
+  };
+  auto a = build(false), b = build(true);
+  a->textures[0]->decode(), b->textures[0]->decode();
+  double spread = 0;
+  for (int j = 0; j < 24; ++j)
+    for (int i = 0; i < 24; ++i) {
+      const Vec3 target(float(-0.95 + 1.9 * (i + 0.5) / 24), float(-0.95 + 1.9 * (j + 0.5) / 24), 0);
+      const Vec3 eye = target + Vec3(0.1f, 0.2f, 2.0f);
+      SurfaceHit ha, hb;
+      computeSurfaceHit(*a, traceClosest(*a, eye, target - eye), true, ha);
+      computeSurfaceHit(*b, traceClosest(*b, eye, target - eye), true, hb);
+      EXPECT_NEAR(ha.albedo.x, hb.albedo.x, 1.2e-5) << i << "," << j;
+      EXPECT_NEAR(ha.albedo.y, hb.albedo.y, 1.2e-5) << i << "," << j;
+      EXPECT_NEAR(ha.albedo.z, hb.albedo.z, 1.2e-5) << i << "," << j;
+      EXPECT_NEAR(surfaceRoughness(*a, ha), surfaceRoughness(*b, hb), 1.2e-5) << i << "," << j;
+      spread = std::max(spread, double(std::abs(ha.albedo.x - a->materials[0].baseColorFactor.x)));
+    }
+  EXPECT_GT(spread, 0.1) << "the texture varies over the quad";
 }
 
 TEST(TextureTransform, BadTransformsAreRefusedAndOtherTexCoordsWarned) {
