@@ -375,6 +375,7 @@ class CompareRun {
     viewHash_.add(a.subdiv + "/" + a.subdivBackend + "/" + std::to_string(a.subdivLevel) + "/" + formatFloat(a.subdivEdge));
     viewHash_.add(a.displace + "/" + formatFloat(a.displaceScale) + "/" + formatFloat(a.displaceMidlevel));
     viewHash_.add(nonDefaultRoles(scene.objects));
+    if (a.normalMaps != "on") viewHash_.add("normal-maps/" + a.normalMaps);  // only off: keys stay as they were
     // The pose: another frame (or other animations) is another image. Added
     // only with a frame, so the keys of still renders stay as they were.
     if (!a.frame.empty()) {

@@ -54,6 +54,8 @@ void addEnvironmentOptions(CLI::App* cmd, EnvironmentArgs& a) {
 }
 
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
+  cmd->add_option("--normal-maps", a.normalMaps,
+                  "on: glTF normal maps (normalTexture) bend the shading normal of every pass; off: ignore them");
   cmd->add_option("--subdiv", a.subdiv, "Subdivide OBJ cages: none, catmull-clark or loop (OpenSubdiv, limit normals)");
   cmd->add_option("--subdiv-level", a.subdivLevel, "Uniform subdivision level, 0..10 (each level: 4x the faces)");
   cmd->add_option("--subdiv-backend", a.subdivBackend,
@@ -308,6 +310,7 @@ int runInfo(const InfoArgs& a) {
     std::printf("           [%zu] %s  baseColorFactor (%g, %g, %g)%s%s", i, m.name.c_str(), m.baseColorFactor.x,
                 m.baseColorFactor.y, m.baseColorFactor.z, m.texture >= 0 ? "  x texture" : "", mode);
     if (m.alphaMode != AlphaMode::Opaque) std::printf(" (alpha %g%s)", m.alpha, m.alphaMode == AlphaMode::Mask ? (", cutoff " + formatFloat(m.alphaCutoff)).c_str() : "");
+    if (m.normalTexture >= 0) std::printf("  normal map (scale %s)", formatFloat(m.normalScale).c_str());
     std::printf("\n");
   }
   std::printf("textures   %zu\n", scene->textures.size());

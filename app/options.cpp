@@ -174,6 +174,9 @@ void loadPlugins(const std::vector<std::string>& paths) {
 LoadOptions sceneOptions(const SceneArgs& a) {
   LoadOptions o;
   o.robust = a.robust;
+  if (a.normalMaps != "on" && a.normalMaps != "off")
+    throw Error("--normal-maps: expected on or off, got '" + a.normalMaps + "'");
+  o.normalMaps = a.normalMaps == "on";
   if (a.subdiv == "catmull-clark") o.subdivision = true, o.scheme = SubdivisionScheme::CatmullClark;
   else if (a.subdiv == "loop") o.subdivision = true, o.scheme = SubdivisionScheme::Loop;
   else if (a.subdiv != "none") throw Error("--subdiv: expected none, catmull-clark or loop, got '" + a.subdiv + "'");

@@ -393,12 +393,13 @@ TEST(BadInputFile, UnknownObscuraExtrasKeyIsRefusedWithTheNearestKey) {
 TEST(BadInputFile, UnsupportedRequiredExtensionIsAnError) {
   const std::string dir = tempDir("bad_required_ext");
   GltfBuilder d = quad();
-  d.doc["extensionsUsed"] = {"KHR_texture_transform"};
-  d.doc["extensionsRequired"] = {"KHR_texture_transform"};
-  expectLoadError(d.writeGltf(dir, "transform"), {"extensionsRequired[0]", "KHR_texture_transform", "KHR_mesh_quantization"});
+  d.doc["extensionsUsed"] = {"KHR_materials_variants"};
+  d.doc["extensionsRequired"] = {"KHR_materials_variants"};
+  expectLoadError(d.writeGltf(dir, "variants"),
+                  {"extensionsRequired[0]", "KHR_materials_variants is not supported", "KHR_mesh_quantization", "KHR_texture_transform"});
   GltfBuilder ok = quad();
-  ok.doc["extensionsUsed"] = {"KHR_mesh_quantization"};
-  ok.doc["extensionsRequired"] = {"KHR_mesh_quantization"};
+  ok.doc["extensionsUsed"] = {"KHR_mesh_quantization", "KHR_texture_transform"};
+  ok.doc["extensionsRequired"] = {"KHR_mesh_quantization", "KHR_texture_transform"};
   WarningCapture quiet;
   EXPECT_NO_THROW(loadGltf(ok.writeGltf(dir, "quantized")));
 }

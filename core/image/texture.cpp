@@ -9,6 +9,18 @@
 
 namespace obscura {
 
+UvTransform UvTransform::fromKhr(double offsetU, double offsetV, double rotation, double scaleU, double scaleV) {
+  // KHR_texture_transform's matrix: translation x rotation x scale, with the
+  // rotation [cos sin; -sin cos] as the extension writes it (v down).
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  UvTransform t;
+  t.a = float(c * scaleU), t.b = float(s * scaleV), t.e = float(offsetU);
+  t.c = float(-s * scaleU), t.d = float(c * scaleV), t.f = float(offsetV);
+  t.cosR = float(c), t.sinR = float(s);
+  t.identity = offsetU == 0 && offsetV == 0 && rotation == 0 && scaleU == 1 && scaleV == 1;
+  return t;
+}
+
 float srgbToLinear(float c) {
   // IEC 61966-2-1 transfer function.
   return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);

@@ -243,8 +243,21 @@ class JsonChecker {
     arr("buffers", [&](const json& b, const std::string& w) { fields(b, w, {{"uri", Kind::String}, {"byteLength", Kind::Uint}}); });
     arr("materials", [&](const json& m, const std::string& w) {
       fields(m, w, {{"name", Kind::String}, {"pbrMetallicRoughness", Kind::Object}, {"alphaMode", Kind::String},
-                    {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}});
+                    {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}, {"normalTexture", Kind::Object}});
       lengths(m, w, {{"emissiveFactor", 3}});
+      // A textureInfo and its KHR_texture_transform.
+      const auto textureInfo = [&](const json& t, const std::string& tw, bool normal) {
+        fields(t, tw, {{"index", Kind::Index}, {"texCoord", Kind::Uint}, {"extensions", Kind::Object}});
+        if (normal) field(t, tw, {"scale", Kind::Number});
+        if (auto e = t.find("extensions"); e != t.end())
+          if (auto x = e->find("KHR_texture_transform"); x != e->end()) {
+            const std::string xw = tw + ".extensions.KHR_texture_transform";
+            if (!x->is_object()) doc_.fail(xw, "expected an object, got " + got(*x));
+            fields(*x, xw, {{"offset", Kind::NumberArray}, {"rotation", Kind::Number}, {"scale", Kind::NumberArray},
+                            {"texCoord", Kind::Uint}});
+          }
+      };
+      if (auto t = m.find("normalTexture"); t != m.end()) textureInfo(*t, w + ".normalTexture", true);
       if (auto pbr = m.find("pbrMetallicRoughness"); pbr != m.end()) {
         const std::string pw = w + ".pbrMetallicRoughness";
         fields(*pbr, pw, {{"baseColorFactor", Kind::NumberArray}, {"baseColorTexture", Kind::Object},
@@ -252,8 +265,7 @@ class JsonChecker {
                           {"metallicRoughnessTexture", Kind::Object}});
         lengths(*pbr, pw, {{"baseColorFactor", 4}});
         for (const char* key : {"baseColorTexture", "metallicRoughnessTexture"})
-          if (auto t = pbr->find(key); t != pbr->end())
-            fields(*t, pw + "." + key, {{"index", Kind::Index}, {"texCoord", Kind::Uint}});
+          if (auto t = pbr->find(key); t != pbr->end()) textureInfo(*t, pw + "." + key, false);
       }
     });
     arr("textures", [&](const json& t, const std::string& w) { fields(t, w, {{"source", Kind::Index}, {"sampler", Kind::Index}}); });
@@ -499,9 +511,11 @@ void GltfDocument::read() {
 
 void GltfDocument::warnUnsupported() {
   // The extensions the decoding honours: quantized attributes are read as
-  // any normalized or integer accessor (component()), and an emission
-  // strength changes nothing an ambient pass computes.
-  static const std::set<std::string> supported = {"KHR_materials_emissive_strength", "KHR_mesh_quantization"};
+  // any normalized or integer accessor (component()), texture transforms
+  // are applied to every texture read (docs/scenes.md "Texture transforms"),
+  // and an emission strength changes nothing an ambient pass computes.
+  static const std::set<std::string> supported = {"KHR_materials_emissive_strength", "KHR_mesh_quantization",
+                                                  "KHR_texture_transform"};
   for (const auto& e : model_->extensionsUsed)
     if (!supported.count(e)) warn("extension " + e + " is not supported (ignored)");
   // glTF 2.0 §3.12: a loader that does not support an extension listed in
@@ -529,22 +543,50 @@ void GltfDocument::decodeMaterials() {
   struct TextureUse {
     int index = -1;
     WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+    UvTransform transform;
   };
-  // The texture a material's TextureInfo `ti` (at `tfield`) refers to; index
-  // -1 when it is absent or on a texture coordinate set other than 0 (warned).
-  const auto textureUse = [&](const tinygltf::TextureInfo& ti, const std::string& tfield, bool srgb) {
+  // The texture a material's textureInfo (its index, texCoord and
+  // extensions, at `tfield`) refers to; index -1 when it is absent or on a
+  // texture coordinate set other than 0 (warned). KHR_texture_transform's
+  // texCoord, when present, overrides the textureInfo's (the extension's
+  // rule).
+  const auto textureUse = [&](int index, int texCoord, const tinygltf::ExtensionMap& extensions,
+                              const std::string& tfield, bool srgb) {
     TextureUse use;
-    if (ti.index < 0) return use;
-    if (size_t(ti.index) >= model_->textures.size())
-      fail(tfield + ".index", "texture " + std::to_string(ti.index) + " does not exist");
-    if (ti.texCoord != 0) {
-      warn("textures on TEXCOORD_" + std::to_string(ti.texCoord) + " are not supported (only TEXCOORD_0; texture ignored)");
-      return use;
+    if (index < 0) return use;
+    if (size_t(index) >= model_->textures.size())
+      fail(tfield + ".index", "texture " + std::to_string(index) + " does not exist");
+    if (auto x = extensions.find("KHR_texture_transform"); x != extensions.end()) {
+      const tinygltf::Value& e = x->second;
+      const std::string xw = tfield + ".extensions.KHR_texture_transform";
+      // The JSON checker has checked every type; the counts and finiteness here.
+      const auto pair = [&](const char* key, double fallback, double out[2]) {
+        out[0] = out[1] = fallback;
+        if (!e.Has(key)) return;
+        const tinygltf::Value& a = e.Get(key);
+        if (!a.IsArray() || a.ArrayLen() != 2) fail(xw + "." + key, "expected 2 numbers");
+        for (int k = 0; k < 2; ++k) {
+          out[k] = a.Get(k).GetNumberAsDouble();
+          if (!std::isfinite(out[k])) fail(xw + "." + key, "must be finite");
+        }
+      };
+      double offset[2], scale[2];
+      pair("offset", 0.0, offset);
+      pair("scale", 1.0, scale);
+      const double rotation = e.Has("rotation") ? e.Get("rotation").GetNumberAsDouble() : 0.0;
+      if (!std::isfinite(rotation)) fail(xw + ".rotation", "must be finite");
+      use.transform = UvTransform::fromKhr(offset[0], offset[1], rotation, scale[0], scale[1]);
+      if (e.Has("texCoord")) texCoord = e.Get("texCoord").GetNumberAsInt();
     }
-    if (!ti.extensions.empty()) warn("texture transforms (KHR_texture_transform) are not supported");
-    const auto& tex = model_->textures[size_t(ti.index)];
+    if (texCoord != 0) {
+      warn("textures on TEXCOORD_" + std::to_string(texCoord) + " are not supported (only TEXCOORD_0; texture ignored)");
+      return TextureUse{};
+    }
+    for (const auto& [name, value] : extensions)
+      if (name != "KHR_texture_transform") warn(tfield + ": texture extension " + name + " is not supported (ignored)");
+    const auto& tex = model_->textures[size_t(index)];
     if (tex.source < 0 || size_t(tex.source) >= model_->images.size())
-      fail("textures[" + std::to_string(ti.index) + "].source", "image does not exist");
+      fail("textures[" + std::to_string(index) + "].source", "image does not exist");
     auto it = imageToTexture.find({tex.source, srgb});
     if (it == imageToTexture.end()) {
       auto bytes = imageBytes_.find(tex.source);
@@ -598,11 +640,22 @@ void GltfDocument::decodeMaterials() {
     m.roughnessFactor = float(roughness);
     if (gm.emissiveFactor.size() >= 3 && (gm.emissiveFactor[0] > 0 || gm.emissiveFactor[1] > 0 || gm.emissiveFactor[2] > 0))
       warn("emission is ignored by ambient passes");
-    const TextureUse base = textureUse(gm.pbrMetallicRoughness.baseColorTexture, pbr + ".baseColorTexture", true);
-    m.texture = base.index, m.wrapS = base.wrapS, m.wrapT = base.wrapT;
-    const TextureUse rough =
-        textureUse(gm.pbrMetallicRoughness.metallicRoughnessTexture, pbr + ".metallicRoughnessTexture", false);
+    const auto& bt = gm.pbrMetallicRoughness.baseColorTexture;
+    const TextureUse base = textureUse(bt.index, bt.texCoord, bt.extensions, pbr + ".baseColorTexture", true);
+    m.texture = base.index, m.wrapS = base.wrapS, m.wrapT = base.wrapT, m.transform = base.transform;
+    const auto& rt = gm.pbrMetallicRoughness.metallicRoughnessTexture;
+    const TextureUse rough = textureUse(rt.index, rt.texCoord, rt.extensions, pbr + ".metallicRoughnessTexture", false);
     m.roughnessTexture = rough.index, m.roughnessWrapS = rough.wrapS, m.roughnessWrapT = rough.wrapT;
+    m.roughnessTransform = rough.transform;
+    // normalTexture: linear data (never sRGB-decoded), decoded only when a
+    // scene built with normal maps renders (Scene::decodeNormalMaps).
+    const auto& nt = gm.normalTexture;
+    const TextureUse normal = textureUse(nt.index, nt.texCoord, nt.extensions, field + ".normalTexture", false);
+    if (normal.index >= 0) {
+      if (!std::isfinite(nt.scale)) fail(field + ".normalTexture.scale", "must be finite");
+      m.normalTexture = normal.index, m.normalWrapS = normal.wrapS, m.normalWrapT = normal.wrapT;
+      m.normalTransform = normal.transform, m.normalScale = float(nt.scale);
+    }
     materials_.push_back(std::move(m));
   }
   imageBytes_.clear();
@@ -1001,6 +1054,12 @@ std::vector<GltfDocument::Primitive> GltfDocument::decodeMesh(int meshIndex) con
     if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end()) {
       d.uvs = readFloats(t->second, field + ".attributes.TEXCOORD_0", 2);
       if (d.uvs.size() != 2 * d.positions.size()) fail(field + ".attributes.TEXCOORD_0", "count differs from POSITION");
+    }
+    // Tangents serve a normal map only (16 bytes a vertex): read for those.
+    if (auto t = gp.attributes.find("TANGENT");
+        t != gp.attributes.end() && d.material >= 0 && materials_[size_t(d.material)].normalTexture >= 0) {
+      d.tangents = readFloats(t->second, field + ".attributes.TANGENT", 4);
+      if (d.tangents.size() != 4 * d.positions.size()) fail(field + ".attributes.TANGENT", "count differs from POSITION");
     }
     std::vector<uint32_t> idx;
     if (gp.indices >= 0) {

@@ -114,6 +114,8 @@ class GltfDocument {
   struct Primitive {
     std::vector<Vec3> positions, normals;
     std::vector<float> uvs;  // TEXCOORD_0, see mesh()
+    // TANGENT (4 per vertex), read only when the material has a normal map.
+    std::vector<float> tangents;
     std::vector<uint32_t> indices;
     int material = -1;
     std::string field;  // "meshes[i].primitives[j]"

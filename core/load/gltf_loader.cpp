@@ -1,4 +1,6 @@
 #include "core/load/gltf_loader.h"
+
+#include "core/scene/tangents.h"
 #include "core/load/obj_loader.h"
 
 #include <tiny_gltf.h>
@@ -36,6 +38,10 @@ class Builder {
     scene_->sourcePath = doc_.path();
     scene_->sourceMeshes = doc_.model().meshes.size();
     scene_->materials = doc_.materials();
+    // --normal-maps off: the scene has no normal map, so no tangent is read
+    // or made and no normal image decoded (renders as without the maps).
+    if (!options_.normalMaps)
+      for (Material& m : scene_->materials) m.normalTexture = -1;
     for (const auto& t : doc_.textures()) scene_->textures.push_back(std::make_unique<Texture>(t.encoded, t.name, true));
     for (const auto& t : doc_.dataTextures())
       scene_->dataTextures.push_back(std::make_unique<Texture>(t.encoded, t.name, false));
@@ -91,9 +97,27 @@ class Builder {
       static_cast<GltfDocument::Primitive&>(d) = p;
       if (disp && d.uvs.empty()) fail(d.field + ".attributes", "TEXCOORD_0 is missing; " + disp->field + " needs it");
       if (sub) cagePrimitive(d, *sub, disp ? &*disp : nullptr, d.field);
+      else attachTangents(d);
       out.push_back(std::move(d));
     }
     return out;
+  }
+
+  // A triangle primitive's tangents: kept (the file's TANGENT) or generated
+  // (core/scene/tangents.h) when its material bends normals by a map and the
+  // primitive has the uvs the map is read at; dropped otherwise.
+  void attachTangents(PrimData& d) {
+    const Material* m = d.material >= 0 ? &scene_->materials[size_t(d.material)] : nullptr;
+    if (!m || m->normalTexture < 0) {
+      d.tangents.clear();
+      return;
+    }
+    if (d.uvs.empty()) {
+      warn(d.field + ": normal-mapped material without TEXCOORD_0 (normal map ignored)");
+      d.tangents.clear();
+      return;
+    }
+    if (d.tangents.empty()) d.tangents = generateTangents(d.positions, d.normals, d.uvs, d.indices, true);
   }
 
   // The object `extras.obscura` of a mesh or node (`owner` names it in
@@ -273,7 +297,10 @@ class Builder {
       d.displacement.scaleField = disp->scaleField;
     }
     d.cage = std::move(cage);
-    d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear();
+    const Material* nm = d.material >= 0 ? &scene_->materials[size_t(d.material)] : nullptr;
+    if (nm && nm->normalTexture >= 0)
+      warn(field + ": normal maps on subdivided meshes are not supported (the limit surface's normal is used)");
+    d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear(), d.tangents.clear();
   }
 
   // A subdivided primitive's cage, placed by `xf` and refined as the
@@ -377,7 +404,8 @@ class Builder {
         std::vector<PrimData> prims = primitives(u.mesh, k.second);
         const int m = prims.empty() ? -1 : scene_->addInstancedMesh(doc_.model().meshes[size_t(u.mesh)].name);
         for (PrimData& p : prims)
-          scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
+          scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material,
+                                     std::move(p.tangents));
         it = instanced.emplace(k, m).first;
       }
       return it->second;
@@ -419,8 +447,24 @@ class Builder {
           }
           for (Vec3& v : p.positions) v = xf.point(v);
           for (Vec3& n : p.normals) n = xf.normal(n);
+          // Tangents are surface directions; a mirroring transform reverses
+          // the bitangent's sign against cross(N, T) (as for instances,
+          // core/scene/surface.cpp normalMapped).
+          // Its winding is reversed too, so that a mesh without normals keeps
+          // the front the normal map's frame is built on (the mirrored
+          // winding would face the other way). Only normal-mapped primitives:
+          // every other one keeps its bits.
+          const bool mirrors = xf.determinant() < 0.0f;
+          for (size_t t = 0; t + 3 < p.tangents.size(); t += 4) {
+            const Vec3 v = xf.vector(Vec3(p.tangents[t], p.tangents[t + 1], p.tangents[t + 2]));
+            p.tangents[t] = v.x, p.tangents[t + 1] = v.y, p.tangents[t + 2] = v.z;
+            if (mirrors) p.tangents[t + 3] = -p.tangents[t + 3];
+          }
+          if (mirrors && !p.tangents.empty())
+            for (size_t t = 0; t + 2 < p.indices.size(); t += 3) std::swap(p.indices[t + 1], p.indices[t + 2]);
           scene_->setPrimitiveName(
-              scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material),
+              scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material,
+                                        std::move(p.tangents)),
               doc_.model().meshes[size_t(u.mesh)].name);
         }
         if (!prims.empty()) ++scene_->flattenedMeshes;

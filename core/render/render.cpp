@@ -937,6 +937,9 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   // blocks on a lazy decode (the albedo textures: in each loop).
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
     for (const auto& t : scene.dataTextures) t->decode();
+  // Normal maps bend the shading normal every pass reads (the hit's ns, the
+  // N AOV, the G-buffer's normal): decoded whenever the scene kept them.
+  scene.decodeNormalMaps();
 
   // The loops after the primary's leave the ID mattes to it.
   RenderSettings others = s;

@@ -156,6 +156,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
 // The material of a primitive with texture coordinates at (tu, tv).
 Vec3 materialAlbedo(const Scene& scene, const Material& m, float tu, float tv) {
   const Texture& tex = *scene.textures[size_t(m.texture)];
+  m.transform.apply(tu, tv);  // KHR_texture_transform, in the file's uv convention
   return m.baseColorFactor * tex.sample(tu, tv, m.wrapS, m.wrapT);
 }
 
@@ -168,6 +169,81 @@ Vec3 primitiveAlbedo(const Scene& scene, const Primitive& prim, const uint32_t* 
   const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
   const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
   return materialAlbedo(scene, *m, t0[0] * w + t1[0] * u + t2[0] * v, t0[1] * w + t1[1] * u + t2[1] * v);
+}
+// The shading normal a normal map gives (docs/math.md §16). `front`: the
+// unit interpolated vertex normal (or the triangle's, without normals) in
+// world space, on the side the triangle's winding and its normals agree on,
+// before the two-sided flip; ng: the geometric normal facing the ray; dir:
+// the unit ray direction. `fallback` (the unmapped shading normal) when the
+// tangent frame or the map's normal is degenerate.
+Vec3 normalMapped(const Scene& scene, const Primitive& prim, const uint32_t* tri, float u, float v,
+                  const Affine* toWorld, Vec3 front, Vec3 ng, Vec3 dir, Vec3 fallback) {
+  const Material& m = scene.materials[size_t(prim.material)];
+  const float w = 1.0f - u - v;
+  const float* q0 = &prim.tangents[size_t(tri[0]) * 4];
+  const float* q1 = &prim.tangents[size_t(tri[1]) * 4];
+  const float* q2 = &prim.tangents[size_t(tri[2]) * 4];
+  Vec3 t(q0[0] * w + q1[0] * u + q2[0] * v, q0[1] * w + q1[1] * u + q2[1] * v, q0[2] * w + q1[2] * u + q2[2] * v);
+  float sign = q0[3] * w + q1[3] * u + q2[3] * v < 0.0f ? -1.0f : 1.0f;
+  if (toWorld) {
+    // Tangents are surface directions (vectors); a mirroring transform
+    // reverses cross(N, T) against the transformed bitangent, and the
+    // world winding of a mesh without normals against its object-space
+    // front (Affine::normal keeps the latter).
+    t = toWorld->vector(t);
+    if (toWorld->determinant() < 0.0f) {
+      sign = -sign;
+      if (prim.normals.empty()) front = -front;
+    }
+  }
+  // Gram-Schmidt: T in the plane of the (interpolated) normal.
+  t = t - front * dot(front, t);
+  const float tLen = length(t);
+  if (!(tLen > 0.0f) || !std::isfinite(tLen)) return fallback;
+  const Vec3 T = t * (1.0f / tLen);
+  const Vec3 B = cross(front, T) * sign;
+  // The texture lookup at the primitive's uv (file convention) through the
+  // map's KHR_texture_transform.
+  const float* u0 = &prim.uvs[size_t(tri[0]) * 2];
+  const float* u1 = &prim.uvs[size_t(tri[1]) * 2];
+  const float* u2 = &prim.uvs[size_t(tri[2]) * 2];
+  float tu = u0[0] * w + u1[0] * u + u2[0] * v, tv = u0[1] * w + u1[1] * u + u2[1] * v;
+  m.normalTransform.apply(tu, tv);
+  const Vec3 c = scene.dataTextures[size_t(m.normalTexture)]->sample(tu, tv, m.normalWrapS, m.normalWrapT);
+  // glTF 2.0 3.9.3: (2r - 1, 2g - 1, 2b - 1), x and y scaled by `scale`.
+  const float x = (2.0f * c.x - 1.0f) * m.normalScale, y = (2.0f * c.y - 1.0f) * m.normalScale;
+  const float z = 2.0f * c.z - 1.0f;
+  // A flat texel (or scale 0) is the interpolated normal itself: returned
+  // as it is, so a flat map renders as no map, bit for bit, rather than
+  // through a renormalization's rounding.
+  if (x == 0.0f && y == 0.0f && z > 0.0f) return fallback;
+  // A rotated texture turns the map's axes on the surface by the inverse
+  // rotation (docs/math.md §16.3).
+  const float cr = m.normalTransform.cosR, sr = m.normalTransform.sinR;
+  const float xs = cr * x + sr * y, ys = cr * y - sr * x;
+  Vec3 n = T * xs + B * ys + front * z;
+  const float nLen = length(n);
+  if (!(nLen > 0.0f) || !std::isfinite(nLen)) return fallback;
+  n = n * (1.0f / nLen);
+  if (dot(front, ng) < 0.0f) n = -n;  // two-sided, as the unmapped normal
+  // Keep the view's mirror direction above the geometric surface
+  // (docs/math.md §16.4): with I towards the eye and R = 2 (n.I) n - I, a
+  // reflection below the plane (R.ng < q) is lifted to elevation q at its
+  // azimuth, and n becomes the half vector of I and the lifted R.
+  const Vec3 I = -dir;
+  const float cosView = dot(ng, I);
+  const float q = std::min(0.9f * cosView, 0.01f);
+  const Vec3 R = n * (2.0f * dot(n, I)) - I;
+  const float rUp = dot(R, ng);
+  if (rUp >= q) return n;
+  const Vec3 flat = R - ng * rUp;
+  const float flatLen = length(flat);
+  const Vec3 lifted = flatLen > 0.0f && std::isfinite(flatLen)
+                          ? flat * (std::sqrt(std::max(0.0f, 1.0f - q * q)) / flatLen) + ng * q
+                          : ng;
+  const Vec3 h = I + lifted;
+  const float hLen = length(h);
+  return hLen > 0.0f && std::isfinite(hLen) ? h * (1.0f / hLen) : ng;
 }
 }  // namespace
 
@@ -220,6 +296,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   out.ng = ng;
 
   Vec3 ns = ng;
+  Vec3 front = flipped ? -ng : ng;  // the winding's side, before facing the ray
   if (!prim.normals.empty()) {
     Vec3 n = prim.normals[i0] * w + prim.normals[i1] * u + prim.normals[i2] * v;
     if (toWorld) n = toWorld->normal(n);
@@ -227,9 +304,13 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) {
       n = n * (1.0f / len);
+      front = n;
       ns = dot(n, ng) < 0.0f ? -n : n;  // two-sided: the side the ray came from
     }
   }
+  // Only primitives whose material has a normal map carry tangents (and
+  // only when the load kept normal maps).
+  if (!prim.tangents.empty()) ns = normalMapped(scene, prim, tri, u, v, toWorld, front, ng, out.dir, ns);
   out.ns = ns;
 
   if (albedo) out.albedo = primitiveAlbedo(scene, prim, tri, u, v);
@@ -399,9 +480,11 @@ void computeSurfaceHits(const Scene& scene, const RayHit* rays, const uint32_t* 
     const unsigned geomID = rh.hit.geomID, instID = rh.hit.instID[0];
     const Affine* xf = nullptr;
     const Primitive& prim = scene.primitiveAt(geomID, instID, rh.ray.time, moved, &xf);
-    // Subdivision surfaces and moving instances (a transform per ray time,
-    // which primitiveAt puts in `moved`): the scalar form.
-    if (prim.subdivision || xf == &moved) {
+    // Subdivision surfaces, moving instances (a transform per ray time,
+    // which primitiveAt puts in `moved`) and normal-mapped primitives (a
+    // texture lookup per hit, which dwarfs what the lanes save): the scalar
+    // form.
+    if (prim.subdivision || xf == &moved || !prim.tangents.empty()) {
       computeSurfaceHit(scene, rh, albedo, h);
       continue;
     }
@@ -464,7 +547,8 @@ float surfaceRoughness(const Scene& scene, const SurfaceHit& h) {
   const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
   const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
   const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
-  const float tu = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV, tv = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  float tu = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV, tv = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  m->roughnessTransform.apply(tu, tv);
   // G is roughness (glTF 2.0 3.9.2); the product stays in [0, 1] (the factor
   // is checked at load, texels are in [0, 1]) up to rounding, clamped.
   const float r = m->roughnessFactor * tex.sample(tu, tv, m->roughnessWrapS, m->roughnessWrapT).y;

@@ -177,6 +177,9 @@ def test_scene_errors_match_cli(tmp_path):
     with pytest.raises(obscura.Error) as e:
         obscura.Scene(SCENE, subdiv="bogus")
     assert str(e.value) == cli_error("render", SCENE, "-o", str(tmp_path / "x.exr"), "-q", "--subdiv", "bogus")
+    with pytest.raises(obscura.Error) as e:
+        obscura.Scene(SCENE, normal_maps="maybe")
+    assert str(e.value) == cli_error("render", SCENE, "-o", str(tmp_path / "x.exr"), "-q", "--normal-maps", "maybe")
 
 
 def test_degenerate_scene_with_automatic_camera_is_an_error(tmp_path):
