@@ -13,6 +13,8 @@
 // seeds it is the median. A config may carry render settings beside its
 // parameters (target=E, min-spp=N, denoise=on; parseCompareConfig).
 #include "app/compare.h"
+#include "core/util/input_file.h"
+#include "core/util/memory_budget.h"
 
 #include "core/util/hash.h"
 
@@ -46,6 +48,7 @@ namespace {
 using Hash64 = Fnv1a64;
 
 std::string fileHash(const std::string& path) {
+  checkInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path + ": cannot read");
   Hash64 h;
@@ -74,16 +77,19 @@ std::vector<int> parseSppList(const std::string& s) {
   return v;
 }
 
-std::vector<double> parseTargets(const std::string& s) {
-  if (s.empty()) return {0.1, 0.05, 0.02, 0.01};
+// A comma-separated list of error targets, sorted largest first. `option`
+// and `what` name them in the message; FLIP targets are at most 1 (FLIP's
+// range).
+std::vector<double> parseTargets(const std::string& s, const char* option, const char* what, double most) {
   std::vector<double> v;
   std::stringstream ss(s);
   std::string item;
   while (std::getline(ss, item, ',')) {
     char* end = nullptr;
     const double t = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0' || !(t > 0) || !std::isfinite(t))
-      throw Error("--targets: expected a comma-separated list of positive RMSE values, got '" + s + "'");
+    if (item.empty() || *end != '\0' || !(t > 0) || !(t <= most))
+      throw Error(std::string(option) + ": expected a comma-separated list of " + what + " values" +
+                  (std::isfinite(most) ? " in (0, " + formatFloat(most) + "]" : "") + ", got '" + s + "'");
     v.push_back(t);
   }
   std::sort(v.rbegin(), v.rend());
@@ -99,12 +105,18 @@ const char* kCsvHeaderV1 = "key,config,integrator,params,spp,seeds,time_s,rays,r
 const char* kCsvHeaderV2 =
     "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
     "mean_spp,denoise_s";
-// The current columns: V2's, then each seed's MSE and time (';'-separated:
+// The FLIP columns (docs/compare.md "FLIP") after those: the files written
+// before the per-seed values (cells of the older files have no FLIP yet,
+// flipPpd 0).
+const char* kCsvHeaderV3 =
+    "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
+    "mean_spp,denoise_s,flip,flip_hdr,flip_ppd";
+// The current columns: V3's, then each seed's MSE and time (';'-separated:
 // the intervals of docs/compare.md "Uncertainty" are computed from them),
 // then the intervals themselves (empty with one seed).
 const char* kCsvHeader =
     "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
-    "mean_spp,denoise_s,seed_mse,seed_time_s,rmse_lo,rmse_hi,time_lo,time_hi";
+    "mean_spp,denoise_s,flip,flip_hdr,flip_ppd,seed_mse,seed_time_s,rmse_lo,rmse_hi,time_lo,time_hi";
 
 std::string joinSeeds(const std::vector<double>& v) {
   std::string s;
@@ -149,8 +161,9 @@ std::string csvRow(const Cell& c) {
          "," + fmt(c.error.relMse) + "," + fmt(c.error.mae) + "," + fmt(c.error.p99) + "," +
          (c.bv ? fmt(c.bv->bias2) : "") + "," + (c.bv ? fmt(c.bv->variance) : "") + "," + csvQuote(c.pass) + "," +
          (c.targetError > 0 ? fmt(c.targetError) : "") + "," + (c.minSpp > 0 ? std::to_string(c.minSpp) : "") + "," +
-         (c.denoise ? "on" : "off") + "," + fmt(c.meanSpp) + "," + fmt(c.denoiseSeconds) + "," + joinSeeds(c.seedMse) +
-         "," + joinSeeds(c.seedSeconds) + "," + intervalColumns(c);
+         (c.denoise ? "on" : "off") + "," + fmt(c.meanSpp) + "," + fmt(c.denoiseSeconds) + "," + fmt(c.flip) + "," +
+         fmt(c.flipHdr) + "," + fmt(c.flipPpd) + "," + joinSeeds(c.seedMse) + "," + joinSeeds(c.seedSeconds) + "," +
+         intervalColumns(c);
 }
 
 // Splits one CSV line (quoted fields with "" escapes).
@@ -180,9 +193,10 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
   std::map<std::string, Cell> cells;
   std::ifstream in(path);
   std::string line;
-  if (!in || !std::getline(in, line) || (line != kCsvHeader && line != kCsvHeaderV2 && line != kCsvHeaderV1))
+  if (!in || !std::getline(in, line) ||
+      (line != kCsvHeader && line != kCsvHeaderV3 && line != kCsvHeaderV2 && line != kCsvHeaderV1))
     return cells;
-  const size_t fields = line == kCsvHeader ? 26 : line == kCsvHeaderV2 ? 20 : 15;
+  const size_t fields = line == kCsvHeader ? 29 : line == kCsvHeaderV3 ? 23 : line == kCsvHeaderV2 ? 20 : 15;
   while (std::getline(in, line)) {
     const std::vector<std::string> f = csvFields(line);
     if (f.size() != fields) continue;
@@ -202,7 +216,8 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
         c.denoise = f[17] == "on";
         c.meanSpp = std::stod(f[18]), c.denoiseSeconds = std::stod(f[19]);
       }
-      if (fields >= 26) c.seedMse = splitSeeds(f[20]), c.seedSeconds = splitSeeds(f[21]);
+      if (fields >= 23) c.flip = std::stod(f[20]), c.flipHdr = std::stod(f[21]), c.flipPpd = std::stod(f[22]);
+      if (fields >= 29) c.seedMse = splitSeeds(f[23]), c.seedSeconds = splitSeeds(f[24]);
       // A row without one value per seed (an older file) cannot give the
       // intervals: the cell is measured again.
       if (c.seeds >= 2 && (c.seedMse.size() != size_t(c.seeds) || c.seedSeconds.size() != size_t(c.seeds))) continue;
@@ -302,7 +317,7 @@ namespace {
 struct ComparePlan {
   std::vector<CompareConfig> configs;
   std::vector<int> spps;
-  std::vector<double> targets;
+  std::vector<double> targets, flipTargets;
   RenderSettings base;  // resolution, sky, threads, motion blur; spp and seed per render
   fs::path dir;
   std::optional<PassImage> givenReference;
@@ -315,12 +330,17 @@ ComparePlan planCompare(const CompareArgs& a) {
   if (a.configs.empty()) throw Error("-c: at least one CONFIG is required, e.g. -c ao -c transfer:depth=1");
   for (const auto& t : a.configs) p.configs.push_back(parseCompareConfig(t));
   p.spps = parseSppList(a.sppList);
-  p.targets = parseTargets(a.targets);
+  p.targets = a.targets.empty() ? std::vector<double>{0.1, 0.05, 0.02, 0.01}
+                                : parseTargets(a.targets, "--targets", "positive RMSE", INFINITY);
+  p.flipTargets = parseTargets(a.targetsFlip, "--targets-flip", "FLIP", 1.0);
+  if (!(a.flipPpd >= 1 && a.flipPpd <= 1000))
+    throw Error("--flip-ppd: pixels per degree must be in [1, 1000], got " + formatFloat(a.flipPpd));
   if (a.seeds < 1 || a.seeds > 64) throw Error("--seeds: must be in [1, 64], got " + std::to_string(a.seeds));
   if (a.referenceSpp < 2) throw Error("--reference-spp: must be at least 2, got " + std::to_string(a.referenceSpp));
   if (a.seed < 0 || a.seed > 0xffffffffLL - 64) throw Error("--seed: must be in [0, 4294967231]");
   checkThreads(a.threads);
   parseResolution(a.res, p.base.width, p.base.height);
+  sceneOptions(a);  // --max-memory, before the first allocation it bounds
   p.base.sky = parseSky(a.sky);
   // Under a map the cells are measured by their shaded.* (the radiance),
   // which needs the albedo AOV.
@@ -330,6 +350,17 @@ ComparePlan planCompare(const CompareArgs& a) {
   p.base.motionBlur = !a.shutter.empty();
   p.base.aovs = p.lit;
   p.base.progress = !a.quiet;
+  // What compare holds at once besides the scene: a render's film, the
+  // reference, and a cell's pass with the film made of it (RGBA planes
+  // each): refused up front, as render's checkFilmMemory does.
+  {
+    const uint64_t pixels = uint64_t(p.base.width) * uint64_t(p.base.height);
+    const uint64_t need = filmBytes(p.base.width, p.base.height, p.base.aovs) + 3 * pixels * 4 * sizeof(float);
+    requireMemory(need, "--res " + a.res + ": the films");
+    if (const uint64_t avail = availableMemoryBytes(); avail > 0 && need > avail)
+      throw Error("--res " + a.res + ": the films need " + formatBytes(need) + ", but only " + formatBytes(avail) +
+                  " of memory is available");
+  }
   if (a.output.empty()) throw Error("-o: an output directory is required");
   p.dir = fs::path(a.output);
   if (fs::exists(p.dir) && !fs::is_directory(p.dir)) throw Error(a.output + ": exists and is not a directory");
@@ -383,6 +414,7 @@ class CompareRun {
     viewHash_.add(a.subdiv + "/" + a.subdivBackend + "/" + std::to_string(a.subdivLevel) + "/" + formatFloat(a.subdivEdge));
     viewHash_.add(a.displace + "/" + formatFloat(a.displaceScale) + "/" + formatFloat(a.displaceMidlevel));
     viewHash_.add(nonDefaultRoles(scene.objects));
+    if (a.normalMaps != "on") viewHash_.add("normal-maps/" + a.normalMaps);  // only off: keys stay as they were
     // The pose: another frame (or other animations) is another image. Added
     // only with a frame, so the keys of still renders stay as they were.
     if (!a.frame.empty()) {
@@ -416,7 +448,7 @@ class CompareRun {
       s.targetError = float(cfg->targetError);
       s.minSpp = std::min(cfg->minSpp, spp);
       s.denoise = cfg->denoise;
-      s.aovs = s.aovs || cfg->denoise;  // the denoiser is guided by N, Z and W.error
+      s.aovs = s.aovs || cfg->denoise;  // the denoiser is guided by N, Z and W_error
     }
     return s;
   }
@@ -438,6 +470,14 @@ class CompareRun {
                                .stats = stats, .filterName = "box", .robust = a_.robust, .sceneArgs = &a_,
                                .scene = &scene_, .bvhSeconds = scene_.buildSeconds()});
   }
+  // Whether a kept cell's FLIP is at this run's --flip-ppd (the CSV keeps 9
+  // digits).
+  bool sameFlipPpd(double ppd) const { return std::abs(ppd - a_.flipPpd) <= 1e-7 * a_.flipPpd; }
+  // Whether a cell of an earlier run can be kept as far as FLIP goes: it has
+  // FLIP at this ppd, or one seed, whose pass (passes/) then gives it
+  // exactly; with more seeds FLIP is their mean and the cell is rendered
+  // again.
+  bool keepFlip(const Cell& c) const { return sameFlipPpd(c.flipPpd) || c.seeds == 1; }
   // One cell: renders its seeds and measures them; nullopt when interrupted.
   std::optional<Cell> measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d, const ParamSet& params,
                                   int spp, const Reference& ref, Cell c) const;
@@ -520,7 +560,7 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
                                             const ParamSet& params, int spp, const Reference& ref, Cell c) const {
   std::vector<PassImage> renders;
   std::vector<double> seconds, denoiseSeconds;
-  double mse = 0, rel = 0, mae = 0, p99 = 0, meanSpp = 0;
+  double mse = 0, rel = 0, mae = 0, p99 = 0, meanSpp = 0, flip = 0, flipHdr = 0;
   for (int k = 0; k < a_.seeds; ++k) {
     RenderStats stats;
     const RenderSettings s = settingsFor(&cfg, spp, uint32_t(a_.seed) + uint32_t(k));
@@ -536,6 +576,8 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
     mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
     c.seedMse.push_back(e.rmse * e.rmse);
     c.error.values = e.values;
+    const FlipError f = flipError(*img, ref.image, a_.flipPpd);
+    flip += f.ldr, flipHdr += f.hdr;
     // The time to this pass: the render loop and the denoiser after it
     // (RenderStats keeps them apart; a denoised cell pays both).
     seconds.push_back(stats.seconds + stats.denoiseSeconds);
@@ -546,6 +588,7 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
   }
   const double K = double(a_.seeds);
   c.error.rmse = std::sqrt(mse / K), c.error.relMse = rel / K, c.error.mae = mae / K, c.error.p99 = p99 / K;
+  c.flip = flip / K, c.flipHdr = flipHdr / K, c.flipPpd = a_.flipPpd;
   std::sort(seconds.begin(), seconds.end());
   std::sort(denoiseSeconds.begin(), denoiseSeconds.end());
   c.seconds = seconds[seconds.size() / 2];
@@ -577,9 +620,16 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) co
       ck.add(ref.key).add(viewHash_.hex()).add(cfg.canonical).add(std::to_string(spp)).add(std::to_string(a_.seed));
       ck.add(std::to_string(a_.seeds)).add(OBSCURA_VERSION);
       const std::string key = ck.hex();
-      if (auto it = previous.find(key); it != previous.end() && fs::exists(plan_.dir / it->second.pass)) {
+      if (auto it = previous.find(key); it != previous.end() && fs::exists(plan_.dir / it->second.pass) &&
+                                        keepFlip(it->second)) {
         Cell c = it->second;
         c.config = cfg.text;
+        if (!sameFlipPpd(c.flipPpd)) {  // one seed: its pass is all FLIP needs
+          PassImage pass = readPass((plan_.dir / c.pass).string());
+          scaleRgb(pass, ref.scale);
+          const FlipError f = flipError(pass, ref.image, a_.flipPpd);
+          c.flip = f.ldr, c.flipHdr = f.hdr, c.flipPpd = a_.flipPpd;
+        }
         cells.push_back(c);
         if (!a_.quiet)
           std::fprintf(stderr, "[%zu/%zu] %s @ %d spp: done earlier (kept)\n", done, total, cfg.text.c_str(), spp);
@@ -593,8 +643,9 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) co
       std::optional<Cell> measured = measureCell(cfg, d, params, spp, ref, std::move(c));
       if (!measured) return false;
       if (!a_.quiet)
-        std::fprintf(stderr, "        %.3f s  %.3g Mrays  mean spp %.4g  RMSE %.4g  MAE %.4g  p99 %.4g%s\n",
-                     measured->seconds, double(measured->rays) * 1e-6, measured->meanSpp, measured->error.rmse, measured->error.mae, measured->error.p99,
+        std::fprintf(stderr, "        %.3f s  %.3g Mrays  mean spp %.4g  RMSE %.4g  MAE %.4g  p99 %.4g  FLIP %.4g  HDR-FLIP %.4g%s\n",
+                     measured->seconds, double(measured->rays) * 1e-6, measured->meanSpp, measured->error.rmse,
+                     measured->error.mae, measured->error.p99, measured->flip, measured->flipHdr,
                      measured->bv ? (" bias2 " + fmt(measured->bv->bias2) + " var " + fmt(measured->bv->variance)).c_str()
                                   : "");
       cells.push_back(std::move(*measured));
@@ -624,8 +675,10 @@ void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells) co
     report.lighting = "uniform sky " + a_.sky + "; errors are of W (R,G,B)";
   }
   report.reference = &ref.image;
-  report.passScale = ref.scale;
   report.targets = plan_.targets;
+  report.flipTargets = plan_.flipTargets;
+  report.flipPpd = a_.flipPpd;
+  report.passScale = ref.scale;
   report.cells = cells;
   writeCompareReport(report);
   printCompareSummary(report, stdout);

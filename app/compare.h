@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "app/options.h"
+#include "core/image/flip.h"
 
 namespace obscura {
 
@@ -19,6 +20,8 @@ struct CompareArgs : SceneArgs {
   std::string sppList = "4,16,64";
   int seeds = 1;                    // renders per cell (>= 2: bias^2 and variance)
   std::string targets;              // RMSE targets for the summary; empty: 0.1,0.05,0.02,0.01
+  std::string targetsFlip;          // FLIP targets for the summary; empty: none
+  double flipPpd = kFlipDefaultPpd;  // FLIP's observer, pixels per degree (docs/compare.md "FLIP")
   std::string res = "320x180";
   std::string camera;
   int threads = 0;

@@ -160,6 +160,8 @@ ExrOptions passHeader(const PassInfo& i) {
     exr.attributes.push_back({"obscura:subdivLevel", a->subdivLevel});
     exr.attributes.push_back({"obscura:subdivEdge", float(a->subdivEdge)});
     exr.attributes.push_back({"obscura:maxMemoryGiB", float(a->maxMemoryGiB)});
+    // Only when off, so the headers of renders that keep the default stay as they were.
+    if (a->normalMaps != "on") str("obscura:normalMaps", a->normalMaps);
     if (!a->displace.empty()) {
       str("obscura:displace", std::filesystem::absolute(a->displace).lexically_normal().string());
       str("obscura:displaceScale", formatFloat(a->displaceScale));  // reads back as the same double

@@ -22,6 +22,7 @@
 #include <obscura/integrator.h>
 #include "core/render/plugin_loader.h"
 #include <obscura/plugin.h>
+#include "core/util/memory_budget.h"
 #include "core/util/progress.h"
 #include "core/render/pixel_sums.h"
 #include "core/render/render.h"
@@ -53,21 +54,30 @@ void addEnvironmentOptions(CLI::App* cmd, EnvironmentArgs& a) {
 }
 
 void addSceneOptions(CLI::App* cmd, SceneArgs& a) {
+  cmd->add_option("--normal-maps", a.normalMaps,
+                  "on: glTF normal maps (normalTexture) bend the shading normal of every pass; off: ignore them");
   cmd->add_option("--subdiv", a.subdiv, "Subdivide OBJ cages: none, catmull-clark or loop (OpenSubdiv, limit normals)");
   cmd->add_option("--subdiv-level", a.subdivLevel, "Uniform subdivision level, 0..10 (each level: 4x the faces)");
   cmd->add_option("--subdiv-backend", a.subdivBackend,
                   "osd: OpenSubdiv refines to triangles at load; embree: Embree's subdivision surfaces (Catmull-Clark), tessellated while the BVH builds");
   cmd->add_option("--subdiv-edge", a.subdivEdge,
                   "Adaptive refinement instead of --subdiv-level: longest refined edge in pixels from the render camera (osd: per mesh, embree: per edge)");
-  cmd->add_option("--max-memory", a.maxMemoryGiB, "Refuse a subdivision that would need more than this many GiB");
+  cmd->add_option("--max-memory", a.maxMemoryGiB,
+                  "Memory budget of the process in GiB: a scene, film, texture or image estimated to need more is refused before the work");
   cmd->add_option("--displace", a.displace, "Height map (PNG/EXR/...) displacing a subdivided OBJ cage along its limit normals");
   cmd->add_option("--displace-scale", a.displaceScale, "Displacement: scene units per unit of height");
   cmd->add_option("--displace-midlevel", a.displaceMidlevel, "Displacement: the height that does not move the surface");
   cmd->add_option("--object", a.objects,
                   "Roles of objects by name (glob): GLOB:role=value[,role=value...], roles occluder, camera, matte "
                   "(true/false) and occlusion (all/self/others); repeatable, applied in order after the file's extras");
+  // An empty value is refused, not taken as no frame: a farm script whose
+  // variable is unset passes `--frame ""`, and out.####.exr would then be
+  // written under that very name, every task over the last.
   cmd->add_option("--frame", a.frame,
-                  "Apply the glTF animations at this frame (time = FRAME / --fps; fractional allowed; default: the static pose)");
+                  "Apply the glTF animations at this frame (time = FRAME / --fps; fractional allowed; default: the static pose)")
+      ->check(CLI::Validator(
+          [](std::string& v) { return v.empty() ? std::string("empty frame number (an unset variable?); give a number or leave --frame out") : std::string(); },
+          "FRAME"));
   cmd->add_option("--fps", a.fps, "Frames per second of --frame and --frames (> 0)");
   cmd->add_option("--animation", a.animations, "Animations a frame plays: names or indices, comma-separated (default: all)")
       ->delimiter(',');
@@ -300,6 +310,7 @@ int runInfo(const InfoArgs& a) {
     std::printf("           [%zu] %s  baseColorFactor (%g, %g, %g)%s%s", i, m.name.c_str(), m.baseColorFactor.x,
                 m.baseColorFactor.y, m.baseColorFactor.z, m.texture >= 0 ? "  x texture" : "", mode);
     if (m.alphaMode != AlphaMode::Opaque) std::printf(" (alpha %g%s)", m.alpha, m.alphaMode == AlphaMode::Mask ? (", cutoff " + formatFloat(m.alphaCutoff)).c_str() : "");
+    if (m.normalTexture >= 0) std::printf("  normal map (scale %s)", formatFloat(m.normalScale).c_str());
     std::printf("\n");
   }
   std::printf("textures   %zu\n", scene->textures.size());
@@ -311,6 +322,13 @@ int runInfo(const InfoArgs& a) {
   std::printf("bvh build  %.3f s\n", scene->buildSeconds());
   std::printf("memory     %.1f MiB in Embree (peak %.1f), %.1f MiB of attributes\n", double(scene->embreeBytes()) / (1 << 20),
               double(scene->embreePeakBytes()) / (1 << 20), double(scene->attributeBytes()) / (1 << 20));
+  // What the loader estimated before building (and held to --max-memory),
+  // beside the film of a render at --res (docs/cli.md "Memory").
+  if (const GltfDocument* doc = source.document()) {
+    MemoryEstimate e = estimateSceneMemory(*doc, sceneOptions(a));
+    e.add("film at --res", filmBytes(w, h, true));
+    std::printf("estimate   %s of %s budget\n", e.describe().c_str(), formatBytes(memoryBudget()).c_str());
+  }
   if (environment) std::printf("%s", describeEnvironment(*environment).c_str());
   return 0;
 }
@@ -343,7 +361,7 @@ int main(int argc, char** argv) {
       ->type_name("E")
       ->default_str("off");
   render->add_flag("--denoise", r.denoise,
-                   "Edge-aware denoise of the pass, guided by N, Z, W.error and the objects (docs/sampling.md \"Denoising\"); the raw "
+                   "Edge-aware denoise of the pass, guided by N, Z, W_error and the objects (docs/sampling.md \"Denoising\"); the raw "
                    "pass is kept as noisy.R/G/B");
   render->add_option("--min-spp", r.minSpp, "Adaptive sampling: the samples every pixel takes before any may stop (but the background, see --background-spp)")
       ->default_str("min(16, --spp)");
@@ -405,6 +423,8 @@ int main(int argc, char** argv) {
       ->excludes(refOpt);
   compare->add_option("--seeds", cmp.seeds, "Renders per cell with seeds seed..seed+N-1 (>= 2: bias^2 and variance)");
   compare->add_option("--targets", cmp.targets, "RMSE targets for the summary (default 0.1,0.05,0.02,0.01)");
+  compare->add_option("--targets-flip", cmp.targetsFlip, "FLIP targets in (0, 1] for the summary (default none)");
+  compare->add_option("--flip-ppd", cmp.flipPpd, "FLIP's observer: pixels per degree (default 67.02: 4K, 0.7 m wide, at 0.7 m)");
   compare->add_option("--res", cmp.res, "Resolution WIDTHxHEIGHT");
   compare->add_option("--camera", cmp.camera, "Camera name or index in the file, or 'auto'");
   compare->add_option("--threads", cmp.threads, "Worker threads (0 = all cores)");
@@ -439,6 +459,8 @@ int main(int argc, char** argv) {
   CLI::App* merge = app.add_subcommand("merge", "Assemble region renders (render --region) into the full frame");
   merge->add_option("output", mergeOutput, "The full-frame EXR to write (atomically)")->required();
   merge->add_option("tiles", mergeTiles, "Region EXRs of one render that together cover the frame exactly once")->required();
+  double mergeMaxMemoryGiB = double(kDefaultMemoryBudget) / double(uint64_t(1) << 30);
+  merge->add_option("--max-memory", mergeMaxMemoryGiB, "Refuse a merge whose frame would need more than this many GiB");
   merge->footer(
       "The result equals a single full render bit for bit: every channel, the data window the frame, the header the "
       "tiles' with obscura:region the frame, obscura:rays:*, renderTime and bvhBuildTime summed over the tiles and "
@@ -499,6 +521,9 @@ int main(int argc, char** argv) {
     if (info->parsed()) return runInfo(infoArgs);
     if (sky->parsed()) return runSky(skyArgs);
     if (merge->parsed()) {
+      if (!(mergeMaxMemoryGiB > 0) || !std::isfinite(mergeMaxMemoryGiB) || mergeMaxMemoryGiB > 1e6)
+        throw Error("--max-memory: expected a positive number of GiB");
+      setMemoryBudget(uint64_t(mergeMaxMemoryGiB * double(uint64_t(1) << 30)));
       mergeRegions(mergeOutput, mergeTiles);
       return 0;
     }

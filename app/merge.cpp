@@ -1,4 +1,5 @@
 #include "app/merge.h"
+#include "core/util/input_file.h"
 
 #include <obscura/error.h>
 #include "core/image/image_io.h"
@@ -11,6 +12,7 @@ namespace obscura {
 // channel layout), so it lives in the module loaded on demand.
 void mergeRegions(const std::string& output, const std::vector<std::string>& tiles) {
   if (tiles.empty()) throw Error("merge: no tiles given");
+  for (const std::string& t : tiles) checkInputFile(t, "merge: TILE ");
   // Before any work: the output may not be one of the tiles (it would be
   // replaced by the merge of itself and the others), and is written as
   // OpenEXR, so its name says so (as render's -o).

@@ -13,6 +13,7 @@
 #include <obscura/params.h>
 #include "core/render/plugin_loader.h"
 #include <obscura/plugin.h>
+#include "core/util/memory_budget.h"
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -173,6 +174,9 @@ void loadPlugins(const std::vector<std::string>& paths) {
 LoadOptions sceneOptions(const SceneArgs& a) {
   LoadOptions o;
   o.robust = a.robust;
+  if (a.normalMaps != "on" && a.normalMaps != "off")
+    throw Error("--normal-maps: expected on or off, got '" + a.normalMaps + "'");
+  o.normalMaps = a.normalMaps == "on";
   if (a.subdiv == "catmull-clark") o.subdivision = true, o.scheme = SubdivisionScheme::CatmullClark;
   else if (a.subdiv == "loop") o.subdivision = true, o.scheme = SubdivisionScheme::Loop;
   else if (a.subdiv != "none") throw Error("--subdiv: expected none, catmull-clark or loop, got '" + a.subdiv + "'");
@@ -194,6 +198,9 @@ LoadOptions sceneOptions(const SceneArgs& a) {
   o.displacementScale = a.displaceScale;
   o.displacementMidlevel = a.displaceMidlevel;
   o.maxMemoryBytes = size_t(a.maxMemoryGiB * double(size_t(1) << 30));
+  // The budget of the whole process (core/util/memory_budget.h): images
+  // read outside the scene (references, maps, tiles) are held to it too.
+  setMemoryBudget(o.maxMemoryBytes);
   for (const std::string& text : a.objects) o.objectOverrides.push_back(parseObjectOverride(text));
   if (!(a.fps > 0) || !std::isfinite(a.fps) || a.fps > 1e6)
     throw Error("--fps: expected a positive number of frames per second (at most 1e6), got " + formatFloat(a.fps));

@@ -58,6 +58,9 @@ Camera selectCamera(const Scene& scene, const std::string& want, float aspect);
 // How scenes are loaded: the options `render` and `compare` share.
 struct SceneArgs {
   bool robust = false;
+  // --normal-maps on|off: glTF normalTexture bends the shading normal
+  // (LoadOptions::normalMaps).
+  std::string normalMaps = "on";
   std::string subdiv = "none";  // none | catmull-clark | loop (OBJ cages)
   std::string subdivBackend = "osd";  // osd | embree
   int subdivLevel = 2;

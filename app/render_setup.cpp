@@ -1,7 +1,9 @@
 #include "app/render_setup.h"
+#include "core/util/input_file.h"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
@@ -21,21 +23,24 @@ namespace obscura {
 
 namespace {
 
-// A layer name: a letter, then letters, digits or '_'; not a channel or
-// layer the film writes itself.
+// A layer name: a letter, then letters, digits or '_'; not a layer the film
+// writes itself nor one a compositor takes for its own (reservedLayerNames).
 void checkLayerName(const std::string& layer, const std::string& text) {
   const bool ok = !layer.empty() && std::isalpha(static_cast<unsigned char>(layer[0])) &&
                   layer.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_") == std::string::npos;
   if (!ok) throw Error("--pass '" + text + "': the layer name '" + layer + "' must be a letter followed by letters, digits or '_'");
-  for (const char* taken : {"R", "G", "B", "A", "Z", "N", "albedo", "shaded"})
-    if (layer == taken) throw Error("--pass '" + text + "': the layer name '" + layer + "' is taken by a channel Obscura writes");
-  if (layer.rfind("Crypto", 0) == 0) throw Error("--pass '" + text + "': layer names starting 'Crypto' are Cryptomatte's");
+  for (const ReservedLayerName& r : reservedLayerNames())
+    if (r.prefix ? layer.rfind(r.name, 0) == 0 : layer == r.name)
+      throw Error("--pass '" + text + "': the layer name '" + layer + "' is reserved: " + r.owner +
+                  (r.prefix ? " (every name starting '" + std::string(r.name) + "')" : std::string()) +
+                  "; docs/exr.md \"Layer names --pass refuses\" lists them");
 }
 
 // The passes of a render, the primary first: --pass (with --primary), or
 
 // FNV-1a 64 of a file's bytes, as hex with its size ("" if unreadable).
 std::string fileHash(const std::string& path) {
+  checkInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) return "";
   uint64_t h = 1469598103934665603ull, size = 0;
@@ -77,6 +82,39 @@ std::string attributeText(const HeaderAttribute& h) {
 }
 
 }  // namespace
+
+const std::vector<ReservedLayerName>& reservedLayerNames() {
+  // Why each is refused (issue #37, checked in Blender 3.4's compositor):
+  // Blender's multilayer reader files a channel LAYER.C under the pass
+  // LAYER, and the bare R,G,B,A under "Combined" and Z under "Depth", so a
+  // layer named Combined put six colour channels in one pass and crashed
+  // Blender, and Depth or Alpha mixed into the passes and sockets it makes
+  // itself. Its other render-pass names would be read as those passes. Nuke
+  // merges a layer named like one of its built-in layers into that layer.
+  static const char* const obscura = "a layer Obscura writes itself";
+  static const char* const blender = "a render pass name of Blender's compositor";
+  static const char* const nuke = "a built-in layer of Nuke";
+  static const std::vector<ReservedLayerName> names = {
+      {"R", false, obscura}, {"G", false, obscura}, {"B", false, obscura}, {"A", false, obscura},
+      {"Z", false, obscura}, {"N", false, obscura}, {"albedo", false, obscura}, {"shaded", false, obscura},
+      {"lighting", false, obscura}, {"noisy", false, obscura}, {"W_error", false, obscura}, {"spp", false, obscura},
+      {"Crypto", true, "Cryptomatte's layers"},
+      {"Combined", false, blender}, {"Alpha", false, blender}, {"Depth", false, blender}, {"Mist", false, blender},
+      {"Normal", false, blender}, {"Position", false, blender}, {"Vector", false, blender}, {"UV", false, blender},
+      {"Emit", false, blender}, {"Env", false, blender}, {"AO", false, blender}, {"Shadow", false, blender},
+      {"IndexOB", false, blender}, {"IndexMA", false, blender}, {"DiffDir", false, blender},
+      {"DiffInd", false, blender}, {"DiffCol", false, blender}, {"GlossDir", false, blender},
+      {"GlossInd", false, blender}, {"GlossCol", false, blender}, {"TransDir", false, blender},
+      {"TransInd", false, blender}, {"TransCol", false, blender}, {"SubsurfaceDir", false, blender},
+      {"SubsurfaceInd", false, blender}, {"SubsurfaceCol", false, blender}, {"VolumeDir", false, blender},
+      {"VolumeInd", false, blender}, {"Freestyle", false, blender}, {"BloomCol", false, blender},
+      {"Noisy", true, blender}, {"Denoising", true, blender}, {"Debug", true, blender},
+      {"rgba", false, nuke}, {"rgb", false, nuke}, {"alpha", false, nuke}, {"depth", false, nuke},
+      {"motion", false, nuke}, {"forward", false, nuke}, {"backward", false, nuke}, {"mask", false, nuke},
+      {"rotopaint_mask", false, nuke}, {"deep", false, nuke},
+  };
+  return names;
+}
 
 // True when a and b name the same file (existing or not).
 bool samePath(const std::string& a, const std::string& b) {
@@ -205,7 +243,12 @@ RenderSettings renderSettings(const RenderArgs& args) {
   else if (args.filter == "gaussian") s.filter = PixelFilter::Gaussian;
   else throw Error("--filter: expected box or gaussian, got '" + args.filter + "'");
   s.spp = args.spp;
-  s.targetError = args.targetError;
+  // Read as a double so that a value beyond float's range is named as such
+  // (converted first, 1e300 became inf and was reported as "not finite").
+  if (args.targetError > double(std::numeric_limits<float>::max()))
+    throw Error("--target-error: " + formatFloat(args.targetError) + " is above the largest standard error a pass holds (" +
+                formatFloat(double(std::numeric_limits<float>::max())) + ")");
+  s.targetError = float(args.targetError);
   s.minSpp = args.minSpp;
   if (args.backgroundSpp) {
     // As --min-spp: a setting that would change nothing is refused.
@@ -215,7 +258,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   }
   s.timeLimit = args.timeLimit;
   s.denoise = args.denoise;
-  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
+  if (s.denoise && args.noAovs) throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W_error); drop --no-aovs");
   checkAdaptiveSettings(s);
   s.seed = uint32_t(args.seed);
   s.threads = args.threads;
@@ -274,6 +317,7 @@ void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSp
   checkOutputName(file + ".tmp", "--checkpoint: ", 0);
   RenderSettings cs = s;
   Checkpoint probe(file, a.checkpoint);
+  probe.checkPath();
   cs.checkpoint = &probe;
   checkCheckpointPasses(cs, screenSpace);
 }

@@ -24,7 +24,7 @@ struct RenderArgs : SceneArgs {
   std::vector<std::string> passes;   // --pass LAYER=integrator[:key=value,...]
   std::string primary;               // --primary LAYER
   int spp = 16;
-  float targetError = 0;  // --target-error; 0 = off
+  double targetError = 0;  // --target-error; 0 = off (double: a value beyond float's range is refused by name)
   int minSpp = 0;         // --min-spp; 0 = min(16, spp)
   std::optional<int> backgroundSpp;  // --background-spp (default 4); 0 = no survey
   double timeLimit = 0;   // --time-limit SECONDS; 0 = none
@@ -60,6 +60,17 @@ struct PassSetup {
   std::unique_ptr<Integrator> integrator;
   IntegratorNeeds needs;
 };
+
+// A --pass layer name that is refused: a layer of Obscura's own, or one a
+// compositor reads as its own pass or layer (docs/exr.md "Layer names
+// --pass refuses"). `prefix`: every name starting with it. Matched
+// case-sensitively, as Blender's multilayer reader and Nuke match them.
+struct ReservedLayerName {
+  const char* name;
+  bool prefix;
+  const char* owner;  // completes "is reserved: ..."
+};
+const std::vector<ReservedLayerName>& reservedLayerNames();
 
 // The passes of a render, the primary first: --pass (with --primary), or
 // the single pass of -i/-p. Throws obscura::Error naming the option.

@@ -1,5 +1,7 @@
 #include "app/report.h"
 
+#include "app/bitmap_font.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -41,10 +43,12 @@ std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells) {
   return front;
 }
 
-std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target) {
+std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target, TargetMeasure measure) {
   std::optional<size_t> best;
-  for (size_t i = 0; i < cells.size(); ++i)
-    if (cells[i].error.rmse <= target && (!best || cells[i].seconds < cells[*best].seconds)) best = i;
+  for (size_t i = 0; i < cells.size(); ++i) {
+    const double e = measure == TargetMeasure::Rmse ? cells[i].error.rmse : cells[i].flip;
+    if (e <= target && (!best || cells[i].seconds < cells[*best].seconds)) best = i;
+  }
   return best;
 }
 
@@ -68,19 +72,21 @@ CellIntervals cellIntervals(const ReportCell& c) {
   return {rmseInterval(c.seedMse), timeRange(c.seedSeconds), medianRangeConfidence(int(c.seedSeconds.size()))};
 }
 
-TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target) {
+TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target, TargetMeasure measure) {
   TargetVerdict v;
   v.target = target;
-  v.winner = fastestReaching(cells, target);
+  v.winner = fastestReaching(cells, target, measure);
   if (!v.winner) return v;
   const ReportCell& w = cells[*v.winner];
+  const auto error = [&](const ReportCell& c) { return measure == TargetMeasure::Rmse ? c.error.rmse : c.flip; };
   // The runner-up is another config: the same config at another spp is the
   // same choice, only at another sample count.
   for (size_t i = 0; i < cells.size(); ++i)
-    if (cells[i].config != w.config && cells[i].error.rmse <= target &&
+    if (cells[i].config != w.config && error(cells[i]) <= target &&
         (!v.runnerUp || cells[i].seconds < cells[*v.runnerUp].seconds))
       v.runnerUp = i;
-  if (w.hasIntervals()) v.winnerSurely = cellIntervals(w).rmse.hi <= target;
+  // Only RMSE has an interval (FLIP keeps no per-seed values).
+  if (measure == TargetMeasure::Rmse && w.hasIntervals()) v.winnerSurely = cellIntervals(w).rmse.hi <= target;
   if (v.runnerUp && w.hasIntervals() && cells[*v.runnerUp].hasIntervals())
     v.time = welchTest(w.seedSeconds, cells[*v.runnerUp].seedSeconds);
   return v;
@@ -300,15 +306,15 @@ std::string summaryMarkdown(const CompareReport& r) {
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), ci = ci || c.hasIntervals();
   std::ostringstream s;
   s << "| config | spp | mean spp | time s" << (ci ? " [min, max]" : "") << " | denoise s | Mrays | RMSE"
-    << (ci ? " [95% CI]" : "") << " | relMSE | MAE | p99 |" << (bv ? " bias² | variance |" : "") << "\n";
-  s << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
+    << (ci ? " [95% CI]" : "") << " | relMSE | MAE | p99 | FLIP | HDR-FLIP |" << (bv ? " bias² | variance |" : "") << "\n";
+  s << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
   for (const ReportCell& c : cells) {
     const std::optional<CellIntervals> iv = c.hasIntervals() ? std::optional(cellIntervals(c)) : std::nullopt;
     s << "| `" << c.config << "` | " << c.spp << " | " << num(c.meanSpp) << " | "
       << (iv ? withInterval(c.seconds, iv->seconds) : num(c.seconds)) << " | "
       << (c.denoise ? num(c.denoiseSeconds) : "") << " | " << num(double(c.rays) * 1e-6) << " | "
       << (iv ? withInterval(c.error.rmse, iv->rmse) : num(c.error.rmse)) << " | " << num(c.error.relMse) << " | "
-      << num(c.error.mae) << " | " << num(c.error.p99) << " |";
+      << num(c.error.mae) << " | " << num(c.error.p99) << " | " << num(c.flip) << " | " << num(c.flipHdr) << " |";
     if (bv) s << " " << (c.bv ? num(c.bv->bias2) : "") << " | " << (c.bv ? num(c.bv->variance) : "") << " |";
     s << "\n";
   }
@@ -319,15 +325,23 @@ std::string summaryMarkdown(const CompareReport& r) {
   if (ci)
     s << "Intervals over the seeds: RMSE a 95% Student-t interval of the per-seed MSE (ends square-rooted), time the "
          "fastest and slowest run (docs/compare.md \"Uncertainty\").\n\n";
-  s << "| RMSE target | fastest config reaching it | confidence |\n|---:|---|---|\n";
-  for (const double t : r.targets) {
-    const TargetVerdict v = targetVerdict(cells, t);
-    const auto best = v.winner;
-    s << "| " << num(t) << " | " << (best ? "`" + cells[*best].config + "` @ " + cellSpp(cells[*best]) + ", " +
-                                                num(cells[*best].seconds) + " s"
-                                          : std::string("not reached"))
-      << " | " << verdictText(v, cells, "`") << " |\n";
+  const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* what) {
+    s << "| " << what << " target | fastest config reaching it | confidence |\n|---:|---|---|\n";
+    for (const double t : targets) {
+      const TargetVerdict v = targetVerdict(cells, t, measure);
+      const auto best = v.winner;
+      s << "| " << num(t) << " | " << (best ? "`" + cells[*best].config + "` @ " + cellSpp(cells[*best]) + ", " +
+                                                  num(cells[*best].seconds) + " s"
+                                            : std::string("not reached"))
+        << " | " << verdictText(v, cells, "`") << " |\n";
+    }
+  };
+  verdicts(r.targets, TargetMeasure::Rmse, "RMSE");
+  if (!r.flipTargets.empty()) {
+    s << "\n";
+    verdicts(r.flipTargets, TargetMeasure::Flip, "FLIP");
   }
+  s << "\nFLIP at " << num(r.flipPpd, 4) << " pixels per degree (docs/compare.md \"FLIP\").\n";
   s << "\nPareto front:";
   for (const size_t i : paretoFront(cells)) s << " `" << cells[i].config << "`@" << cells[i].spp;
   s << "\n";
@@ -335,6 +349,17 @@ std::string summaryMarkdown(const CompareReport& r) {
 }
 
 }  // namespace
+
+ContactSheetLayout contactSheetLayout(int tileWidth, const std::vector<std::pair<std::string, std::string>>& labels) {
+  ContactSheetLayout L;
+  // As many glyphs as fit the tile: the last one needs no blank column after it.
+  L.columns = std::max(1, (tileWidth + 1) / kGlyphAdvance);
+  int lines = 2;
+  for (const auto& [first, second] : labels)
+    lines = std::max(lines, int(wrapText(first, L.columns).size() + wrapText(second, L.columns).size()));
+  L.labelHeight = kContactSheetLabelGap + lines * kLineAdvance;
+  return L;
+}
 
 void writeCompareReport(const CompareReport& r) {
   const fs::path dir(r.dir);
@@ -375,9 +400,39 @@ void writeCompareReport(const CompareReport& r) {
   }
   writePassPreview(dir / "previews" / "reference.png", ref);
 
-  // Contact sheet: the reference, then each config's finest pass, in a grid.
+  // A FLIP heat map per cell (LDR and HDR), of its first seed's pass, on
+  // FLIP's own [0, 1] scale.
+  std::vector<std::pair<std::string, std::string>> flipMaps;
+  for (const ReportCell& c : cells) {
+    PassImage img = readPass((dir / c.pass).string());
+    scaleRgb(img, r.passScale);
+    const FlipError f = flipError(img, ref, r.flipPpd, true);
+    const std::string base = "heatmaps/" + safeFileName(c.config) + "@" + std::to_string(c.spp);
+    flipMaps.push_back({base + ".flip.png", base + ".flip-hdr.png"});
+    for (const auto& [file, map] : {std::pair{flipMaps.back().first, &f.ldrMap}, std::pair{flipMaps.back().second, &f.hdrMap}}) {
+      std::vector<unsigned char> px(img.pixels() * 3);
+      for (size_t i = 0; i < img.pixels(); ++i) {
+        if (!(ref.a[i] == 1.0f && img.a[i] > 0.0f)) px[i * 3] = px[i * 3 + 1] = px[i * 3 + 2] = 64;  // not compared: grey
+        else heatColour((*map)[i], &px[i * 3]);
+      }
+      writePngRgb8((dir / file).string(), img.width, img.height, px.data());
+    }
+  }
+
+  // Contact sheet: the reference, then each config's finest pass, in a grid,
+  // each labelled with two lines: what it is, and its time and error.
   const int tiles = int(finest.size()) + 1, cols = std::min(tiles, 4), rows = (tiles + cols - 1) / cols;
   const int w = ref.width, h = ref.height, label = 34;
+  std::vector<std::pair<std::string, std::string>> labels;
+  for (int t = 0; t < tiles; ++t) {
+    if (t == 0) {
+      labels.push_back({"gi reference", r.referenceNoise >= 0 ? "noise RMSE " + num(r.referenceNoise) : "given"});
+      continue;
+    }
+    const ReportCell& c = cells[finest[size_t(t - 1)].first];
+    labels.push_back({c.config + " @ " + std::to_string(c.spp) + " spp",
+                      num(c.seconds) + " s, RMSE " + num(c.error.rmse) + ", FLIP " + num(c.flip)});
+  }
   {
     std::ostringstream s;
     s << "<svg xmlns=\"http://www.w3.org/2000/svg\" xmlns:xlink=\"http://www.w3.org/1999/xlink\" width=\"" << cols * (w + 8)
@@ -386,29 +441,33 @@ void writeCompareReport(const CompareReport& r) {
     for (int t = 0; t < tiles; ++t) {
       const int x = (t % cols) * (w + 8) + 4, y = (t / cols) * (h + label + 8) + 4;
       const std::string file = t == 0 ? "previews/reference.png" : "previews/" + names[size_t(t - 1)] + ".png";
-      std::string line1 = "gi reference", line2 = r.referenceNoise >= 0 ? "noise RMSE " + num(r.referenceNoise) : "given";
-      if (t > 0) {
-        const ReportCell& c = cells[finest[size_t(t - 1)].first];
-        line1 = c.config + " @ " + std::to_string(c.spp) + " spp";
-        line2 = num(c.seconds) + " s, RMSE " + num(c.error.rmse);
-      }
       s << "<image x=\"" << x << "\" y=\"" << y << "\" width=\"" << w << "\" height=\"" << h << "\" href=\"" << file
-        << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(line1)
-        << "</text><text x=\"" << x << "\" y=\"" << y + h + 28 << "\" fill=\"#555\">" << xmlEscape(line2) << "</text>\n";
+        << "\" xlink:href=\"" << file << "\"/>\n<text x=\"" << x << "\" y=\"" << y + h + 14 << "\">" << xmlEscape(labels[size_t(t)].first)
+        << "</text><text x=\"" << x << "\" y=\"" << y + h + 28 << "\" fill=\"#555\">" << xmlEscape(labels[size_t(t)].second)
+        << "</text>\n";
     }
     s << "</svg>\n";
     writeTextAtomically(dir / "contact_sheet.svg", s.str());
-    // The same grid as one PNG (without the labels; their order is the
-    // SVG's and results.json's "contactSheet").
-    const int W = cols * (w + 4) + 4, H = rows * (h + 4) + 4;
+    // The same grid as one PNG, with the same labels in the 5 x 7 bitmap
+    // font (app/bitmap_font.h), wrapped to the tile's width; the label band
+    // is as tall as the longest label needs.
+    const ContactSheetLayout L = contactSheetLayout(w, labels);
+    const int W = cols * (w + 4) + 4, H = rows * (h + L.labelHeight + 4) + 4;
     std::vector<unsigned char> px(size_t(W) * H * 3, 255);
+    const unsigned char ink[3] = {0, 0, 0}, grey[3] = {0x55, 0x55, 0x55};
     for (int t = 0; t < tiles; ++t) {
       const PassImage& img = t == 0 ? ref : finest[size_t(t - 1)].second;
-      const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + 4) + 4;
+      const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + L.labelHeight + 4) + 4;
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
           const size_t i = size_t(y) * w + x, o = (size_t(y0 + y) * W + x0 + x) * 3;
           px[o] = linearToSrgb8(img.r[i]), px[o + 1] = linearToSrgb8(img.g[i]), px[o + 2] = linearToSrgb8(img.b[i]);
+        }
+      int ly = y0 + h + kContactSheetLabelGap;
+      for (int part = 0; part < 2; ++part)
+        for (const std::string& line : wrapText(part == 0 ? labels[size_t(t)].first : labels[size_t(t)].second, L.columns)) {
+          drawText(px.data(), W, H, x0, ly, x0 + w, line, part == 0 ? ink : grey);
+          ly += kLineAdvance;
         }
     }
     writePngRgb8((dir / "contact_sheet.png").string(), W, H, px.data());
@@ -435,9 +494,15 @@ void writeCompareReport(const CompareReport& r) {
                   {"secondsInterval", "fastest and slowest run over the seeds; holds the median with probability "
                                       "secondsIntervalConfidence = 1 - 2^(1 - seeds)"},
                   {"verdict", "distinguishable | tie: Welch's t-test (95%) of the per-seed times of the runner-up "
-                              "(the fastest other config reaching the target) minus the winner's"}};
+                              "(the fastest other config reaching the target) minus the winner's"},
+                  {"flip", "LDR-FLIP (Andersson et al. 2020) of the pass as displayed (R,G,B over black, clamped to [0,1]), "
+                           "mean over compared pixels, mean over seeds"},
+                  {"flipHdr", "HDR-FLIP (Andersson et al. 2021) of the linear pass, exposures from the reference, mean over "
+                              "compared pixels, mean over seeds"}};
+  j["flipPpd"] = r.flipPpd;
   j["cells"] = nlohmann::json::array();
-  for (const ReportCell& c : cells) {
+  for (size_t k = 0; k < cells.size(); ++k) {
+    const ReportCell& c = cells[k];
     nlohmann::json e = {{"config", c.config}, {"integrator", c.integrator}, {"params", c.params},
                         {"spp", c.spp}, {"seeds", c.seeds}, {"seconds", c.seconds}, {"rays", c.rays},
                         {"rmse", c.error.rmse}, {"relMse", c.error.relMse}, {"mae", c.error.mae},
@@ -453,30 +518,39 @@ void writeCompareReport(const CompareReport& r) {
       e["secondsInterval"] = {iv.seconds.lo, iv.seconds.hi};
       e["secondsIntervalConfidence"] = iv.secondsConfidence;
     }
+    e["flip"] = c.flip, e["flipHdr"] = c.flipHdr;
+    e["flipHeatmap"] = flipMaps[k].first, e["flipHdrHeatmap"] = flipMaps[k].second;
     j["cells"].push_back(e);
   }
   j["paretoFront"] = nlohmann::json::array();
   for (const size_t i : paretoFront(cells)) j["paretoFront"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
-  j["targets"] = nlohmann::json::array();
-  for (const double t : r.targets) {
-    const TargetVerdict v = targetVerdict(cells, t);
-    const auto best = v.winner;
-    nlohmann::json e = {{"rmse", t}};
-    if (best)
-      e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"meanSpp", cells[*best].meanSpp},
-                      {"seconds", cells[*best].seconds}};
-    else e["fastest"] = nullptr;
-    e["verdict"] = v.status();
-    if (best) e["verdictText"] = verdictText(v, cells, "");
-    if (v.runnerUp)
-      e["runnerUp"] = {{"config", cells[*v.runnerUp].config}, {"spp", cells[*v.runnerUp].spp},
-                       {"seconds", cells[*v.runnerUp].seconds}};
-    if (v.time)
-      e["timeDifference"] = {{"seconds", v.time->difference}, {"interval", {v.time->interval.lo, v.time->interval.hi}},
-                             {"dof", std::isfinite(v.time->dof) ? nlohmann::json(v.time->dof) : nlohmann::json(nullptr)}};
-    if (v.winnerSurely) e["winnerRmseIntervalBelowTarget"] = *v.winnerSurely;
-    j["targets"].push_back(e);
-  }
+  // The verdicts: per target, the fastest cell reaching it (null: none),
+  // the runner-up and the confidence (docs/compare.md "Uncertainty").
+  const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* key) {
+    nlohmann::json list = nlohmann::json::array();
+    for (const double t : targets) {
+      const TargetVerdict v = targetVerdict(cells, t, measure);
+      const auto best = v.winner;
+      nlohmann::json e = {{key, t}};
+      if (best)
+        e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"meanSpp", cells[*best].meanSpp},
+                        {"seconds", cells[*best].seconds}};
+      else e["fastest"] = nullptr;
+      e["verdict"] = v.status();
+      if (best) e["verdictText"] = verdictText(v, cells, "");
+      if (v.runnerUp)
+        e["runnerUp"] = {{"config", cells[*v.runnerUp].config}, {"spp", cells[*v.runnerUp].spp},
+                         {"seconds", cells[*v.runnerUp].seconds}};
+      if (v.time)
+        e["timeDifference"] = {{"seconds", v.time->difference}, {"interval", {v.time->interval.lo, v.time->interval.hi}},
+                               {"dof", std::isfinite(v.time->dof) ? nlohmann::json(v.time->dof) : nlohmann::json(nullptr)}};
+      if (v.winnerSurely) e["winnerRmseIntervalBelowTarget"] = *v.winnerSurely;
+      list.push_back(e);
+    }
+    return list;
+  };
+  j["targets"] = verdicts(r.targets, TargetMeasure::Rmse, "rmse");
+  j["flipTargets"] = verdicts(r.flipTargets, TargetMeasure::Flip, "flip");
   j["heatmapScale"] = scale;
   writeTextAtomically(dir / "summary.md", summaryMarkdown(r));
   j["contactSheet"] = nlohmann::json::array({"reference"});
@@ -493,14 +567,15 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   if (!r.lighting.empty()) std::fprintf(out, "lighting: %s\n", r.lighting.c_str());
   bool ci = false;
   for (const ReportCell& c : cells) ci = ci || c.hasIntervals();
-  std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s", "Mrays",
-               "RMSE", "relMSE", "MAE", "p99");
+  std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s",
+               "Mrays", "RMSE", "relMSE", "MAE", "p99", "FLIP", "HDR-FLIP");
   if (bv) std::fprintf(out, " %9s %9s", "bias^2", "variance");
   if (ci) std::fprintf(out, "  %-21s %-21s", "RMSE 95% CI", "time min-max s");
   std::fprintf(out, "\n");
   for (const ReportCell& c : cells) {
-    std::fprintf(out, "%-*s %7d %8.4g %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp, c.meanSpp,
-                 c.seconds, double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99);
+    std::fprintf(out, "%-*s %7d %8.4g %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp,
+                 c.meanSpp, c.seconds, double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99, c.flip,
+                 c.flipHdr);
     if (c.bv) std::fprintf(out, " %9.3g %9.3g", c.bv->bias2, c.bv->variance);
     else if (bv) std::fprintf(out, " %9s %9s", "", "");
     if (c.hasIntervals()) {
@@ -513,15 +588,22 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   if (r.referenceNoise >= 0)
     std::fprintf(out, "\nreference noise (RMSE of the gi reference itself): %.3g — errors near it are not resolved\n",
                  r.referenceNoise);
+  const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* what) {
+    for (const double t : targets) {
+      const TargetVerdict v = targetVerdict(cells, t, measure);
+      const auto best = v.winner;
+      if (best)
+        std::fprintf(out, "  %s <= %-8.3g %s @ %s (%.3f s)\n             %s\n", what, t, cells[*best].config.c_str(),
+                     cellSpp(cells[*best]).c_str(), cells[*best].seconds, verdictText(v, cells, "").c_str());
+      else
+        std::fprintf(out, "  %s <= %-8.3g not reached by any config\n", what, t);
+    }
+  };
   std::fprintf(out, "\nfastest config reaching each RMSE target (time includes the denoiser):\n");
-  for (const double t : r.targets) {
-    const TargetVerdict v = targetVerdict(cells, t);
-    const auto best = v.winner;
-    if (best)
-      std::fprintf(out, "  RMSE <= %-8.3g %s @ %s (%.3f s)\n             %s\n", t, cells[*best].config.c_str(),
-                   cellSpp(cells[*best]).c_str(), cells[*best].seconds, verdictText(v, cells, "").c_str());
-    else
-      std::fprintf(out, "  RMSE <= %-8.3g not reached by any config\n", t);
+  verdicts(r.targets, TargetMeasure::Rmse, "RMSE");
+  if (!r.flipTargets.empty()) {
+    std::fprintf(out, "\nfastest config reaching each FLIP target (%.4g pixels per degree):\n", r.flipPpd);
+    verdicts(r.flipTargets, TargetMeasure::Flip, "FLIP");
   }
   std::fprintf(out, "\nPareto front (faster and more accurate than every other):");
   for (const size_t i : paretoFront(cells)) std::fprintf(out, "  %s@%d", cells[i].config.c_str(), cells[i].spp);

@@ -9,9 +9,11 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "app/confidence.h"
+#include "core/image/flip.h"
 #include "core/image/metrics.h"
 
 namespace obscura {
@@ -33,6 +35,10 @@ struct ReportCell {
   double seconds = 0;  // render loop + denoiser, median over seeds
   uint64_t rays = 0;
   ErrorMetrics error;
+  // FLIP (docs/compare.md "FLIP"): LDR-FLIP of the displayed pass and
+  // HDR-FLIP of the linear one, means over seeds, at flipPpd pixels per
+  // degree; flipPpd 0: not measured (a row from before the FLIP columns).
+  double flip = 0, flipHdr = 0, flipPpd = 0;
   std::optional<BiasVariance> bv;
   std::string pass;  // EXR relative to the report directory
   // One value per seed (empty for a cell of a results.csv from before they
@@ -49,10 +55,14 @@ struct CellIntervals {
 };
 CellIntervals cellIntervals(const ReportCell& c);
 
-// The verdict for one RMSE target: the fastest cell reaching it (point
-// estimates), the fastest cell of another config reaching it (the
+// The error a target is of: RMSE or (LDR-)FLIP.
+enum class TargetMeasure { Rmse, Flip };
+
+// The verdict for one RMSE or FLIP target: the fastest cell reaching it
+// (point estimates), the fastest cell of another config reaching it (the
 // runner-up), and with intervals on both, Welch's test of their times
-// (docs/compare.md "Uncertainty"): distinguishable, or a tie.
+// (docs/compare.md "Uncertainty"): distinguishable, or a tie. Only an RMSE
+// target says whether the winner's interval is below it.
 struct TargetVerdict {
   double target = 0;
   std::optional<size_t> winner, runnerUp;
@@ -61,7 +71,8 @@ struct TargetVerdict {
   // "distinguishable", "tie", "no runner-up", "one seed" or "not reached".
   std::string status() const;
 };
-TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target);
+TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target,
+                            TargetMeasure measure = TargetMeasure::Rmse);
 
 struct CompareReport {
   std::string dir, scene, camera, resolution, referencePath;
@@ -72,14 +83,17 @@ struct CompareReport {
   double referenceNoise = -1;  // RMSE of the reference itself; < 0: unknown
   const PassImage* reference = nullptr;
   std::vector<double> targets;  // RMSE targets, largest first
+  std::vector<double> flipTargets;  // FLIP targets, largest first (may be empty)
+  double flipPpd = kFlipDefaultPpd;
   std::vector<ReportCell> cells;
 };
 
 // Indices of the cells on the Pareto front of (time, RMSE): no other cell is
 // both faster and at least as accurate. Sorted by time.
 std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells);
-// For an RMSE target, the fastest cell that reaches it, if any.
-std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target);
+// For a target, the fastest cell whose error is at most it, if any.
+std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target,
+                                      TargetMeasure measure = TargetMeasure::Rmse);
 
 // Writes text to a temporary sibling, then renames it over path: readers
 // never see half a file. Throws obscura::Error naming the path.
@@ -97,6 +111,18 @@ extern const double kHeatStops[6][3];
 
 // Writes every file of the report into report.dir; throws obscura::Error.
 void writeCompareReport(const CompareReport& report);
+
+// contact_sheet.png's grid: tiles (the reference, then each config's finest
+// pass) of the pass's size, 4 pixels apart, 4 from the edges, at most 4 to
+// a row; below each, after kContactSheetLabelGap blank rows, its label's two
+// parts (what it is; its time and error), each wrapped to `columns`
+// glyphs (app/bitmap_font.h), one line every kLineAdvance rows.
+inline constexpr int kContactSheetLabelGap = 3;
+struct ContactSheetLayout {
+  int columns = 1;      // glyphs per label line
+  int labelHeight = 0;  // rows from a tile's bottom to the next tile's gap
+};
+ContactSheetLayout contactSheetLayout(int tileWidth, const std::vector<std::pair<std::string, std::string>>& labels);
 void printCompareSummary(const CompareReport& report, FILE* out);
 
 }  // namespace obscura

@@ -4,7 +4,7 @@
 // Renders the pass as two independent halves of spp/2 samples (seeds s and
 // s + 1) with the AOVs on, combines them into the spp pass and its
 // per-pixel variance ((W_a - W_b) / 2)^2 (max over channels: what the
-// film's W.error holds, squared), then times core/denoise on it. Prints the
+// film's W_error holds, squared), then times core/denoise on it. Prints the
 // render loop's time (both halves), the denoiser's (median over runs) and
 // their ratio; the goal is a denoiser under 10 % of the render at
 // 1920x1080. With --reference-spp N it also renders an N-spp reference and
@@ -16,7 +16,7 @@
 // path, denoises the noisy pass again with the settings on the command line
 // (object guide: the Cryptomatte rank-0 id), and prints per spp the RMSE of
 // W noisy and denoised against the reference (its own variance subtracted),
-// bias^2 and variance over seeds, near edges and away from them, W.error's
+// bias^2 and variance over seeds, near edges and away from them, W_error's
 // calibration, and the equal-RMSE sample ratio (the spp a fixed render needs
 // to reach the denoised MSE, interpolated log-log on the noisy rows, over the
 // denoised render's spp).
@@ -92,7 +92,7 @@ double rmse(const float* const c[3], const std::vector<float>& alpha, const Film
 // --- --error-table: RMSE against a converged reference ---------------------
 
 // The planes of a reference render the table reads (a crop of the frame):
-// W (premultiplied), A, W.error, N, Z. Cached to a raw file so a sweep of
+// W (premultiplied), A, W_error, N, Z. Cached to a raw file so a sweep of
 // denoiser settings renders it once.
 struct Reference {
   int w = 0, h = 0, spp = 0;
@@ -185,7 +185,7 @@ struct SeedSums {
 
 // The error of a pass against the reference over the pixels `sel` picks
 // (fully covered in the reference). E[(x - r)^2] = MSE(x) + Var(r): the
-// reference's own variance (its W.error squared, max over channels, so an
+// reference's own variance (its W_error squared, max over channels, so an
 // upper bound for each channel) is subtracted. variance = the spread over
 // seeds (unbiased), bias2 = mse - variance.
 struct ErrorStats {
@@ -397,7 +397,7 @@ int main(int argc, char** argv) {
                       std::log(rows[i].noisy.mse / rows[i + 1].noisy.mse) / std::log(double(rows[i + 1].spp) / rows[i].spp));
         std::printf("\n");
         for (const Row& r : rows)
-          std::printf("  %d spp: W.error^2 mean %.3g, noisy variance over seeds %.3g (ratio %.2f)\n", r.spp, r.meanV,
+          std::printf("  %d spp: W_error^2 mean %.3g, noisy variance over seeds %.3g (ratio %.2f)\n", r.spp, r.meanV,
                       r.noisy.variance, r.meanV / r.noisy.variance);
         std::printf("  %4s | %8s %8s %6s %7s | %9s %9s | %9s %9s | %9s %9s | %8s | %6s %6s\n", "spp", "RMSE n", "RMSE d",
                     "MSE/", "eq.spp", "bias2 d", "var d", "edge b2 n", "edge b2 d", "flat b2 d", "flat var d",

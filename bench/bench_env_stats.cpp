@@ -12,7 +12,7 @@
 //       the tests and references are independent, so per value
 //           E[(x - r)^2] = MSE(x) + Var(r),  r = (r1 + r2) / 2,
 //       and Var(r) = E[(r1 - r2)^2] / 4 is measured from the pair (no
-//       W.error exists for shaded.*). Prints per test its spp and
+//       W_error exists for shaded.*). Prints per test its spp and
 //       obscura:renderTime (render-loop wall seconds), the raw and the
 //       corrected RMSE, and RMSE / mean(r); then, for the tests in the
 //       order given (increasing spp), where the corrected RMSE first

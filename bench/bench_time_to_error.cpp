@@ -18,17 +18,17 @@
 // and the reference r are independent (different seeds), so per value
 //     E[(x - r)^2] = E[(x - W)^2] + Var(r)          (W the true value)
 // and the corrected MSE is  mean (x - r)^2 - mean Var(r),  with Var(r) the
-// reference's own W.error^2 (docs/math.md §13: d^2 ab/(a+b)^2 from its even
+// reference's own W_error^2 (docs/math.md §13: d^2 ab/(a+b)^2 from its even
 // and odd halves, an unbiased estimate of Var(W) for a plain mean; the
 // delta-method variance for ratio estimators; the largest channel for
 // colour, so the correction errs high for the other channels of a coloured
-// pass). W.error is un-premultiplied; the compared pixels have the
+// pass). W_error is un-premultiplied; the compared pixels have the
 // reference's A = 1 exactly, so the premultiplied R,G,B of the reference
 // equal its W there, and the alpha^2 factor of a premultiplied variance is 1.
 // The reference is a fixed-spp render (never adaptive: a pixel stopped on
-// a small error estimate would bias its W.error low). --check-noise tests
+// a small error estimate would bias its W_error low). --check-noise tests
 // the correction independently: a second reference with another seed, and
-// mean (r1 - r2)^2 against mean (W.error1^2 + W.error2^2).
+// mean (r1 - r2)^2 against mean (W_error1^2 + W_error2^2).
 //
 // The search, per mode, for the cheapest setting that reaches the target T
 // (RMSE ~ spp^-1/2 for fixed spp, RMSE roughly proportional to E for
@@ -103,7 +103,7 @@ Timed timedRender(const BenchIntegrator& integ, const BenchScene& sc, const Rend
   return t;
 }
 
-// The reference: W (un-premultiplied), A and Var(W) = W.error^2 per pixel.
+// The reference: W (un-premultiplied), A and Var(W) = W_error^2 per pixel.
 struct Reference {
   int width = 0, height = 0;
   int spp = 0;
@@ -128,7 +128,7 @@ Reference referenceFromPlanes(int width, int height, const float* const rgb[3], 
 
 Reference referenceFromFilm(const Film& f) {
   const int e = f.find(kErrorPlane);
-  if (e < 0) throw Error("reference: the film has no W.error plane (render it with the AOVs)");
+  if (e < 0) throw Error("reference: the film has no W_error plane (render it with the AOVs)");
   const float* rgb[3] = {f.plane(kR), f.plane(kG), f.plane(kB)};
   return referenceFromPlanes(f.width(), f.height(), rgb, f.plane(kA), f.plane(e));
 }
@@ -285,7 +285,7 @@ RenderSettings modeSettings(const Mode& m, const BenchIntegrator& integ, double 
                             int height, int threads) {
   RenderSettings s = benchRenderSettings(width, height, m.adaptive ? o.maxSpp : int(param), threads, kTestSeed);
   // Each mode renders as cheaply as it can: the AOVs only where the
-  // denoiser reads them (N, Z, W.error, objects, albedo).
+  // denoiser reads them (N, Z, W_error, objects, albedo).
   s.aovs = m.denoise;
   // The albedo AOV only where the filter reads it, or as the CLI's default.
   s.albedoAov = integ.needs.pixelAlbedo || o.albedoAov;
@@ -450,7 +450,7 @@ int main(int argc, char** argv) {
                "writes by default (default: only where the filter reads albedo, as with --no-albedo)");
   app.add_flag("--check-noise", o.checkNoise,
                "Check the reference-noise correction: a second reference (another seed), mean (r1-r2)^2 "
-               "against mean (W.error1^2 + W.error2^2)");
+               "against mean (W_error1^2 + W_error2^2)");
   CLI11_PARSE(app, argc, argv);
   try {
     CommonOptions common;
@@ -461,7 +461,7 @@ int main(int argc, char** argv) {
     if (!(o.tolerance > 0 && o.tolerance < 0.5)) throw Error("--tolerance must be in (0, 0.5)");
     if (o.runs < 1) throw Error("--runs must be at least 1");
     if (o.threads < 0) throw Error("--threads must be >= 0");
-    if (o.referenceSpp < 2) throw Error("--reference-spp must be at least 2 (its W.error needs two halves)");
+    if (o.referenceSpp < 2) throw Error("--reference-spp must be at least 2 (its W_error needs two halves)");
     if (!(o.startError >= 0)) throw Error("--start-error must be >= 0");
     if (o.maxSpp < 1 || o.startSpp < 1 || o.minSpp < 0 || o.maxRenders < 1)
       throw Error("--max-spp, --start-spp, --max-renders must be at least 1, --min-spp at least 0");
@@ -497,7 +497,7 @@ int main(int argc, char** argv) {
       std::printf("   reference  %s (%d spp, read)\n", o.reference.c_str(), ref.spp);
     } else {
       RenderSettings rs = benchRenderSettings(W, H, o.referenceSpp, threads.threads(), kReferenceSeed);
-      rs.aovs = true;  // W.error
+      rs.aovs = true;  // W_error
       const Timed t = timedRender(integ, sc, rs);
       ref = referenceFromFilm(t.film);
       ref.spp = o.referenceSpp, ref.seconds = t.wall, ref.cpu = t.cpu;
@@ -524,7 +524,7 @@ int main(int argc, char** argv) {
           n += 3;
         }
         std::printf("   check      two references (seeds %u, %u), %zu values: RMSE between them %.6f, "
-                    "sqrt(mean W.error1^2 + W.error2^2) %.6f, ratio of the squares %.4f (1 = the correction is right)\n",
+                    "sqrt(mean W_error1^2 + W_error2^2) %.6f, ratio of the squares %.4f (1 = the correction is right)\n",
                     kReferenceSeed, kSecondReferenceSeed, n, std::sqrt(sd / double(n)), std::sqrt(sv / double(n)),
                     sd / sv);
         // And through measure(): a test render against one reference and
@@ -548,7 +548,7 @@ int main(int argc, char** argv) {
       size_t n = 0;
       for (size_t i = 0; i < ref.a.size(); ++i)
         if (ref.a[i] == 1.0f) sv += double(ref.var[i]), ++n;
-      std::printf("   ref noise  sqrt(mean W.error^2) = %.5f over %zu fully covered pixels (%.1f %% of the frame)\n",
+      std::printf("   ref noise  sqrt(mean W_error^2) = %.5f over %zu fully covered pixels (%.1f %% of the frame)\n",
                   std::sqrt(sv / double(std::max<size_t>(n, 1))), n, 100.0 * double(n) / double(ref.a.size()));
     }
     std::printf("\nsearch (each line one render):\n");

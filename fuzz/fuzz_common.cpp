@@ -41,11 +41,11 @@ std::string writeInput(const std::string& name, const uint8_t* data, size_t size
   return path;
 }
 
-void loadAndTrace(const std::string& path, const SceneArgs& args) {
+void loadAndTrace(const std::string& path, const SceneArgs& args, const std::string& cameraName) {
   Log::resetOnce();  // else the set of warnings seen grows with every input
   const int w = 8, h = 6;
   Camera camera;
-  std::unique_ptr<Scene> scene = loadSceneAndCamera(args, path, "", w, h, camera);
+  std::unique_ptr<Scene> scene = loadSceneAndCamera(args, path, cameraName, w, h, camera);
   const IntegratorDescriptor& d = IntegratorRegistry::instance().find("ao");
   const ParamSet params(d.params, d.name);
   const auto integrator = d.create(params);

@@ -22,8 +22,8 @@ std::string writeInput(const std::string& name, const uint8_t* data, size_t size
 // Loads `path` as `obscura render` does (loadSceneAndCamera, so an adaptive
 // subdivision's camera probe too), then renders ambient occlusion at 8x6, one
 // sample per pixel: every camera ray and AO ray goes through Embree's
-// validity checks.
-void loadAndTrace(const std::string& path, const SceneArgs& args);
+// validity checks. `camera` as --camera ("": the file's first, else auto).
+void loadAndTrace(const std::string& path, const SceneArgs& args, const std::string& camera = "");
 
 // Runs `fn`. An obscura::Error is the expected answer to bad input: its
 // message must be one printable line (else abort, a finding). Any other

@@ -1,5 +1,6 @@
 // The improved-AO fit and its file (integrators/iao_fit.h, docs/math.md §6).
 #include "integrators/iao_fit.h"
+#include "core/util/input_file.h"
 
 #include <algorithm>
 #include <cmath>
@@ -225,6 +226,8 @@ std::string improvedFitJson(const IaoFit& fit, const std::vector<std::string>& s
 }
 
 ImprovedFit readImprovedFit(const std::string& path) {
+  const std::string kind = nonRegularKind(path);
+  if (!kind.empty()) fail(path, "", "is " + kind + ", not a regular file");
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path, "", "cannot open the fit file (write one with 'obscura fit')");
   nlohmann::json j;

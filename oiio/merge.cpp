@@ -10,6 +10,7 @@
 
 #include <obscura/error.h>
 #include "core/image/image_io.h"
+#include "core/util/memory_budget.h"
 
 namespace obscura {
 namespace {
@@ -126,6 +127,17 @@ void mergeRegionsOiio(const std::string& output, const std::vector<std::string>&
     if (r.x0 < 0 || r.y0 < 0 || r.x1 > W || r.y1 > H)
       throw Error(t.path + ": data window " + windowText(t.spec.x, t.spec.y, t.spec.width, t.spec.height) +
                   " is not inside the display window " + windowText(fs.full_x, fs.full_y, W, H));
+  }
+  // The frame, the largest tile's pixels and the coverage map, from the
+  // headers, before any is allocated (an edited display window of 60000^2
+  // would otherwise take its gigabytes first).
+  {
+    uint64_t largest = 0;
+    for (const TileHeader& t : tiles) largest = std::max(largest, uint64_t(t.spec.width) * uint64_t(t.spec.height));
+    const uint64_t frame = uint64_t(W) * uint64_t(H);
+    requireMemory((frame + largest) * uint64_t(fs.nchannels) * sizeof(float) + frame,
+                  first.path + ": display window " + windowText(fs.full_x, fs.full_y, W, H) + ", " +
+                      std::to_string(fs.nchannels) + " channels");
   }
   // Each pixel exactly once: no two windows intersect, and their areas add
   // up to the frame's (then they cover it).

@@ -12,6 +12,7 @@
 #include <obscura/error.h>
 #include "core/image/oiio_module.h"
 #include "core/image/texture.h"
+#include "core/util/memory_budget.h"
 
 namespace obscura {
 
@@ -78,6 +79,8 @@ void readFirstChannel(const std::string& path, int& w, int& h, std::vector<float
   const OIIO::ImageSpec& spec = in->spec();
   w = spec.width, h = spec.height;
   if (w < 1 || h < 1 || spec.nchannels < 1) throw Error(path + ": the height map is empty");
+  // The header's size, before any texel is decoded (a 65-byte PNG may claim 30000 x 30000).
+  requireMemory(uint64_t(w) * uint64_t(h) * sizeof(float), path + ": the height map's " + std::to_string(w) + "x" + std::to_string(h) + " texels");
   texels.resize(size_t(w) * size_t(h));
   // The first channel of the first subimage, rows top first.
   if (!in->read_image(0, 0, 0, 1, OIIO::TypeDesc::FLOAT, texels.data()))
@@ -96,6 +99,9 @@ void readRgb(const std::string& path, int& w, int& h, std::vector<float>& rgb) {
   w = spec.width, h = spec.height;
   if (w < 1 || h < 1 || spec.nchannels < 1) throw Error(path + ": the environment map is empty");
   const int channels = std::min(spec.nchannels, 3);
+  // The raw channels and the RGB made of them (then the map's tables: core/scene/environment.cpp).
+  requireMemory(uint64_t(w) * uint64_t(h) * uint64_t(channels + 3) * sizeof(float),
+                path + ": the environment map's " + std::to_string(w) + "x" + std::to_string(h) + " texels");
   std::vector<float> raw(size_t(w) * size_t(h) * size_t(channels));
   if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::FLOAT, raw.data()))
     throw Error(path + ": cannot read the environment map: " + oneLine(in->geterror()));
@@ -111,6 +117,15 @@ void readRgb(const std::string& path, int& w, int& h, std::vector<float>& rgb) {
 
 PassImage readPass(const std::string& path) {
   OIIO::ImageBuf buf(path);
+  {
+    // The header's size first: read() decodes every channel as float.
+    QuietLibpng quiet;
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) throw Error(path + ": cannot read: " + oneLine(OIIO::geterror()));
+    const OIIO::ImageSpec& h = in->spec();
+    requireMemory(uint64_t(std::max(h.width, 0)) * uint64_t(std::max(h.height, 0)) * uint64_t(std::max(h.nchannels, 0) + 4) * sizeof(float),
+                  path + ": " + std::to_string(h.width) + "x" + std::to_string(h.height) + " pixels");
+  }
   if (!buf.read(0, 0, true, OIIO::TypeDesc::FLOAT)) throw Error(path + ": cannot read: " + buf.geterror());
   const OIIO::ImageSpec& spec = buf.spec();
   PassImage p;

@@ -149,6 +149,7 @@ void takeEnvironmentArgs(Kwargs& kw, EnvironmentArgs& a) {
 
 void takeSceneArgs(Kwargs& kw, SceneArgs& a) {
   kw.take("robust", a.robust);
+  kw.take("normal_maps", a.normalMaps);
   kw.take("subdiv", a.subdiv);
   kw.take("subdiv_level", a.subdivLevel);
   kw.take("subdiv_backend", a.subdivBackend);
@@ -621,6 +622,8 @@ py::list compare(const py::object& scene, const std::string& output, const py::o
   kw.take("reference_spp", a.referenceSpp);
   kw.take("seeds", a.seeds);
   kw.takeText("targets", a.targets);
+  kw.takeText("targets_flip", a.targetsFlip);
+  kw.take("flip_ppd", a.flipPpd);
   kw.takeText("res", a.res, "x");
   kw.takeText("camera", a.camera);
   kw.take("threads", a.threads);
@@ -679,7 +682,7 @@ PYBIND11_MODULE(obscura, m) {
                                                 "A scene loaded once (BVH built) and rendered any number of times")
       .def(py::init([](const std::string& path, const py::kwargs& kw) { return buildScene(path, nullptr, "Scene", kw); }),
            py::arg("path"),
-           "Scene(path, **options): options as the CLI's scene options (robust, subdiv, subdiv_level, subdiv_backend, "
+           "Scene(path, **options): options as the CLI's scene options (robust, normal_maps, subdiv, subdiv_level, subdiv_backend, "
            "subdiv_edge, max_memory, displace, displace_scale, displace_midlevel, objects, frame, fps, animations, "
            "shutter; res and camera for subdiv_edge)")
       .def("with_options",

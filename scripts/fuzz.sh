@@ -4,7 +4,7 @@
 # seed corpus, and runs each target for SECONDS (default 60). Fails on any
 # finding: the crashing input is left in $BUILD_DIR/findings/<target>/.
 #
-#   scripts/fuzz.sh [SECONDS] [TARGET...]   # targets: gltf obj params (default all)
+#   scripts/fuzz.sh [SECONDS] [TARGET...]   # targets: gltf obj params json camera (default all)
 #
 # Environment: BUILD_DIR (default build-fuzz), JOBS (default nproc).
 set -euo pipefail
@@ -12,9 +12,9 @@ set -euo pipefail
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-((${#targets[@]})) || targets=(gltf obj params)
+((${#targets[@]})) || targets=(gltf obj params json camera)
 if ! [[ "$seconds" =~ ^[0-9]+$ ]] || ((seconds < 1)); then
-  echo "usage: $0 [SECONDS] [gltf|obj|params]..." >&2
+  echo "usage: $0 [SECONDS] [gltf|obj|params|json|camera]..." >&2
   exit 2
 fi
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -192,16 +192,18 @@ screen_space = lambda c: c["integrator"] in ("vo", "ssat")
 # mean spp: what a target= config's pixels took on average (spp is their
 # most); denoise s: the filter's share of the time (time includes it).
 # With --seeds >= 2 compare gives each time and RMSE an interval (docs/compare.md "Uncertainty").
+# FLIP, HDR-FLIP: the perceptual errors (docs/compare.md "FLIP").
 def withci(c, key, ci):
     return num(c[key]) + (" [%s, %s]" % (num(c[ci][0]), num(c[ci][1])) if ci in c else "")
-print("| config | spp | mean spp | time s [min, max] | denoise s | Mrays | RMSE [95%% CI] | relMSE | MAE | p99 | bias² | variance |")
-print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+print("| config | spp | mean spp | time s [min, max] | denoise s | Mrays | RMSE [95% CI] | relMSE | MAE | p99 | FLIP | HDR-FLIP | bias² | variance |")
+print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for c in cells:
     bv = (num(c["bias2"]), num(c["variance"])) if "bias2" in c else ("", "")
-    print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+    flip = (num(c["flip"]), num(c["flipHdr"])) if "flip" in c else ("", "")
+    print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
         c["config"], c["spp"], num(c.get("meanSpp", c["spp"])), withci(c, "seconds", "secondsInterval"),
         num(c["denoiseSeconds"]) if c.get("denoise") else "", num(c["rays"] * 1e-6), withci(c, "rmse", "rmseInterval"),
-        num(c["relMse"]), num(c["mae"]), num(c["p99"]), *bv))
+        num(c["relMse"]), num(c["mae"]), num(c["p99"]), *flip, *bv))
 print()
 noise = traced["reference"].get("noiseRmse")
 if noise is not None:

@@ -33,7 +33,8 @@ if [[ "$mode" == test ]]; then install_missing chromium; fi
 # The Python module (docs/python.md "Python") is built for Debian's interpreter,
 # whose NumPy, Matplotlib and pytest the packages above installed (a python3
 # earlier in PATH, such as pyenv's, would lack them).
-python=(-DOBSCURA_PYTHON=ON -DPython_EXECUTABLE=/usr/bin/python3)
+python_exe=/usr/bin/python3
+python=(-DOBSCURA_PYTHON=ON "-DPython_EXECUTABLE=$python_exe")
 compiler_cache_args "$root" >/dev/null  # exports the cache's environment here, not in a subshell
 read -r -a cache <<< "$(compiler_cache_args "$root")"
 configure() {  # dir, extra cmake args...
@@ -54,7 +55,7 @@ if [[ "$mode" == demo ]]; then
   "$build/obscura" render scenes/default.gltf -o out/default_ao.exr --preview out/default_ao.png \
     --res 1280x720 --spp 64 -p distance=2
   echo "== wrote out/default_ao.exr and out/default_ao.png"
-  echo "== Python: PYTHONPATH=$build/python python3 -c 'import obscura' (or cmake --install $build)"
+  echo "== Python: PYTHONPATH=$build/python $python_exe -c 'import obscura' (or cmake --install $build)"
   exit 0
 fi
 

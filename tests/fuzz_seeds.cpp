@@ -129,6 +129,77 @@ void objSeeds(const std::string& dir) {
   seed("tetra_cc_adaptive", 8, tetra);
   seed("grid_cc0", 0, grid);
   seed("grid_cc1", 2, grid);
+  // Issue #37: the corners of the OBJ syntax tinyobjloader reads, each a
+  // valid cage unless named bad_ (refused: the error path is fuzzed too).
+  const std::string quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+  seed("negative_indices_cc1", 2, cube.substr(0, cube.find('f')) + "f -8 -6 -5 -7\nf -4 -3 -1 -2\nf -8 -7 -3 -4\n"
+                                   "f -6 -2 -1 -5\nf -8 -4 -2 -6\nf -7 -5 -1 -3\n");
+  seed("normals_and_uvs_cc0", 0, quad + "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1 4/4/1\n");
+  seed("normals_only_cc0", 0, quad + "vn 0 0 1\nf 1//1 2//1 3//1 4//1\n");
+  seed("mtllib_groups_cc1", 2, "mtllib missing.mtl\no cube\ng side\nusemtl grey\ns 1\n" + cube);
+  seed("corner_and_crease_tags_cc2", 4, cube + "t crease 2/1 1 2 4.0\nt corner 1/1 1 3.0\nt interpolateboundary 1/0 1\n");
+  seed("pentagon_and_triangle_cc1", 2, "v 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nv 1 -1 1\nf 1 2 3 4 5\nf 2 1 6\n");
+  seed("weights_and_comments_cc0", 0, "# comment\nv 0 0 0 1.0\nv 1 0 0 1.0 # trailing\nv 1 1 0\nv 0 1 0\n\nf 1 2 3 4\n");
+  seed("exponents_adaptive", 8, "v 0e0 0 0\nv 1e+0 0 0\nv 1 1.0E0 0\nv 0 +1 -0\nf 1 2 3 4\n");
+  seed("bad_index_beyond_int", 2, quad + "f 1 2 3 99999999999999999999\n");
+  seed("bad_index_2147483648", 2, quad + "f 1 2 3 2147483648\n");
+  seed("bad_index_zero", 0, quad + "f 0 1 2\n");
+  seed("bad_index_past_the_end", 0, quad + "f 1 2 9\n");
+}
+
+// fuzz/fuzz_json.cpp: byte 0 even, a whole document; odd, a node's extras.
+void jsonSeeds(const std::string& dir) {
+  const auto seed = [&](const std::string& name, char mode, const std::string& text) { writeText(dir + "/" + name, mode + text); };
+  GltfBuilder g;
+  const int q = g.quadMesh(1);
+  g.doc["meshes"][size_t(q)]["extras"] = {{"obscura", {{"subdivision", {{"scheme", "loop"}, {"level", 1}}}}}};
+  g.scene({g.node({{"mesh", q}, {"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}}}), cameraNode(g)});
+  g.doc["buffers"] = json::array({{{"byteLength", g.bin.size()}, {"uri", "data:application/octet-stream;base64," + base64(g.bin)}}});
+  seed("document", 0, g.doc.dump());
+  seed("document_extensions", 0, [&] {
+    json d = g.doc;
+    d["extensionsUsed"] = {"KHR_mesh_quantization", "KHR_texture_transform"};
+    d["extensionsRequired"] = {"KHR_mesh_quantization"};
+    d["nodes"][0]["extensions"] = {{"EXT_x", {{"a", {1, {2, {3, {4}}}}}}}};
+    return d.dump();
+  }());
+  seed("extras_roles", 1, R"({"obscura": {"occluder": false, "occlusion": "self"}, "tool": {"id": 7}})");
+  seed("extras_nested_64", 1, std::string(64, '[') + "1" + std::string(64, ']'));
+  seed("extras_nested_objects", 1, [] {
+    std::string t;
+    for (int i = 0; i < 40; ++i) t += "{\"k\": ";
+    return t + "null" + std::string(40, '}');
+  }());
+  seed("extras_big_integer", 1, R"({"obscura": {"occluder": true}, "n": 4294967298})");
+  seed("extras_misspelt_key", 1, R"({"obscura": {"occludr": true}})");
+}
+
+// fuzz/fuzz_camera.cpp: a mode byte, then doubles (yfov, znear, zfar,
+// camera translation, rotation, root scale, quad scale, second quad's place).
+void cameraSeeds(const std::string& dir) {
+  const auto seed = [&](const std::string& name, char mode, std::vector<double> v) {
+    std::string bytes(1, mode);
+    bytes.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+    writeText(dir + "/" + name, bytes);
+  };
+  const std::vector<double> base = {0.8, 0.01, 0, 0, 0, 3, 0, 0, 0, 1, 1, 1, 2, 0, 0};
+  const auto with = [&](std::initializer_list<std::pair<size_t, double>> changes) {
+    std::vector<double> v = base;
+    for (const auto& [i, x] : changes) v[i] = x;
+    return v;
+  };
+  seed("file_camera", 0, base);
+  seed("auto_camera_two_quads", 1 | 2, base);
+  seed("tiny_scene_1e-12", 0, with({{10, 1e-12}}));
+  seed("tiny_scene_auto", 1, with({{10, 1e-12}}));
+  seed("huge_translation", 0, with({{5, 1e15}}));
+  seed("yfov_near_pi", 0, with({{0, 3.14159}}));
+  seed("znear_beyond_scene", 0, with({{1, 1e17}}));
+  seed("zfar_before_znear", 0, with({{1, 1.0}, {2, 0.5}}));
+  seed("zero_quaternion", 0, with({{6, 0}, {7, 0}, {8, 0}, {9, 0}}));
+  seed("zero_root_scale_auto", 1, with({{10, 0}}));
+  seed("far_apart_auto", 1 | 2, with({{12, 1e15}}));
+  seed("short_input", 1, {0.5});
 }
 
 void paramSeeds(const std::string& dir) {
@@ -147,9 +218,11 @@ void paramSeeds(const std::string& dir) {
 }  // namespace
 
 void writeFuzzSeeds(const std::string& dir) {
-  for (const char* sub : {"gltf", "obj", "params"}) std::filesystem::create_directories(dir + "/" + sub);
+  for (const char* sub : {"gltf", "obj", "params", "json", "camera"}) std::filesystem::create_directories(dir + "/" + sub);
   gltfSeeds(dir + "/gltf");
   objSeeds(dir + "/obj");
+  jsonSeeds(dir + "/json");
+  cameraSeeds(dir + "/camera");
   paramSeeds(dir + "/params");
 }
 

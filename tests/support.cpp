@@ -1,7 +1,9 @@
 #include "tests/support.h"
+#include "tests/limited_cli.h"
 
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -456,6 +458,42 @@ void finishCli(pid_t pid, const std::string& stderrPath, CliResult& r) {
 CliResult runCli(const std::vector<std::string>& args, const std::string& stderrPath) {
   CliResult r;
   finishCli(startCli(args, stderrPath, r), stderrPath, r);
+  return r;
+}
+
+LimitedCliResult runCliLimited(const std::vector<std::string>& args, const std::string& stderrPath,
+                               uint64_t addressSpaceBytes) {
+  LimitedCliResult r;
+  // Everything the child needs is made before the fork: the child of a
+  // threaded process may not allocate.
+  std::vector<std::string> all = {obscuraBinary()};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  const rlimit lim{rlim_t(addressSpaceBytes), rlim_t(addressSpaceBytes)};
+  const pid_t pid = fork();
+  if (pid < 0) {
+    r.stderrText = std::string("fork failed: ") + std::strerror(errno);
+    return r;
+  }
+  if (pid == 0) {
+    // The child: only async-signal-safe calls until exec.
+    const int out = open("/dev/null", O_WRONLY), err = open(stderrPath.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out < 0 || err < 0 || dup2(out, 1) < 0 || dup2(err, 2) < 0) _exit(127);
+    if (addressSpaceBytes > 0 && setrlimit(RLIMIT_AS, &lim) != 0) _exit(127);
+    execv(obscuraBinary(), argv.data());
+    _exit(127);
+  }
+  int status = 0;
+  rusage ru{};
+  while (wait4(pid, &status, 0, &ru) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status)) r.exitCode = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  r.peakRssBytes = uint64_t(ru.ru_maxrss) * 1024;  // ru_maxrss is in KiB on Linux
+  const auto bytes = readBytes(stderrPath);
+  r.stderrText.assign(bytes.begin(), bytes.end());
   return r;
 }
 

@@ -327,9 +327,9 @@ TEST(Adaptive, TheProgressBarEndsFull) {
 }
 
 TEST(Adaptive, TheErrorEstimateAgainstTheSpreadAcrossSeeds) {
-  // Per pixel, W.error^2 estimates Var(W); the variance across independent
+  // Per pixel, W_error^2 estimates Var(W); the variance across independent
   // seeds measures it. Over the pixels near the wall (0 < V < 1), the mean
-  // of W.error^2 over seeds and pixels is compared with the mean of the
+  // of W_error^2 over seeds and pixels is compared with the mean of the
   // across-seed variances: both are unbiased for the same mean variance
   // (the halves are independent replicates, docs/math.md §13), so their
   // ratio is 1 within its noise.
@@ -343,7 +343,7 @@ TEST(Adaptive, TheErrorEstimateAgainstTheSpreadAcrossSeeds) {
     films.push_back(renderAo(*scene, s));
   }
   const int err = films[0].find(kErrorPlane);
-  std::vector<double> est, var;  // per pixel: mean W.error^2 over seeds, variance across seeds
+  std::vector<double> est, var;  // per pixel: mean W_error^2 over seeds, variance across seeds
   for (int x = 0; x < kW; ++x) {
     const double gx = groundX(cam, float(x));
     if (gx < 0.1 || gx > 0.8) continue;
@@ -366,7 +366,7 @@ TEST(Adaptive, TheErrorEstimateAgainstTheSpreadAcrossSeeds) {
   double r2 = 0;
   for (int i = 0; i < n; ++i) r2 += std::pow(est[size_t(i)] - ratio * var[size_t(i)], 2);
   const double relSe = std::sqrt(r2 * n / (n - 1)) / sumVar;
-  std::printf("W.error^2 / across-seed variance = %.3f (relative se %.3f, %d pixels, %d seeds)\n", ratio, relSe, n, seeds);
+  std::printf("W_error^2 / across-seed variance = %.3f (relative se %.3f, %d pixels, %d seeds)\n", ratio, relSe, n, seeds);
   EXPECT_NEAR(ratio, 1.0, 4.0 * relSe);
 }
 
@@ -800,9 +800,9 @@ TEST(AdaptiveCli, HeaderSummaryAndOneLineErrors) {
   EXPECT_EQ(b.spec.get_int_attribute("obscura:minSpp"), 8);
   EXPECT_EQ(b.spec.get_int_attribute("obscura:backgroundSpp"), 4);
   double sum = 0;
-  for (float v : b.planes.at("spp")) sum += v;
+  for (float v : b.planes.at(kSppPlane)) sum += v;
   EXPECT_NEAR(b.spec.get_float_attribute("obscura:meanSpp"), sum / (32 * 18), 1e-3);
-  ASSERT_TRUE(b.planes.count("W.error"));
+  ASSERT_TRUE(b.planes.count(kErrorPlane));
   for (const auto& [args, needle] : std::vector<std::pair<std::vector<std::string>, std::string>>{
            {{"--target-error", "-1"}, "--target-error must be"},
            {{"--min-spp", "4"}, "--min-spp needs --target-error or --time-limit"},
@@ -847,7 +847,7 @@ TEST(Adaptive, DenoisedRoundsAreDeterministicAndTheFixedRendersSamples) {
         if (a.at(sppPlane, x, y) != count) continue;
         for (int c : f.channels()) {
           const std::string& name = f.name(c);
-          if (name == "R" || name == "G" || name == "B" || name == "spp" || name.rfind("shaded.", 0) == 0) continue;
+          if (name == "R" || name == "G" || name == "B" || name == kSppPlane || name.rfind("shaded.", 0) == 0) continue;
           const float u = a.at(a.find(f.name(c)), x, y), v = f.at(c, x, y);
           ASSERT_EQ(std::memcmp(&u, &v, sizeof u), 0) << f.name(c) << " at " << x << "," << y << ", " << count << " spp";
         }

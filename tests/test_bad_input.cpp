@@ -13,6 +13,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <obscura/error.h>
@@ -335,6 +336,139 @@ TEST(BadInputFile, RequiredCompressionExtension) {
   expectLoadError(d.writeGltf(dir, "draco"), {"extensionsRequired", "KHR_draco_mesh_compression"});
 }
 
+// --- issue #37: malformed fields that rendered a plausible wrong pass ---------
+
+// tinygltf keeps a transform array of the wrong length and the decoding took
+// it as absent: a 15-number matrix, a 4-number translation, a 3-number
+// rotation placed the node at the identity without a word.
+TEST(BadInputFile, NodeTransformArrayOfTheWrongLengthIsRefused) {
+  const std::string dir = tempDir("bad_trs_length");
+  const std::vector<std::tuple<const char*, size_t, const char*>> cases = {
+      {"matrix", 15, "expected 16 numbers, got 15"},
+      {"translation", 4, "expected 3 numbers, got 4"},
+      {"rotation", 3, "expected 4 numbers, got 3"},
+      {"scale", 2, "expected 3 numbers, got 2"}};
+  for (const auto& [key, n, why] : cases) {
+    GltfBuilder d = quad();
+    std::vector<double> v(n, 0.0);
+    v[0] = 1.0;
+    d.doc["nodes"][0][key] = v;
+    expectLoadError(d.writeGltf(dir, key), {std::string("nodes[0].") + key, why});
+  }
+  GltfBuilder both = quad();
+  both.doc["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+  both.doc["nodes"][0]["translation"] = {1, 2, 3};
+  expectLoadError(both.writeGltf(dir, "both"), {"nodes[0].translation", "matrix"});
+}
+
+// tinygltf wraps an integer beyond int in extras: a subdivision level of
+// 4294967298 became 2 and refined the mesh twice.
+TEST(BadInputFile, ExtrasIntegerBeyondIntIsRefused) {
+  const std::string dir = tempDir("bad_extras_int");
+  GltfBuilder d = quad();
+  d.doc["meshes"][0]["extras"] = {{"obscura", {{"subdivision", {{"level", 4294967298ULL}}}}}};
+  expectLoadError(d.writeGltf(dir, "level"), {"meshes[0].extras.obscura.subdivision.level", "4294967298", "2147483647"});
+  GltfBuilder neg = quad();
+  neg.doc["nodes"][0]["extras"] = {{"tool", {{"id", -3000000000LL}}}};
+  expectLoadError(neg.writeGltf(dir, "negative"), {"nodes[0].extras.tool.id", "-3000000000"});
+}
+
+// A misspelt extras.obscura key ("occludr") was ignored: the object kept
+// its default roles and the pass looked right.
+TEST(BadInputFile, UnknownObscuraExtrasKeyIsRefusedWithTheNearestKey) {
+  const std::string dir = tempDir("bad_extras_key");
+  GltfBuilder d = quad();
+  d.doc["nodes"][0]["extras"] = {{"obscura", {{"occludr", false}}}};
+  expectLoadError(d.writeGltf(dir, "node"), {"nodes[0].extras.obscura.occludr", "did you mean 'occluder'"});
+  GltfBuilder m = quad();
+  m.doc["meshes"][0]["extras"] = {{"obscura", {{"subdivision", {{"levle", 2}}}}}};
+  expectLoadError(m.writeGltf(dir, "mesh"), {"meshes[0].extras.obscura.subdivision.levle", "did you mean 'level'"});
+  GltfBuilder far = quad();
+  far.doc["nodes"][0]["extras"] = {{"obscura", {{"xyzzy", 1}}}};
+  expectLoadError(far.writeGltf(dir, "far"), {"nodes[0].extras.obscura.xyzzy", "one of: displacement, occluder"});
+}
+
+// glTF 2.0 §3.12: a loader MUST fail on a required extension it does not
+// support; it only warned, and rendered without it.
+TEST(BadInputFile, UnsupportedRequiredExtensionIsAnError) {
+  const std::string dir = tempDir("bad_required_ext");
+  GltfBuilder d = quad();
+  d.doc["extensionsUsed"] = {"KHR_materials_variants"};
+  d.doc["extensionsRequired"] = {"KHR_materials_variants"};
+  expectLoadError(d.writeGltf(dir, "variants"),
+                  {"extensionsRequired[0]", "KHR_materials_variants is not supported", "KHR_mesh_quantization", "KHR_texture_transform"});
+  GltfBuilder ok = quad();
+  ok.doc["extensionsUsed"] = {"KHR_mesh_quantization", "KHR_texture_transform"};
+  ok.doc["extensionsRequired"] = {"KHR_mesh_quantization", "KHR_texture_transform"};
+  WarningCapture quiet;
+  EXPECT_NO_THROW(loadGltf(ok.writeGltf(dir, "quantized")));
+}
+
+// zfar at or before znear clipped every camera ray: an empty pass, exit 0.
+TEST(BadInputFile, ZfarNotBeyondZnearIsRefused) {
+  const std::string dir = tempDir("bad_zfar");
+  GltfBuilder d = quad();
+  d.push("cameras", perspective("c", 0.8, 1.0, 0.5));
+  d.push("nodes", {{"camera", 0}, {"translation", {0, 0, 3}}});
+  d.doc["scenes"][0]["nodes"] = {0, 1};
+  expectLoadError(d.writeGltf(dir, "zfar"), {"cameras[0].perspective.zfar", "greater than znear (1)", "0.5"});
+}
+
+// A zero scale on every axis hides the node and its children (glTF 2.0's
+// animation note): skipped with a warning naming it; when it hides every
+// mesh the load fails saying so. Before, the collapsed mesh rendered as an
+// empty pass with exit status 0.
+TEST(BadInputFile, ZeroScaleHidesTheNodeWithAWarning) {
+  const std::string dir = tempDir("bad_zero_scale");
+  GltfBuilder d = quad();
+  d.node({{"mesh", 0}, {"scale", {0, 0, 0}}, {"translation", {3, 0, 0}}});
+  d.doc["scenes"][0]["nodes"] = {0, 1};
+  {
+    WarningCapture w;
+    const auto scene = loadGltf(d.writeGltf(dir, "one_hidden"));
+    EXPECT_EQ(scene->stats().renderedTriangles, 2u);
+    EXPECT_EQ(w.count("nodes[1] has a zero scale on every axis"), 1u) << w.all();
+  }
+  GltfBuilder all = quad();
+  all.doc["nodes"][0]["scale"] = {0, 0, 0};
+  expectLoadError(all.writeGltf(dir, "all_hidden"), {"no triangles", "hidden by a zero scale"});
+}
+
+// A singular transform that is not a zero scale flattens the meshes below
+// into a plane or a line: refused naming the node.
+TEST(BadInputFile, SingularTransformIsRefusedNamingTheNode) {
+  const std::string dir = tempDir("bad_singular");
+  GltfBuilder d = quad();
+  d.doc["nodes"][0]["scale"] = {1, 0, 1};
+  expectLoadError(d.writeGltf(dir, "flat"), {"nodes[0]", "singular"});
+  GltfBuilder m = quad();
+  m.doc["nodes"][0]["matrix"] = {1, 0, 0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 0, 0, 0, 1};  // z axis in the xy plane
+  expectLoadError(m.writeGltf(dir, "coplanar"), {"nodes[0]", "singular"});
+}
+
+// tinyobjloader wrapped an index beyond int: 99999999999999999999 rendered,
+// 2147483648 was reported as -2147483644.
+TEST(BadInputFile, ObjIndexBeyondIntIsRefusedNamingTheLine) {
+  const std::string dir = tempDir("bad_obj_index");
+  const std::string head = "v 0 0 0\nv 1 0 0\nv 1 1 0\n";
+  for (const std::string index : {"99999999999999999999", "2147483648", "-2147483648"}) {
+    const std::string path = dir + "/i" + index.substr(0, 3) + ".obj";
+    writeText(path, head + "f 1 2 " + index + "\n");
+    try {
+      loadScene(path);
+      ADD_FAILURE() << index << " loaded";
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(path + ": line 4"), std::string::npos) << m;
+      EXPECT_NE(m.find("'" + index + "'"), std::string::npos) << m;
+      EXPECT_NE(m.find("2147483647"), std::string::npos) << m;
+    }
+  }
+  const std::string slashes = dir + "/slashes.obj";
+  writeText(slashes, head + "vn 0 0 1\nf 1//1 2//1 3//1\n");
+  EXPECT_NO_THROW(loadScene(slashes));
+}
+
 // Random damage to the binary buffer (positions and indices) and to numbers
 // in the JSON: every outcome is a scene or an obscura::Error.
 TEST(BadInputFile, RandomDamageNeverCrashes) {
@@ -536,13 +670,21 @@ TEST(BadInputCli, DegenerateSceneWithAutomaticCameraIsOneErrorLine) {
     d.doc["nodes"][0]["scale"] = {s, s, s};
     scenes.push_back(d.writeGltf(dir, s == 0 ? "scale0" : "scale1e-25"));
   }
+  // Each is now refused by the load, before a camera is chosen: a scene
+  // without extent, or below 2^-40 across, by its size (docs/scenes.md
+  // "Scene scale"); a zero scale hides the mesh (docs/scenes.md "What the
+  // loader refuses").
+  const std::vector<std::string> why = {"the scene is 0 across (its largest extent), below 9.09495e-13",
+                                        "the scene is 0 across (its largest extent), below 9.09495e-13",
+                                        "the scene has no triangles to render (every mesh is hidden by a zero scale)",
+                                        "the scene is 1e-25 across (its largest extent), below 9.09495e-13"};
   std::vector<CliRun> runs;
   for (const std::string& sc : scenes) {
     CliRun r;
     r.name = sc;
     r.output = dir + "/out" + std::to_string(runs.size()) + ".exr";
     r.args = {"render", sc, "-o", r.output, "-q", "--res", "8x8", "--spp", "1"};
-    r.mention = sc + ": the automatic camera (--camera auto): the scene's bounds have no extent";
+    r.mention = sc + ": " + why[runs.size()];
     runs.push_back(r);
   }
   // info selects the camera too (for --subdiv-edge), and says the same.
@@ -616,6 +758,31 @@ TEST(BadInputCli, FailedRenderLeavesTheExistingOutputUntouched) {
     const std::string name = e.path().filename().string();
     EXPECT_EQ(name.find(".tmp"), std::string::npos) << "temporary file left behind: " << name;
   }
+}
+
+// Messages that did not say what was wrong: a checkpoint path that is a
+// directory (a libstdc++ message), --target-error 1e300 ("must be finite"),
+// an empty --frame (taken as no frame: out.####.exr written literally).
+TEST(BadInputCli, UnclearMessagesNameTheOptionAndTheLimit) {
+  const std::string dir = tempDir("bad_cli_messages");
+  const std::string scene = writeGoodScene(dir);
+  fs::create_directories(dir + "/cp.exr.checkpoint");
+  std::vector<CliRun> runs(3);
+  runs[0].name = "checkpoint is a directory";
+  runs[0].args = {"render", scene, "-o", dir + "/cp.exr", "--res", "8x8", "--spp", "1", "-q", "--checkpoint", "0"};
+  runs[0].output = dir + "/cp.exr";
+  runs[0].mention = "cp.exr.checkpoint: is a directory, not a regular file";
+  runs[1].name = "target error beyond float";
+  runs[1].args = {"render", scene, "-o", dir + "/te.exr", "--res", "8x8", "--spp", "1", "-q", "--target-error", "1e300"};
+  runs[1].output = dir + "/te.exr";
+  runs[1].mention = "--target-error: 1e+300 is above the largest standard error a pass holds (3.40282";
+  runs[2].name = "empty frame";
+  runs[2].args = {"render", scene, "-o", dir + "/f.####.exr", "--res", "8x8", "--spp", "1", "-q", "--frame", ""};
+  runs[2].output = dir + "/f.####.exr";
+  runs[2].mention = "--frame";
+  runAll(runs, dir);
+  for (const CliRun& r : runs) expectOneErrorLine(r);
+  EXPECT_NE(runs[2].stderrText.find("empty frame number"), std::string::npos) << runs[2].stderrText;
 }
 
 }  // namespace

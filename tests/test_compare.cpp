@@ -9,11 +9,15 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <map>
 #include <thread>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <nlohmann/json.hpp>
 
+#include "app/bitmap_font.h"
 #include "app/compare.h"
 #include "app/report.h"
 #include <obscura/error.h>
@@ -90,6 +94,26 @@ TEST(CompareMetrics, BiasAndVarianceSplit) {
   EXPECT_NEAR(referenceNoise(grey(1, 1, {0.5f}), grey(1, 1, {0.7f})), 0.1, 1e-6);
 }
 
+// flipError's inputs (core/image/metrics.h): LDR-FLIP sees the pass clamped
+// to [0, 1] as its preview shows it, HDR-FLIP the linear values; only the
+// compared pixels are averaged.
+TEST(CompareMetrics, FlipSeesThePreviewForLdrAndTheLinearPassForHdr) {
+  const PassImage white = grey(8, 8, std::vector<float>(64, 1.0f)), bright = grey(8, 8, std::vector<float>(64, 3.0f));
+  const FlipError f = flipError(bright, white, kFlipDefaultPpd, true);
+  EXPECT_EQ(f.ldr, 0.0);  // both previews are white
+  EXPECT_GT(f.hdr, 0.1);  // 1.6 stops apart in the linear pass
+  // The uniform pair's HDR value is the same at every pixel: the mean is it.
+  EXPECT_NEAR(f.hdr, f.hdrMap[27], 1e-6);
+  // A pixel the reference does not cover is not averaged and reads 0 in the map.
+  std::vector<float> a(64, 1.0f);
+  a[0] = 0.0f;
+  const PassImage holed = grey(8, 8, std::vector<float>(64, 1.0f), a);
+  const FlipError g = flipError(bright, holed, kFlipDefaultPpd, true);
+  EXPECT_EQ(g.ldrMap[0], 0.0f);
+  EXPECT_EQ(g.hdrMap[0], 0.0f);
+  EXPECT_GT(g.hdrMap[63], 0.1f);
+}
+
 TEST(CompareReport, ParetoFrontAndTargets) {
   std::vector<ReportCell> cells(5);
   const double t[] = {1, 2, 3, 4, 0.5}, e[] = {0.3, 0.1, 0.2, 0.05, 0.5};
@@ -99,6 +123,16 @@ TEST(CompareReport, ParetoFrontAndTargets) {
   EXPECT_EQ(fastestReaching(cells, 0.25), std::optional<size_t>(1));
   EXPECT_EQ(fastestReaching(cells, 0.05), std::optional<size_t>(3));
   EXPECT_EQ(fastestReaching(cells, 0.01), std::nullopt);
+}
+
+TEST(CompareReport, FlipTargetsReadTheFlipColumnNotRmse) {
+  std::vector<ReportCell> cells(3);
+  const double t[] = {1, 2, 3}, rmse[] = {0.05, 0.5, 0.5}, flip[] = {0.4, 0.1, 0.05};
+  for (size_t i = 0; i < 3; ++i) cells[i].seconds = t[i], cells[i].error.rmse = rmse[i], cells[i].flip = flip[i];
+  EXPECT_EQ(fastestReaching(cells, 0.1, TargetMeasure::Rmse), std::optional<size_t>(0));
+  EXPECT_EQ(fastestReaching(cells, 0.1, TargetMeasure::Flip), std::optional<size_t>(1));
+  EXPECT_EQ(fastestReaching(cells, 0.06, TargetMeasure::Flip), std::optional<size_t>(2));
+  EXPECT_EQ(fastestReaching(cells, 0.01, TargetMeasure::Flip), std::nullopt);
 }
 
 TEST(CompareConfig, ParsesAndCanonicalizes) {
@@ -396,8 +430,10 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
   const auto summary = readBytes(dir + "/out/summary.md");
   EXPECT_NE(std::string(summary.begin(), summary.end()).find("not reached"), std::string::npos);
 
-  // A results.csv of the format before these columns (its first 15) is still
-  // read: the plain cells are kept, the others recomputed.
+  // A results.csv of the format before these columns (its first 15; the
+  // five settings columns, the three FLIP columns and the six per-seed and
+  // interval columns cut) is still read: the plain cells are kept (their
+  // FLIP taken from their one-seed pass), the others recomputed.
   {
     std::ifstream csv(dir + "/out/results.csv");
     std::string header, line, old;
@@ -417,6 +453,83 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
   ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
   EXPECT_EQ(keptCells(r3.stderrText), 2u) << r3.stderrText;
   EXPECT_EQ(readCsvRows(dir + "/out/results.csv").size(), 6u);
+}
+
+// FLIP in compare (docs/compare.md "FLIP"): every cell's flip and flip_hdr
+// are the FLIP of its pass (passes/) against the cached reference, recomputed
+// here from those files; each cell has its two heat maps; the "fastest cell
+// per FLIP target" is the one a scan of the CSV finds; another --flip-ppd
+// keeps the one-seed cells and recomputes their FLIP at it; a bad value is
+// one error line naming the option.
+TEST(CompareEndToEnd, FlipColumnsHeatMapsAndTargets) {
+  const std::string dir = tempDir("compare_flip");
+  const std::vector<std::string> args = {"compare", "-o", dir + "/out", "--res", "32x18", "--reference-spp", "16",
+                                         "--spp", "4,32", "-q", "-c", "ao", "-c", "gi", "--targets-flip", "0.5,0.15,1e-6"};
+  const CliResult r1 = runCli(args, dir + "/err1.txt");
+  ASSERT_EQ(r1.exitCode, 0) << r1.stderrText;
+  std::string cached;
+  for (const auto& e : std::filesystem::directory_iterator(dir + "/out/cache")) cached = e.path().string();
+  const PassImage ref = readPass(cached);
+  const auto check = [&](double ppd) {
+    const auto rows = readCsvRows(dir + "/out/results.csv");
+    std::ifstream in(dir + "/out/results.json");
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_NEAR(j["flipPpd"].get<double>(), ppd, 1e-9);
+    EXPECT_EQ(rows.size(), 4u);
+    EXPECT_EQ(j["cells"].size(), rows.size());
+    for (size_t k = 0; k < rows.size(); ++k) {
+      const auto& row = rows[k];
+      const FlipError f = flipError(readPass(dir + "/out/" + row.at("pass")), ref, ppd);
+      // The CSV keeps 9 significant digits.
+      EXPECT_NEAR(std::stod(row.at("flip")), f.ldr, 1e-8 * f.ldr) << row.at("config");
+      EXPECT_NEAR(std::stod(row.at("flip_hdr")), f.hdr, 1e-8 * f.hdr) << row.at("config");
+      EXPECT_NEAR(std::stod(row.at("flip_ppd")), ppd, 1e-7 * ppd);
+      EXPECT_GT(f.ldr, 0.0);
+      EXPECT_LT(f.ldr, 1.0);
+      const nlohmann::json& c = j["cells"][k];
+      EXPECT_DOUBLE_EQ(c["flip"].get<double>(), f.ldr);
+      for (const char* map : {"flipHeatmap", "flipHdrHeatmap"})
+        EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + c[map].get<std::string>())) << c[map];
+    }
+    // More samples of the same config: less noise, lower FLIP.
+    EXPECT_LT(std::stod(rows[1].at("flip")), std::stod(rows[0].at("flip")));
+    EXPECT_LT(std::stod(rows[3].at("flip")), std::stod(rows[2].at("flip")));
+    ASSERT_EQ(j["flipTargets"].size(), 3u);
+    for (const auto& t : j["flipTargets"]) {
+      double best = INFINITY;
+      std::string bestConfig;
+      for (const auto& row : rows)
+        if (std::stod(row.at("flip")) <= t["flip"].get<double>() && std::stod(row.at("time_s")) < best)
+          best = std::stod(row.at("time_s")), bestConfig = row.at("config");
+      if (std::isinf(best)) {
+        EXPECT_TRUE(t["fastest"].is_null()) << t;
+      } else {
+        ASSERT_FALSE(t["fastest"].is_null()) << t;
+        EXPECT_EQ(t["fastest"]["config"].get<std::string>(), bestConfig);
+        EXPECT_DOUBLE_EQ(t["fastest"]["seconds"].get<double>(), best);
+      }
+    }
+    EXPECT_TRUE(j["flipTargets"][2]["fastest"].is_null());  // 1e-6: no noisy pass looks the same
+  };
+  check(kFlipDefaultPpd);
+  const auto summary = readBytes(dir + "/out/summary.md");
+  EXPECT_NE(std::string(summary.begin(), summary.end()).find("| FLIP target |"), std::string::npos);
+
+  std::vector<std::string> again = args;
+  again.insert(again.end(), {"--flip-ppd", "30"});
+  const CliResult r2 = runVerbose(again, dir + "/err2.txt");
+  ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+  EXPECT_EQ(keptCells(r2.stderrText), 4u) << r2.stderrText;
+  check(30.0);
+
+  for (const auto& [option, value] : {std::pair{"--targets-flip", "1.5"}, std::pair{"--flip-ppd", "0"}}) {
+    std::vector<std::string> bad = args;
+    bad.insert(bad.end(), {option, value});
+    const CliResult r = runCli(bad, dir + "/err_bad.txt");
+    EXPECT_NE(r.exitCode, 0);
+    EXPECT_NE(r.stderrText.find(option), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
 }
 
 // Ctrl-C: the run stops with exit code 130, says so, and results.csv holds
@@ -462,6 +575,116 @@ TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + file)) << file;
   const auto summary = readBytes(dir + "/out/summary.md");
   EXPECT_NE(std::string(summary.begin(), summary.end()).find("fastest config reaching it"), std::string::npos);
+}
+
+// The font the labels are drawn in: every printable character has a glyph
+// of its own (so a label reads back unambiguously), inked but for the space.
+TEST(ContactSheetFont, EveryGlyphIsDistinct) {
+  std::map<std::vector<uint8_t>, char> seen;
+  for (int c = 32; c <= 126; ++c) {
+    const uint8_t* rows = glyphRows(char(c));
+    const std::vector<uint8_t> bits(rows, rows + kGlyphHeight);
+    for (uint8_t r : bits) EXPECT_EQ(r >> kGlyphWidth, 0) << char(c);
+    EXPECT_EQ(std::count(bits.begin(), bits.end(), 0) == kGlyphHeight, c == ' ') << char(c);
+    EXPECT_TRUE(seen.emplace(bits, char(c)).second) << char(c) << " looks like " << seen[bits];
+  }
+  EXPECT_EQ(glyphRows('\x80'), glyphRows('?'));
+  EXPECT_EQ(wrapText("abcdefg", 3), (std::vector<std::string>{"abc", "def", "g"}));
+  EXPECT_EQ(wrapText("", 3), std::vector<std::string>{""});
+}
+
+// Issue #37: contact_sheet.png had no labels (its SVG had them). Each tile
+// carries the SVG's two lines under it: read back glyph by glyph at the
+// place report.h's layout gives (derived here from the image's size), they
+// are "gi reference" and "CONFIG @ SPP spp" in results.json's contactSheet
+// order, in black, then the time and error in grey; the blank column and
+// rows around every glyph are white, and the tile above the label is the
+// pass's preview, untouched.
+TEST(CompareEndToEnd, ContactSheetPngLabelsReadBackUnderEachTile) {
+  const std::string dir = tempDir("compare_contact_labels");
+  const int w = 64, h = 40;  // 10 glyphs a line: the longer labels wrap
+  const CliResult r = runCli({"compare", sourcePath("scenes/default.gltf"), "-o", dir + "/out", "--res", "64x40",
+                              "--reference-spp", "4", "--spp", "2", "-q", "-c", "ao", "-c", "obscurance:falloff=sqrt"},
+                             dir + "/err.txt");
+  ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  std::ifstream in(dir + "/out/results.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  std::vector<std::string> want = {"gi reference"};
+  std::vector<std::string> previews = {"reference"};
+  for (const auto& c : j["contactSheet"]) {
+    if (!c.is_object()) continue;  // "reference", first
+    want.push_back(c["config"].get<std::string>() + " @ " + std::to_string(c["spp"].get<int>()) + " spp");
+    previews.push_back(safeFileName(c["config"].get<std::string>()));
+  }
+  ASSERT_EQ(want.size(), 3u);
+
+  auto readRgb8 = [](const std::string& path, int& W, int& H) {
+    auto img = OIIO::ImageInput::open(path);
+    EXPECT_TRUE(img) << OIIO::geterror();
+    if (!img) return std::vector<unsigned char>();
+    W = img->spec().width, H = img->spec().height;
+    std::vector<unsigned char> px(size_t(W) * H * 3);
+    EXPECT_TRUE(img->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, px.data()));
+    return px;
+  };
+  int W = 0, H = 0;
+  const std::vector<unsigned char> sheet = readRgb8(dir + "/out/contact_sheet.png", W, H);
+  const int tiles = 3, cols = 3, rows = 1;
+  ASSERT_EQ(W, cols * (w + 4) + 4);
+  const int labelHeight = (H - 4) / rows - h - 4;
+  ASSERT_EQ((H - 4) % rows, 0);
+  const int columns = (w + 1) / kGlyphAdvance, lines = (labelHeight - kContactSheetLabelGap) / kLineAdvance;
+  ASSERT_EQ(labelHeight, kContactSheetLabelGap + lines * kLineAdvance);
+  const std::regex timing("[0-9.e+-]+ s, RMSE [0-9.e+-]+, FLIP [0-9.e+-]+"), noise("noise RMSE [0-9.e+-]+");
+  auto pixel = [&](int x, int y) { return &sheet[(size_t(y) * W + x) * 3]; };
+  auto white = [&](int x, int y) { const unsigned char* p = pixel(x, y); return p[0] == 255 && p[1] == 255 && p[2] == 255; };
+  for (int t = 0; t < tiles; ++t) {
+    SCOPED_TRACE("tile " + std::to_string(t));
+    const int x0 = (t % cols) * (w + 4) + 4, y0 = (t / cols) * (h + labelHeight + 4) + 4;
+    std::string text[2];  // black, grey
+    for (int l = 0; l < lines; ++l) {
+      const int ly = y0 + h + kContactSheetLabelGap + l * kLineAdvance;
+      std::string line;
+      int part = -1;
+      for (int k = 0; k < columns; ++k) {
+        const int gx = x0 + k * kGlyphAdvance;
+        std::vector<uint8_t> bits(kGlyphHeight, 0);
+        for (int y = 0; y < kGlyphHeight; ++y)
+          for (int x = 0; x < kGlyphWidth; ++x) {
+            if (white(gx + x, ly + y)) continue;
+            const unsigned char* p = pixel(gx + x, ly + y);
+            const int colour = p[0] == 0 && p[1] == 0 && p[2] == 0 ? 0 : p[0] == 0x55 && p[1] == 0x55 && p[2] == 0x55 ? 1 : -1;
+            ASSERT_GE(colour, 0) << "ink neither black nor grey at " << gx + x << "," << ly + y;
+            ASSERT_TRUE(part < 0 || part == colour) << "a line mixes black and grey";
+            part = colour;
+            bits[size_t(y)] |= uint8_t(1 << (kGlyphWidth - 1 - x));
+          }
+        char c = 0;
+        for (int g = 32; g <= 126 && !c; ++g)
+          if (std::equal(bits.begin(), bits.end(), glyphRows(char(g)))) c = char(g);
+        ASSERT_NE(c, 0) << "no glyph at " << gx << "," << ly;
+        line += c;
+        // The blank column after a glyph (inside the tile) is white.
+        if (gx + kGlyphWidth < x0 + w)
+          for (int y = 0; y < kGlyphHeight; ++y) EXPECT_TRUE(white(gx + kGlyphWidth, ly + y));
+      }
+      for (int x = x0; x < x0 + w; ++x)
+        for (int y = ly + kGlyphHeight; y < ly + kLineAdvance; ++y) EXPECT_TRUE(white(x, y)) << x << "," << y;
+      if (part >= 0) text[part] += line;
+    }
+    for (std::string& s : text) s.erase(s.find_last_not_of(' ') + 1);
+    EXPECT_EQ(text[0], want[size_t(t)]);
+    EXPECT_TRUE(std::regex_match(text[1], t == 0 ? noise : timing)) << text[1];
+    // The image above the label is the pass's preview, untouched.
+    int pw = 0, ph = 0;
+    const std::vector<unsigned char> preview = readRgb8(dir + "/out/previews/" + previews[size_t(t)] + ".png", pw, ph);
+    ASSERT_EQ(pw, w);
+    ASSERT_EQ(ph, h);
+    size_t differ = 0;
+    for (int y = 0; y < h; ++y)
+      differ += std::memcmp(pixel(x0, y0 + y), &preview[size_t(y) * w * 3], size_t(w) * 3) != 0;
+    EXPECT_EQ(differ, 0u) << "rows of the tile differ from its preview";
+  }
 }
 
 }  // namespace

@@ -360,7 +360,7 @@ TEST(Cryptomatte, RenderedLayersDecodeToTheScene) {
   int formats = 0;
   for (size_t c = 0; c < half.spec.channelformats.size(); ++c) {
     const std::string& name = half.spec.channelnames[c];
-    const bool keep = name.rfind("CryptoObject", 0) == 0 || name == "Z" || name.rfind("N.", 0) == 0 || name == "spp";
+    const bool keep = name.rfind("CryptoObject", 0) == 0 || name == "Z" || name.rfind("N.", 0) == 0 || name == kSppPlane;
     EXPECT_EQ(half.spec.channelformats[c] == OIIO::TypeDesc::FLOAT, keep) << name;
     formats += half.spec.channelformats[c] == OIIO::TypeDesc::FLOAT && name.rfind("Crypto", 0) == 0;
   }

@@ -2,7 +2,7 @@
 // exact W stays exact, a flat noisy W keeps its mean while its variance
 // drops, and step edges in depth, normal and object do not leak. The noise
 // is Gaussian of a known sigma, drawn as two halves of the samples the way
-// the film's W.error is made (se = |a - b| / 2), so the variance the filter
+// the film's W_error is made (se = |a - b| / 2), so the variance the filter
 // reads is an estimate with one degree of freedom, as in a render.
 #include <gtest/gtest.h>
 

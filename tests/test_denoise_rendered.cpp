@@ -3,7 +3,7 @@
 // whose ao has a closed form the denoised pass's bias^2 and variance are
 // measured over seeds against the noisy pass's.
 //
-// The variance the denoiser reads is made here the way the film's W.error
+// The variance the denoiser reads is made here the way the film's W_error
 // plane makes it (standard error from two halves of a pixel's samples): each
 // pass is two independent renders of spp/2 samples (seeds 2k and 2k + 1),
 // W = their mean, variance = ((W_a - W_b) / 2)^2, max over channels.
@@ -200,7 +200,7 @@ TEST(DenoiseRendered, CreaseBiasAndVariance) {
 }
 
 // A step between two planes at different depths, through the render's own
-// --denoise path (RenderSettings::denoise: W.error, the object guide): the
+// --denoise path (RenderSettings::denoise: W_error, the object guide): the
 // floor z = 0 and, for x > 0, a slab 2 high whose top is an open plane
 // (ao W exactly 1) and whose side is a wall 2 high at x = 0. With R = 1 < 2
 // the wall is infinite for the floor's rays, so a floor point at distance d

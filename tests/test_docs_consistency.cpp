@@ -12,6 +12,9 @@
 //   in double quotes) is a heading of that file, and no file cites the design
 //   notes that lived outside the repository.
 // - README.md is a front door: at most 300 lines.
+// - docs/exr.md's list of the layer names --pass refuses is the code's list.
+// - The Python hints (setup.sh's closing line, docs/python.md) run the
+//   interpreter the module is built for, not whichever python3 PATH finds.
 #include <gtest/gtest.h>
 
 #include <cctype>
@@ -27,6 +30,7 @@
 #include <vector>
 
 #include <obscura/integrator.h>
+#include "app/render_setup.h"
 #include "tests/integrator_table.h"
 #include "tests/support.h"
 
@@ -369,6 +373,66 @@ TEST(DocsConsistency, ReadmeIsAtMost300Lines) {
   const long lines = std::count(readme.begin(), readme.end(), '\n') + (readme.back() == '\n' ? 0 : 1);
   EXPECT_LE(lines, 300) << "README.md has " << lines
                         << " lines: it is the front door; move reference material into docs/ (README \"Documentation\")";
+}
+
+// --- The reserved layer names ------------------------------------------------
+
+// docs/exr.md "Layer names --pass refuses" lists, in its bullets, every name
+// reservedLayerNames() holds (a prefix written `Name*`) and no other.
+TEST(DocsConsistency, ReservedLayerNamesMatchTheCode) {
+  const std::string doc = readFile(fs::path(sourceDir()) / "docs" / "exr.md");
+  const std::string heading = "\n## Layer names --pass refuses\n";
+  const size_t from = doc.find(heading);
+  ASSERT_NE(from, std::string::npos) << "docs/exr.md has no heading \"Layer names --pass refuses\"";
+  const size_t to = doc.find("\n## ", from + heading.size());
+  std::istringstream in(doc.substr(from, to == std::string::npos ? std::string::npos : to - from));
+  std::set<std::string> documented;
+  const std::regex name("`([A-Za-z][A-Za-z0-9_]*\\*?)`");
+  std::string line;
+  bool inList = false;
+  while (std::getline(in, line)) {
+    if (line.rfind("- ", 0) == 0) inList = true;
+    else if (line.empty() || line.rfind("  ", 0) != 0) inList = false;  // a bullet's continuation is indented
+    if (!inList) continue;
+    for (std::sregex_iterator it(line.begin(), line.end(), name), end; it != end; ++it) documented.insert((*it)[1]);
+  }
+  std::set<std::string> code;
+  for (const ReservedLayerName& r : reservedLayerNames()) code.insert(std::string(r.name) + (r.prefix ? "*" : ""));
+  EXPECT_EQ(documented, code);
+  EXPECT_GE(code.size(), size_t(40));
+}
+
+// --- The Python hints name the interpreter the module is built for -------------
+
+// setup.sh builds the module for Debian's /usr/bin/python3 (its NumPy is the
+// one python3-numpy installs); a hint saying `python3` runs whichever comes
+// first in PATH (pyenv's, a venv's), which cannot import it or lacks NumPy.
+// Every line of setup.sh and docs/python.md that imports the module or sets
+// PYTHONPATH must name setup.sh's interpreter.
+TEST(DocsConsistency, PythonHintsNameTheInterpreterSetupBuildsFor) {
+  const fs::path root(sourceDir());
+  const std::string setup = readFile(root / "scripts" / "setup.sh");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(setup, m, std::regex("\\npython_exe=(\\S+)\\n"))) << "scripts/setup.sh sets no python_exe=";
+  const std::string exe = m[1];
+  EXPECT_EQ(exe, "/usr/bin/python3");
+  EXPECT_NE(setup.find("-DPython_EXECUTABLE=$python_exe"), std::string::npos) << "setup.sh builds for another interpreter";
+  int hints = 0;
+  for (const char* file : {"scripts/setup.sh", "docs/python.md"}) {
+    std::istringstream in(readFile(root / file));
+    std::string line;
+    for (int n = 1; std::getline(in, line); ++n) {
+      const bool runs = line.find("PYTHONPATH=") != std::string::npos || line.find("-c 'import obscura'") != std::string::npos ||
+                        line.find("-c \"import obscura\"") != std::string::npos;
+      if (!runs || line.find("<prefix>") != std::string::npos) continue;  // the install-prefix note names no command
+      ++hints;
+      // The interpreter is the word after PYTHONPATH=... (or the first word).
+      const bool named = line.find(" " + exe + " ") != std::string::npos || line.find("$python_exe ") != std::string::npos ||
+                         line.rfind(exe + " ", 0) == 0;
+      EXPECT_TRUE(named) << file << ":" << n << " runs Python without naming " << exe << ": " << line;
+    }
+  }
+  EXPECT_GE(hints, 3);  // setup.sh's closing hint and docs/python.md's examples
 }
 
 }  // namespace

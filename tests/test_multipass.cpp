@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include <obscura/error.h>
+#include "app/render_setup.h"
 #include "core/load/gltf_loader.h"
 #include "core/render/gbuffer.h"
 #include "core/render/render.h"
@@ -227,8 +228,10 @@ TEST(MultiPassCli, LayersHeaderAndErrors) {
   const std::vector<Bad> bad = {
       {{"--pass", "ao"}, "expected LAYER=integrator"},
       {{"--pass", "1x=ao"}, "must be a letter"},
-      {{"--pass", "Z=ao"}, "taken by a channel"},
+      {{"--pass", "Z=ao"}, "a layer Obscura writes itself"},
       {{"--pass", "CryptoObject=ao"}, "Cryptomatte"},
+      {{"--pass", "Combined=ao"}, "render pass name of Blender"},
+      {{"--pass", "depth=ao"}, "built-in layer of Nuke"},
       {{"--pass", "a=ao", "--pass", "a=obscurance"}, "already a pass"},
       {{"--pass", "a=nosuch"}, "nosuch"},
       {{"--pass", "a=ao:distance=-1"}, "distance"},
@@ -250,4 +253,36 @@ TEST(MultiPassCli, LayersHeaderAndErrors) {
     EXPECT_NE(r.stderrText.find(b.says), std::string::npos) << r.stderrText;
     EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
   }
+}
+
+// Issue #37: `--pass Combined=...` crashed Blender 3.4 on load (its reader
+// files R,G,B,A under the pass Combined, so the layer made six colour
+// channels of one pass), and Depth/Alpha were mixed into the passes and
+// sockets it makes. Every reserved name, and every name a reserved prefix
+// starts, is refused naming who reserves it; names differing only in case
+// pass, as both readers match case-sensitively (`ao` is the docs' example).
+TEST(MultiPassNames, LayerNamesCompositorsReserveAreRefused) {
+  auto setupsFor = [](const std::string& pass) {
+    RenderArgs a;
+    a.passes = {pass + "=ao"};
+    return passSetups(a);
+  };
+  for (const ReservedLayerName& r : reservedLayerNames()) {
+    for (const std::string& name : r.prefix ? std::vector<std::string>{r.name, std::string(r.name) + "Extra_1"}
+                                            : std::vector<std::string>{r.name}) {
+      try {
+        setupsFor(name);
+        ADD_FAILURE() << "--pass " << name << "=ao was accepted";
+      } catch (const Error& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("the layer name '" + name + "' is reserved: " + r.owner), std::string::npos) << what;
+        EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+      }
+    }
+  }
+  for (const char* free : {"ao", "dirt", "combined", "DEPTH", "Rgba", "W", "sppx", "W_error2", "bounce"})
+    EXPECT_NO_THROW(setupsFor(free)) << free;
+  // The names issue #37 found, and the new channel layers, are in the list.
+  for (const char* must : {"Combined", "Depth", "Alpha", "rgba", "depth", "W_error", "spp", "lighting", "noisy"})
+    EXPECT_THROW(setupsFor(must), Error) << must;
 }

@@ -409,5 +409,118 @@ TEST(Outputs, CliRefusesBadOutputsBeforeRendering) {
   EXPECT_EQ(fileBytes(sceneCopy), sceneBytes);
 }
 
+
+namespace {
+
+// CRC-32 of the PNG specification computed a bit at a time (the code under
+// test uses a byte table), so the two agree only if both follow the spec.
+uint32_t bitwiseCrc32(const unsigned char* p, size_t n) {
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+  }
+  return ~c;
+}
+
+uint32_t bigEndian32(const std::string& b, size_t at) {
+  return uint32_t((unsigned char)b[at]) << 24 | uint32_t((unsigned char)b[at + 1]) << 16 |
+         uint32_t((unsigned char)b[at + 2]) << 8 | uint32_t((unsigned char)b[at + 3]);
+}
+
+struct PngChunk {
+  std::string type, data;
+};
+
+// The chunks of a PNG file, each CRC checked (a failure is reported and
+// the chunk still listed).
+std::vector<PngChunk> pngChunks(const std::string& file) {
+  std::vector<PngChunk> chunks;
+  EXPECT_EQ(file.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  for (size_t at = 8; at + 12 <= file.size();) {
+    const uint32_t n = bigEndian32(file, at);
+    if (at + 12 + n > file.size()) {
+      ADD_FAILURE() << "chunk at " << at << " runs past the end";
+      break;
+    }
+    PngChunk c{file.substr(at + 4, 4), file.substr(at + 8, n)};
+    EXPECT_EQ(bigEndian32(file, at + 8 + n), bitwiseCrc32(reinterpret_cast<const unsigned char*>(file.data()) + at + 4, n + 4))
+        << c.type << " chunk's CRC";
+    chunks.push_back(std::move(c));
+    at += 12 + n;
+  }
+  return chunks;
+}
+
+// Every PNG Obscura writes holds sRGB-encoded bytes (linearToSrgb8), so it
+// says so: sRGB after IHDR, with the gAMA and cHRM the PNG specification
+// pairs with it for decoders that ignore sRGB, every CRC right, and the
+// pixels read back unchanged through libpng (OpenImageIO).
+void expectSrgbPng(const std::string& path, int w, int h, const std::vector<unsigned char>* rgb) {
+  SCOPED_TRACE(path);
+  const std::vector<PngChunk> chunks = pngChunks(fileBytes(path));
+  std::vector<std::string> order;
+  for (const PngChunk& c : chunks)
+    if (order.empty() || order.back() != c.type) order.push_back(c.type);
+  EXPECT_EQ(order, (std::vector<std::string>{"IHDR", "cHRM", "gAMA", "sRGB", "IDAT", "IEND"}));
+  for (const PngChunk& c : chunks) {
+    if (c.type == "sRGB") {
+      EXPECT_EQ(c.data, std::string(1, '\0'));  // rendering intent 0: perceptual
+    }
+    if (c.type == "gAMA") {
+      ASSERT_EQ(c.data.size(), 4u);
+      EXPECT_EQ(bigEndian32(c.data, 0), 45455u);  // 1/2.2 x 100000, the spec's value with sRGB
+    }
+    if (c.type == "cHRM") {
+      ASSERT_EQ(c.data.size(), 32u);
+      // White D65, then red, green, blue: Rec.709 (x, y) x 100000.
+      const uint32_t want[8] = {31270, 32900, 64000, 33000, 30000, 60000, 15000, 6000};
+      for (int k = 0; k < 8; ++k) EXPECT_EQ(bigEndian32(c.data, size_t(4 * k)), want[k]) << "cHRM value " << k;
+    }
+  }
+  auto in = OIIO::ImageInput::open(path);
+  ASSERT_TRUE(in) << OIIO::geterror();
+  const OIIO::ImageSpec& spec = in->spec();
+  EXPECT_EQ(spec.width, w);
+  EXPECT_EQ(spec.height, h);
+  EXPECT_EQ(spec.get_string_attribute("oiio:ColorSpace"), "sRGB");
+  std::vector<unsigned char> back(size_t(w) * h * 3);
+  ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::UINT8, back.data())) << in->geterror();
+  EXPECT_FALSE(in->has_error()) << in->geterror();
+  if (rgb) {
+    EXPECT_EQ(back, *rgb);
+  }
+}
+
+}  // namespace
+
+// Issue #37: the preview PNG carried no colour-space chunk.
+TEST(Outputs, PngsAreTaggedSrgb) {
+  // The closed form the CRC check rests on: every PNG ends in IEND's CRC.
+  EXPECT_EQ(bitwiseCrc32(reinterpret_cast<const unsigned char*>("IEND"), 4), 0xAE426082u);
+  const std::string dir = tempDir("outputs_png_srgb");
+  const int w = 7, h = 5;
+  std::vector<unsigned char> rgb(size_t(w) * h * 3);
+  for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = (unsigned char)(i * 37 % 256);
+  writePngRgb8(dir + "/bytes.png", w, h, rgb.data());
+  expectSrgbPng(dir + "/bytes.png", w, h, &rgb);
+
+  Film film(w, h, false);
+  for (int c = 0; c < 3; ++c)
+    for (int p = 0; p < w * h; ++p) film.plane(kR + c)[p] = float(p % 11) / 10.0f * (c + 1) / 3.0f;
+  writePreviewPng(dir + "/preview.png", film);
+  std::vector<unsigned char> want(size_t(w) * h * 3);
+  for (int p = 0; p < w * h; ++p)
+    for (int c = 0; c < 3; ++c) want[size_t(p) * 3 + c] = linearToSrgb8(film.plane(kR + c)[p]);
+  expectSrgbPng(dir + "/preview.png", w, h, &want);
+
+  // And the CLI's --preview.
+  const CliResult r = runCli({"render", sourcePath("scenes/default.gltf"), "-o", dir + "/pass.exr", "--preview",
+                              dir + "/cli.png", "--res", "24x16", "--spp", "1", "-q"},
+                             dir + "/err.txt");
+  ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  expectSrgbPng(dir + "/cli.png", 24, 16, nullptr);
+}
+
 }  // namespace
 }  // namespace obscura::test

@@ -77,9 +77,9 @@ TEST(ExrWrite, EveryCompressionWritesTheSamePixels) {
     for (size_t i = 0; i < results.size(); ++i) ASSERT_EQ(results[i].exitCode, 0) << names[i] << results[i].stderrText;
     const ReadBack zip = readExr(dir + "/zip" + (half ? "_half" : "") + ".exr");
     ASSERT_TRUE(zip.ok);
-    EXPECT_EQ(zip.planes.size(), size_t(kChannelCount) + 2);  // the fixed channels, W.error and spp
+    EXPECT_EQ(zip.planes.size(), size_t(kChannelCount) + 2);  // the fixed channels, W_error and spp
     // Under --half, spp stays float: half holds integers exactly only to 2048.
-    const int sppIndex = zip.spec.channelindex("spp");
+    const int sppIndex = zip.spec.channelindex(kSppPlane);
     ASSERT_GE(sppIndex, 0);
     EXPECT_EQ(zip.spec.channelformat(sppIndex), OIIO::TypeDesc(OIIO::TypeDesc::FLOAT));
     for (const char* n : names) {

@@ -21,7 +21,7 @@ struct DenoiseInput {
   // Coverage (the film's A). Pixels with alpha <= 0 hold no W: they are
   // neither filtered nor read by their neighbours, and are copied through.
   const float* alpha = nullptr;
-  // Per-pixel variance of the un-premultiplied W (the square of the W.error
+  // Per-pixel variance of the un-premultiplied W (the square of the W_error
   // plane: the standard error of the pixel's W, the max over channels).
   const float* variance = nullptr;
   // World-space unit normal (N.X/Y/Z; 0 where nothing was hit).

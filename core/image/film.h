@@ -38,9 +38,14 @@ constexpr float kBackgroundDepth = 1e10f;
 
 // The planes the render loops add with the AOVs (docs/sampling.md "Adaptive
 // sampling"): the standard error of the pass W per pixel (un-premultiplied)
-// and the camera samples the pixel took.
-inline constexpr const char* kErrorPlane = "W.error";
-inline constexpr const char* kSppPlane = "spp";
+// and the camera samples the pixel took. Each is a one-channel layer named
+// LAYER.Y (docs/exr.md "Channels"): Blender's multilayer reader takes only a
+// one-letter last token (or R/G/B/A, X/Y/Z, U/V after a pass letter) as a
+// channel and drops the rest with "unknown channel token" ("W.error", "spp"
+// were dropped), and Y is OpenEXR's name for the one channel of a grey
+// image, so OpenImageIO and Nuke show a layer W_error with one channel.
+inline constexpr const char* kErrorPlane = "W_error.Y";
+inline constexpr const char* kSppPlane = "spp.Y";
 // lighting.R/G/B: what shaded.* = albedo x W x lighting multiplies, under a
 // non-constant environment (docs/exr.md "Channels").
 inline constexpr const char* kLightingPlane = "lighting.R";

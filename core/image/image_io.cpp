@@ -1,4 +1,6 @@
 #include "core/image/image_io.h"
+#include "core/util/memory_budget.h"
+#include "core/util/input_file.h"
 
 #include "core/util/large_vector.h"
 
@@ -20,6 +22,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cinttypes>
 #include <cmath>
 #include <cerrno>
@@ -173,6 +176,55 @@ void writeBytesFile(const std::string& path, const std::string& tmp, const void*
   }
 }
 
+// CRC-32 of PNG chunks (PNG specification, 5.5 "CRC algorithm": the
+// reflected polynomial 0xEDB88320, register preset to all ones, result
+// complemented), over the chunk type and data.
+uint32_t pngCrc(const unsigned char* bytes, size_t n) {
+  static const auto table = [] {
+    std::array<uint32_t, 256> t{};
+    for (uint32_t i = 0; i < 256; ++i) {
+      uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  uint32_t c = 0xFFFFFFFFu;
+  for (size_t i = 0; i < n; ++i) c = table[(c ^ bytes[i]) & 0xFF] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+void appendBigEndian32(std::string& out, uint32_t v) {
+  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(char((v >> shift) & 0xFF));
+}
+
+// One PNG chunk: length, type, data, CRC of type and data.
+void appendPngChunk(std::string& out, const char type[4], const std::vector<uint32_t>& data32, const std::string& data8) {
+  std::string body(type, 4);
+  for (uint32_t v : data32) appendBigEndian32(body, v);
+  body += data8;
+  appendBigEndian32(out, uint32_t(body.size() - 4));
+  out += body;
+  appendBigEndian32(out, pngCrc(reinterpret_cast<const unsigned char*>(body.data()), body.size()));
+}
+
+// stb_image_write writes no colour-space chunk, so a viewer or compositor
+// had to guess what the bytes mean (issue #37). They are sRGB-encoded
+// (linearToSrgb8), so after IHDR: sRGB (rendering intent 0, perceptual) and,
+// as the PNG specification (11.3.3.5 "sRGB") recommends for decoders that
+// do not know sRGB, the gAMA and cHRM it implies: gamma 1/2.2 as 45455, and
+// the Rec.709 primaries with a D65 white, times 100000.
+std::string tagSrgb(const std::string& png) {
+  constexpr size_t kIhdrEnd = 8 + 4 + 4 + 13 + 4;  // signature, then IHDR's length, type, 13 bytes, CRC
+  if (png.size() < kIhdrEnd || png.compare(12, 4, "IHDR") != 0) throw Error("PNG encoder: no IHDR chunk first");
+  std::string out = png.substr(0, kIhdrEnd);
+  appendPngChunk(out, "cHRM", {31270, 32900, 64000, 33000, 30000, 60000, 15000, 6000}, "");
+  appendPngChunk(out, "gAMA", {45455}, "");
+  appendPngChunk(out, "sRGB", {}, std::string(1, '\0'));
+  out.append(png, kIhdrEnd, std::string::npos);
+  return out;
+}
+
 // Encodes in memory, then writes through writeBytesFile: stbi_write_png
 // itself ignores what fwrite and fclose return, so a full disk left a
 // truncated PNG that was then moved over the previous one.
@@ -184,7 +236,8 @@ void writePngFile(const std::string& path, const std::string& tmp, int width, in
   };
   if (!stbi_write_png_to_func(append, &png, width, height, 3, rgb, width * 3))
     throw Error(path + ": write failed: cannot encode the image");
-  writeBytesFile(path, tmp, png.data(), png.size());
+  const std::string tagged = tagSrgb(png);
+  writeBytesFile(path, tmp, tagged.data(), tagged.size());
 }
 
 std::vector<unsigned char> previewPixels(const Film& film) {
@@ -225,7 +278,7 @@ void checkWritable(const std::string& path) {
 
 uint64_t filmBytes(int width, int height, bool aovs, bool albedo) {
   // With the AOVs, the fixed channels (but albedo.* and shaded.* without
-  // the albedo AOV) and the W.error and spp planes.
+  // the albedo AOV) and the W_error and spp planes.
   const uint64_t planes = !aovs ? 4 : kChannelCount + 2 - (albedo ? 0 : 6);
   return uint64_t(std::max(width, 0)) * uint64_t(std::max(height, 0)) * planes * sizeof(float);
 }
@@ -389,6 +442,7 @@ ExrCompression exrCompressionFromName(const std::string& name, const std::string
 }
 
 bool isExrFile(const std::string& path) {
+  checkInputFile(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw Error(path + ": cannot open: " + std::strerror(errno));
   unsigned char magic[4] = {0, 0, 0, 0};
@@ -421,6 +475,9 @@ ExrImage readExrImage(const std::string& path) {
     const size_t pixels = size_t(img.width) * size_t(img.height);
     Imf::FrameBuffer frame;
     for (auto it = h.channels().begin(); it != h.channels().end(); ++it) img.names.push_back(it.name());
+    requireMemory(uint64_t(pixels) * img.names.size() * sizeof(float),
+                  path + ": data window " + std::to_string(img.width) + "x" + std::to_string(img.height) + ", " +
+                      std::to_string(img.names.size()) + " channels");
     img.planes.resize(img.names.size());
     for (size_t c = 0; c < img.names.size(); ++c) {
       img.planes[c].resize(pixels);

@@ -1,4 +1,5 @@
 #include "core/image/metrics.h"
+#include "core/util/memory_budget.h"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
@@ -9,6 +10,7 @@
 #include <cmath>
 
 #include <obscura/error.h>
+#include "core/image/flip.h"
 #include "core/image/image_io.h"
 #include "core/image/oiio_module.h"
 
@@ -73,6 +75,8 @@ PassImage readPass(const std::string& path, const std::string& prefix) {
     const Imath::Box2i data = in.header().dataWindow();
     p.width = data.max.x - data.min.x + 1;
     p.height = data.max.y - data.min.y + 1;
+    requireMemory(uint64_t(p.width) * uint64_t(p.height) * 4 * sizeof(float),
+                  path + ": data window " + std::to_string(p.width) + "x" + std::to_string(p.height));
     std::vector<float>* planes[4] = {&p.r, &p.g, &p.b, &p.a};
     Imf::FrameBuffer frame;
     for (int c = 0; c < 4; ++c) {
@@ -128,6 +132,33 @@ ErrorMetrics errorMetrics(const PassImage& test, const PassImage& ref) {
   std::nth_element(absErr.begin(), absErr.begin() + long(rank - 1), absErr.end());
   m.p99 = absErr[rank - 1];
   return m;
+}
+
+namespace {
+FlipImage flipImageOf(const PassImage& p, bool clampToUnit) {
+  FlipImage f;
+  f.width = p.width, f.height = p.height;
+  f.r = p.r, f.g = p.g, f.b = p.b;
+  if (clampToUnit)
+    for (std::vector<float>* plane : {&f.r, &f.g, &f.b})
+      for (float& v : *plane) v = std::clamp(std::isfinite(v) ? v : 0.0f, 0.0f, 1.0f);
+  return f;
+}
+}  // namespace
+
+FlipError flipError(const PassImage& test, const PassImage& ref, double ppd, bool maps) {
+  const std::vector<size_t> idx = comparedPixels(test, ref);
+  FlipError e;
+  const FlipImage refHdr = flipImageOf(ref, false);
+  std::vector<float> ldr = ldrFlip(flipImageOf(ref, true), flipImageOf(test, true), ppd);
+  std::vector<float> hdr = hdrFlip(refHdr, flipImageOf(test, false), flipExposures(refHdr, &idx), ppd);
+  for (const size_t i : idx) e.ldr += ldr[i], e.hdr += hdr[i];
+  e.ldr /= double(idx.size()), e.hdr /= double(idx.size());
+  if (maps) {
+    e.ldrMap.assign(ldr.size(), 0.0f), e.hdrMap.assign(hdr.size(), 0.0f);
+    for (const size_t i : idx) e.ldrMap[i] = ldr[i], e.hdrMap[i] = hdr[i];
+  }
+  return e;
 }
 
 BiasVariance biasVariance(const std::vector<PassImage>& renders, const PassImage& ref, double refNoise) {

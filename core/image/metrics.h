@@ -54,6 +54,21 @@ constexpr double kRelMseEpsilon = 1e-2;
 // Throws obscura::Error if the sizes differ or no pixel is compared.
 ErrorMetrics errorMetrics(const PassImage& test, const PassImage& ref);
 
+// FLIP of a pass against the reference (core/image/flip.h; docs/compare.md
+// "FLIP"), each the mean over comparedPixels of the per-pixel map:
+//  - ldr: LDR-FLIP of the passes as their preview PNGs show them: R, G, B as
+//    stored (premultiplied, so over black), clamped to [0, 1]; the PNG's sRGB
+//    encoding is what LDR-FLIP decodes first, so the clamped linear values are
+//    its input (not quantised to 8 bits);
+//  - hdr: HDR-FLIP of the linear passes (premultiplied, unclamped), its
+//    exposure range from the reference's luminance over the compared pixels.
+// With `maps`, the per-pixel maps are kept (0 outside the compared pixels).
+struct FlipError {
+  double ldr = 0, hdr = 0;
+  std::vector<float> ldrMap, hdrMap;
+};
+FlipError flipError(const PassImage& test, const PassImage& ref, double ppd, bool maps = false);
+
 // Bias and variance from K >= 2 renders that differ only in seed, per pixel
 // value x_k (MATH: MSE of one render = bias^2 + variance):
 //   variance = mean over values of  Sum_k (x_k - m)^2 / (K - 1),  m = mean_k x_k

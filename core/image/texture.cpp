@@ -1,4 +1,5 @@
 #include "core/image/texture.h"
+#include "core/image/texture_size.h"
 
 #include <stb_image.h>
 
@@ -7,6 +8,18 @@
 #include <obscura/error.h>
 
 namespace obscura {
+
+UvTransform UvTransform::fromKhr(double offsetU, double offsetV, double rotation, double scaleU, double scaleV) {
+  // KHR_texture_transform's matrix: translation x rotation x scale, with the
+  // rotation [cos sin; -sin cos] as the extension writes it (v down).
+  const double c = std::cos(rotation), s = std::sin(rotation);
+  UvTransform t;
+  t.a = float(c * scaleU), t.b = float(s * scaleV), t.e = float(offsetU);
+  t.c = float(-s * scaleU), t.d = float(c * scaleV), t.f = float(offsetV);
+  t.cosR = float(c), t.sinR = float(s);
+  t.identity = offsetU == 0 && offsetV == 0 && rotation == 0 && scaleU == 1 && scaleV == 1;
+  return t;
+}
 
 float srgbToLinear(float c) {
   // IEC 61966-2-1 transfer function.
@@ -74,6 +87,26 @@ void Texture::decode() const {
   });
   if (!decodeError_.empty())
     throw Error(source_ + ": cannot decode texture image: " + decodeError_);
+}
+
+DecodedImageSize decodedImageSize(const std::vector<unsigned char>& encoded_) {
+  DecodedImageSize d;
+  if (encoded_.empty() || encoded_.size() > size_t(INT32_MAX)) return d;
+  int comp = 0;
+  if (!stbi_info_from_memory(encoded_.data(), int(encoded_.size()), &d.width, &d.height, &comp) || d.width < 1 ||
+      d.height < 1)
+    return DecodedImageSize{};
+  const uint64_t n = uint64_t(d.width) * uint64_t(d.height);
+  // As decode() stores them: 8-bit images one word a texel, 16-bit ones a
+  // Vec3 (and a float alpha); stb's buffer is RGBA at 1 or 2 bytes a channel.
+  if (stbi_is_16_bit_from_memory(encoded_.data(), int(encoded_.size()))) {
+    d.kept = n * (sizeof(Vec3) + (comp == 2 || comp == 4 ? sizeof(float) : 0));
+    d.transient = n * 8;
+  } else {
+    d.kept = n * sizeof(uint32_t);
+    d.transient = n * 4;
+  }
+  return d;
 }
 
 namespace {

@@ -16,6 +16,27 @@ namespace obscura {
 
 enum class WrapMode { Repeat, ClampToEdge, MirroredRepeat };
 
+// glTF's KHR_texture_transform: the texture is looked up at
+// (s, t) = T R S (u, v), T the offset, R the rotation, S the scale, in the
+// file's uv convention (v runs down the image); identity by default.
+// docs/scenes.md "Texture transforms".
+struct UvTransform {
+  // s = a u + b v + e, t = c u + d v + f.
+  float a = 1, b = 0, c = 0, d = 1, e = 0, f = 0;
+  // The rotation alone (cos, sin): what a normal map's tangent frame turns by.
+  float cosR = 1, sinR = 0;
+  bool identity = true;
+  // The extension's offset, rotation (radians) and scale, composed in
+  // double and rounded once per coefficient.
+  static UvTransform fromKhr(double offsetU, double offsetV, double rotation, double scaleU, double scaleV);
+  void apply(float& u, float& v) const {
+    if (identity) return;
+    const float s = a * u + b * v + e;
+    v = c * u + d * v + f;
+    u = s;
+  }
+};
+
 class Texture {
  public:
   // `encoded` holds a PNG/JPEG/... file's bytes; `source` names it in errors.

@@ -17,6 +17,7 @@
 
 #include <obscura/error.h>
 #include <obscura/params.h>
+#include "core/util/input_file.h"
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -140,6 +141,16 @@ class JsonChecker {
   void fields(const json& obj, const std::string& where, std::initializer_list<Rule> rules) const {
     for (const Rule& r : rules) field(obj, where, r);
   }
+  struct Length {
+    const char* key;
+    size_t n;
+  };
+  // obj.key, when present (an array: field() has checked), has exactly n elements.
+  void lengths(const json& obj, const std::string& where, std::initializer_list<Length> rules) const {
+    for (const Length& r : rules)
+      if (auto it = obj.find(r.key); it != obj.end() && it->size() != r.n)
+        doc_.fail(where + "." + r.key, "expected " + std::to_string(r.n) + " numbers, got " + std::to_string(it->size()));
+  }
   // obj.key[i] (an array of objects) with the rules, each.
   template <class F>
   void each(const json& obj, const std::string& where, const char* key, F&& check) const {
@@ -150,7 +161,24 @@ class JsonChecker {
     for (size_t i = 0; i < it->size(); ++i) check((*it)[i], prefix + "[" + std::to_string(i) + "]");
   }
 
+  // tinygltf reads an integer in extras or extensions into an int, wrapping
+  // one beyond its range (an extras.obscura.subdivision.level of 4294967298
+  // became 2), so such an integer is refused wherever it is, naming its path.
+  // Recursive: the nesting is at most kMaxJsonDepth, checked before parsing.
+  void extrasIntegers(const json& v, const std::string& path, bool inExtras) const {
+    if (v.is_object()) {
+      for (const auto& [key, e] : v.items())
+        extrasIntegers(e, path.empty() ? key : path + "." + key, inExtras || key == "extras" || key == "extensions");
+    } else if (v.is_array()) {
+      for (size_t i = 0; i < v.size(); ++i) extrasIntegers(v[i], path + "[" + std::to_string(i) + "]", inExtras);
+    } else if (inExtras && (v.is_number_unsigned() ? v.get<uint64_t>() > uint64_t(INT_MAX) : !matches(v, Kind::Int) && v.is_number_integer())) {
+      doc_.fail(path, "the integer " + v.dump() + " is outside [" + std::to_string(INT_MIN) + ", " + std::to_string(INT_MAX) +
+                          "], the range a glTF reader keeps");
+    }
+  }
+
   void document(const json& root) const {
+    extrasIntegers(root, "", false);
     // Top-level arrays are named without a leading dot.
     const auto arr = [&](const char* key, auto&& check) {
       auto it = root.find(key);
@@ -171,6 +199,15 @@ class JsonChecker {
       fields(n, w, {{"mesh", Kind::Index}, {"camera", Kind::Index}, {"skin", Kind::Index}, {"children", Kind::IndexArray},
                     {"matrix", Kind::NumberArray}, {"translation", Kind::NumberArray}, {"rotation", Kind::NumberArray},
                     {"scale", Kind::NumberArray}, {"name", Kind::String}});
+      // tinygltf keeps an array of the wrong length and the decoding took it
+      // as absent: a matrix of 15 numbers placed the node at the identity.
+      lengths(n, w, {{"matrix", 16}, {"translation", 3}, {"rotation", 4}, {"scale", 3}});
+      // glTF 2.0 §5.25: a node has a matrix or TRS properties, not both; the
+      // decoding would take the matrix and drop the rest without a word.
+      if (n.contains("matrix"))
+        for (const char* trs : {"translation", "rotation", "scale"})
+          if (n.contains(trs))
+            doc_.fail(w + "." + trs, std::string("a node with a matrix must not have a ") + trs + " (glTF 2.0: one or the other)");
     });
     arr("meshes", [&](const json& m, const std::string& w) {
       fields(m, w, {{"name", Kind::String}});
@@ -206,15 +243,29 @@ class JsonChecker {
     arr("buffers", [&](const json& b, const std::string& w) { fields(b, w, {{"uri", Kind::String}, {"byteLength", Kind::Uint}}); });
     arr("materials", [&](const json& m, const std::string& w) {
       fields(m, w, {{"name", Kind::String}, {"pbrMetallicRoughness", Kind::Object}, {"alphaMode", Kind::String},
-                    {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}});
+                    {"alphaCutoff", Kind::Number}, {"emissiveFactor", Kind::NumberArray}, {"normalTexture", Kind::Object}});
+      lengths(m, w, {{"emissiveFactor", 3}});
+      // A textureInfo and its KHR_texture_transform.
+      const auto textureInfo = [&](const json& t, const std::string& tw, bool normal) {
+        fields(t, tw, {{"index", Kind::Index}, {"texCoord", Kind::Uint}, {"extensions", Kind::Object}});
+        if (normal) field(t, tw, {"scale", Kind::Number});
+        if (auto e = t.find("extensions"); e != t.end())
+          if (auto x = e->find("KHR_texture_transform"); x != e->end()) {
+            const std::string xw = tw + ".extensions.KHR_texture_transform";
+            if (!x->is_object()) doc_.fail(xw, "expected an object, got " + got(*x));
+            fields(*x, xw, {{"offset", Kind::NumberArray}, {"rotation", Kind::Number}, {"scale", Kind::NumberArray},
+                            {"texCoord", Kind::Uint}});
+          }
+      };
+      if (auto t = m.find("normalTexture"); t != m.end()) textureInfo(*t, w + ".normalTexture", true);
       if (auto pbr = m.find("pbrMetallicRoughness"); pbr != m.end()) {
         const std::string pw = w + ".pbrMetallicRoughness";
         fields(*pbr, pw, {{"baseColorFactor", Kind::NumberArray}, {"baseColorTexture", Kind::Object},
                           {"roughnessFactor", Kind::Number}, {"metallicFactor", Kind::Number},
                           {"metallicRoughnessTexture", Kind::Object}});
+        lengths(*pbr, pw, {{"baseColorFactor", 4}});
         for (const char* key : {"baseColorTexture", "metallicRoughnessTexture"})
-          if (auto t = pbr->find(key); t != pbr->end())
-            fields(*t, pw + "." + key, {{"index", Kind::Index}, {"texCoord", Kind::Uint}});
+          if (auto t = pbr->find(key); t != pbr->end()) textureInfo(*t, pw + "." + key, false);
       }
     });
     arr("textures", [&](const json& t, const std::string& w) { fields(t, w, {{"source", Kind::Index}, {"sampler", Kind::Index}}); });
@@ -243,6 +294,51 @@ class JsonChecker {
  private:
   const GltfDocument& doc_;
 };
+
+// tinygltf's file access, replaced: it decodes a uri its own way (a "+" as a
+// space, "%zz" as a NUL byte, so "%zz.bin" named the scene's directory) and
+// then read whatever that named - a directory came back as a file of
+// 2^63 bytes, "out of memory". Whatever tinygltf decoded, the read goes
+// through here and refuses anything that is not a regular file; no shell
+// expansion of the name either (tinygltf's default runs wordexp on it).
+bool uriFileExists(const std::string& path, void*) {
+  std::error_code ec;
+  return fs::exists(path, ec);
+}
+std::string uriFilePath(const std::string& path, void*) { return path; }
+bool readUriFile(std::vector<unsigned char>* out, std::string* err, const std::string& path, void*) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    if (err) *err += "'" + path + "' is not a regular file" + (fs::is_directory(path, ec) ? " (a directory)" : "");
+    return false;
+  }
+  std::ifstream in(path, std::ios::binary);
+  const auto size = fs::file_size(path, ec);
+  if (!in || ec) {
+    if (err) *err += "cannot read '" + path + "': " + std::strerror(errno);
+    return false;
+  }
+  out->resize(size_t(size));
+  in.read(reinterpret_cast<char*>(out->data()), std::streamsize(out->size()));
+  if (in.gcount() != std::streamsize(out->size())) {
+    if (err) *err += "cannot read '" + path + "'";
+    return false;
+  }
+  return true;
+}
+bool refuseWrite(std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+  if (err) *err += "writing is not supported";
+  return false;
+}
+
+// A percent sign not followed by two hex digits (RFC 3986 allows no other).
+size_t malformedEscape(const std::string& uri) {
+  for (size_t i = 0; i < uri.size(); ++i)
+    if (uri[i] == '%' && !(i + 2 < uri.size() && std::isxdigit(static_cast<unsigned char>(uri[i + 1])) &&
+                           std::isxdigit(static_cast<unsigned char>(uri[i + 2]))))
+      return i;
+  return std::string::npos;
+}
 
 // The uri as a file name: percent-escapes decoded, as tinygltf reads it.
 std::string decodeUri(const std::string& uri) {
@@ -316,7 +412,7 @@ void GltfDocument::warn(const std::string& what) const { Log::warnOnce(path_ + "
 void GltfDocument::read() {
   std::error_code ec;
   if (!fs::exists(path_, ec)) throw Error(path_ + ": cannot open scene: no such file");
-  if (fs::is_directory(path_, ec)) throw Error(path_ + ": cannot open scene: is a directory");
+  checkInputFile(path_);
   std::ifstream in(path_, std::ios::binary);
   if (!in) throw Error(path_ + ": cannot open scene: " + std::strerror(errno));
   // In one read when the size is known (a regular file): a byte-wise
@@ -373,11 +469,16 @@ void GltfDocument::read() {
       for (size_t i = 0; i < it->size(); ++i) {
         auto uri = (*it)[i].find("uri");
         if (uri == (*it)[i].end() || uri->get<std::string>().rfind("data:", 0) == 0) continue;
-        const std::string name = decodeUri(uri->get<std::string>());
-        const fs::path file = fs::path(name).is_absolute() ? fs::path(name) : fs::path(base.empty() ? "." : base) / name;
-        if (name.empty() || (fs::exists(file, ec) && !fs::is_regular_file(file, ec)))
+        const std::string& text = uri->get<std::string>();
+        if (const size_t at = malformedEscape(text); at != std::string::npos)
           fail(std::string(array) + "[" + std::to_string(i) + "].uri",
-               "'" + uri->get<std::string>() + "' is not a file" + (fs::is_directory(file, ec) || name.empty() ? " (a directory)" : ""));
+               "'" + text + "' has a malformed percent escape at character " + std::to_string(at) +
+                   " (a '%' takes two hex digits: %20 for a space)");
+        const std::string name = decodeUri(text);
+        const fs::path file = fs::path(name).is_absolute() ? fs::path(name) : fs::path(base.empty() ? "." : base) / name;
+        const std::string kind = name.empty() ? "a directory" : nonRegularKind(file.string());
+        if (!kind.empty())
+          fail(std::string(array) + "[" + std::to_string(i) + "].uri", "'" + uri->get<std::string>() + "' is not a file (" + kind + ")");
       }
     }
   }
@@ -399,6 +500,7 @@ void GltfDocument::read() {
 
   tinygltf::TinyGLTF loader;
   loader.SetImageLoader(keepImageBytes, &imageBytes_);
+  loader.SetFsCallbacks({uriFileExists, uriFilePath, readUriFile, refuseWrite, nullptr});
   std::string err, warning;
   const std::string baseDir = fs::path(path_).parent_path().string();
   const bool ok = binary ? loader.LoadBinaryFromMemory(model_.get(), &err, &warning, bytes.data(), unsigned(bytes.size()), baseDir)
@@ -408,12 +510,27 @@ void GltfDocument::read() {
 }
 
 void GltfDocument::warnUnsupported() {
-  static const std::set<std::string> harmless = {"KHR_materials_emissive_strength", "KHR_mesh_quantization"};
+  // The extensions the decoding honours: quantized attributes are read as
+  // any normalized or integer accessor (component()), texture transforms
+  // are applied to every texture read (docs/scenes.md "Texture transforms"),
+  // and an emission strength changes nothing an ambient pass computes.
+  static const std::set<std::string> supported = {"KHR_materials_emissive_strength", "KHR_mesh_quantization",
+                                                  "KHR_texture_transform"};
   for (const auto& e : model_->extensionsUsed)
-    if (!harmless.count(e)) warn("extension " + e + " is not supported (ignored)");
-  for (const auto& e : model_->extensionsRequired)
-    if (e == "KHR_draco_mesh_compression" || e == "EXT_meshopt_compression")
-      fail("extensionsRequired", e + " is not supported; decompress the file first");
+    if (!supported.count(e)) warn("extension " + e + " is not supported (ignored)");
+  // glTF 2.0 §3.12: a loader that does not support an extension listed in
+  // extensionsRequired MUST fail to load the file; a render that ignored it
+  // (a compressed mesh left out, a transform not applied) would look
+  // plausible and be wrong.
+  for (size_t i = 0; i < model_->extensionsRequired.size(); ++i) {
+    const std::string& e = model_->extensionsRequired[i];
+    if (supported.count(e)) continue;
+    std::string all;
+    for (const auto& k : supported) all += (all.empty() ? "" : ", ") + k;
+    const bool compression = e == "KHR_draco_mesh_compression" || e == "EXT_meshopt_compression";
+    fail("extensionsRequired[" + std::to_string(i) + "]",
+         e + " is not supported" + (compression ? "; decompress the file first" : "") + " (supported: " + all + ")");
+  }
   if (!model_->skins.empty()) warn("skins are not supported (meshes render in bind pose)");
   if (!model_->lights.empty()) warn("KHR_lights_punctual lights are ignored (the sky is the only light)");
 }
@@ -426,22 +543,50 @@ void GltfDocument::decodeMaterials() {
   struct TextureUse {
     int index = -1;
     WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+    UvTransform transform;
   };
-  // The texture a material's TextureInfo `ti` (at `tfield`) refers to; index
-  // -1 when it is absent or on a texture coordinate set other than 0 (warned).
-  const auto textureUse = [&](const tinygltf::TextureInfo& ti, const std::string& tfield, bool srgb) {
+  // The texture a material's textureInfo (its index, texCoord and
+  // extensions, at `tfield`) refers to; index -1 when it is absent or on a
+  // texture coordinate set other than 0 (warned). KHR_texture_transform's
+  // texCoord, when present, overrides the textureInfo's (the extension's
+  // rule).
+  const auto textureUse = [&](int index, int texCoord, const tinygltf::ExtensionMap& extensions,
+                              const std::string& tfield, bool srgb) {
     TextureUse use;
-    if (ti.index < 0) return use;
-    if (size_t(ti.index) >= model_->textures.size())
-      fail(tfield + ".index", "texture " + std::to_string(ti.index) + " does not exist");
-    if (ti.texCoord != 0) {
-      warn("textures on TEXCOORD_" + std::to_string(ti.texCoord) + " are not supported (only TEXCOORD_0; texture ignored)");
-      return use;
+    if (index < 0) return use;
+    if (size_t(index) >= model_->textures.size())
+      fail(tfield + ".index", "texture " + std::to_string(index) + " does not exist");
+    if (auto x = extensions.find("KHR_texture_transform"); x != extensions.end()) {
+      const tinygltf::Value& e = x->second;
+      const std::string xw = tfield + ".extensions.KHR_texture_transform";
+      // The JSON checker has checked every type; the counts and finiteness here.
+      const auto pair = [&](const char* key, double fallback, double out[2]) {
+        out[0] = out[1] = fallback;
+        if (!e.Has(key)) return;
+        const tinygltf::Value& a = e.Get(key);
+        if (!a.IsArray() || a.ArrayLen() != 2) fail(xw + "." + key, "expected 2 numbers");
+        for (int k = 0; k < 2; ++k) {
+          out[k] = a.Get(k).GetNumberAsDouble();
+          if (!std::isfinite(out[k])) fail(xw + "." + key, "must be finite");
+        }
+      };
+      double offset[2], scale[2];
+      pair("offset", 0.0, offset);
+      pair("scale", 1.0, scale);
+      const double rotation = e.Has("rotation") ? e.Get("rotation").GetNumberAsDouble() : 0.0;
+      if (!std::isfinite(rotation)) fail(xw + ".rotation", "must be finite");
+      use.transform = UvTransform::fromKhr(offset[0], offset[1], rotation, scale[0], scale[1]);
+      if (e.Has("texCoord")) texCoord = e.Get("texCoord").GetNumberAsInt();
     }
-    if (!ti.extensions.empty()) warn("texture transforms (KHR_texture_transform) are not supported");
-    const auto& tex = model_->textures[size_t(ti.index)];
+    if (texCoord != 0) {
+      warn("textures on TEXCOORD_" + std::to_string(texCoord) + " are not supported (only TEXCOORD_0; texture ignored)");
+      return TextureUse{};
+    }
+    for (const auto& [name, value] : extensions)
+      if (name != "KHR_texture_transform") warn(tfield + ": texture extension " + name + " is not supported (ignored)");
+    const auto& tex = model_->textures[size_t(index)];
     if (tex.source < 0 || size_t(tex.source) >= model_->images.size())
-      fail("textures[" + std::to_string(ti.index) + "].source", "image does not exist");
+      fail("textures[" + std::to_string(index) + "].source", "image does not exist");
     auto it = imageToTexture.find({tex.source, srgb});
     if (it == imageToTexture.end()) {
       auto bytes = imageBytes_.find(tex.source);
@@ -495,11 +640,22 @@ void GltfDocument::decodeMaterials() {
     m.roughnessFactor = float(roughness);
     if (gm.emissiveFactor.size() >= 3 && (gm.emissiveFactor[0] > 0 || gm.emissiveFactor[1] > 0 || gm.emissiveFactor[2] > 0))
       warn("emission is ignored by ambient passes");
-    const TextureUse base = textureUse(gm.pbrMetallicRoughness.baseColorTexture, pbr + ".baseColorTexture", true);
-    m.texture = base.index, m.wrapS = base.wrapS, m.wrapT = base.wrapT;
-    const TextureUse rough =
-        textureUse(gm.pbrMetallicRoughness.metallicRoughnessTexture, pbr + ".metallicRoughnessTexture", false);
+    const auto& bt = gm.pbrMetallicRoughness.baseColorTexture;
+    const TextureUse base = textureUse(bt.index, bt.texCoord, bt.extensions, pbr + ".baseColorTexture", true);
+    m.texture = base.index, m.wrapS = base.wrapS, m.wrapT = base.wrapT, m.transform = base.transform;
+    const auto& rt = gm.pbrMetallicRoughness.metallicRoughnessTexture;
+    const TextureUse rough = textureUse(rt.index, rt.texCoord, rt.extensions, pbr + ".metallicRoughnessTexture", false);
     m.roughnessTexture = rough.index, m.roughnessWrapS = rough.wrapS, m.roughnessWrapT = rough.wrapT;
+    m.roughnessTransform = rough.transform;
+    // normalTexture: linear data (never sRGB-decoded), decoded only when a
+    // scene built with normal maps renders (Scene::decodeNormalMaps).
+    const auto& nt = gm.normalTexture;
+    const TextureUse normal = textureUse(nt.index, nt.texCoord, nt.extensions, field + ".normalTexture", false);
+    if (normal.index >= 0) {
+      if (!std::isfinite(nt.scale)) fail(field + ".normalTexture.scale", "must be finite");
+      m.normalTexture = normal.index, m.normalWrapS = normal.wrapS, m.normalWrapT = normal.wrapT;
+      m.normalTransform = normal.transform, m.normalScale = float(nt.scale);
+    }
     materials_.push_back(std::move(m));
   }
   imageBytes_.clear();
@@ -542,6 +698,29 @@ Matrix4d GltfDocument::trsMatrix(const double tr[3], const double rot[4], const 
   return m;
 }
 
+// Whether a node's local transform hides its subtree (true: a zero scale on
+// all three axes, the upper 3 x 3 all zero), refusing a singular one that
+// does not: a zero on one or two axes, or axes that are coplanar, flatten the
+// meshes below into a plane or a line whose normals are meaningless - a pass
+// that looks plausible and is wrong. glTF 2.0 §3.5.3 requires transforms
+// that decompose into translation, rotation and scale, and its
+// implementation note on animation lets a zero scale on all axes hide a node
+// and its children (docs/scenes.md "What the loader refuses").
+bool GltfDocument::checkLinear(const Matrix4d& m, const std::string& field) const {
+  double len[3];
+  for (int c = 0; c < 3; ++c) len[c] = std::sqrt(m[4 * c] * m[4 * c] + m[4 * c + 1] * m[4 * c + 1] + m[4 * c + 2] * m[4 * c + 2]);
+  if (len[0] == 0 && len[1] == 0 && len[2] == 0) return true;
+  const double det = m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) + m[8] * (m[1] * m[6] - m[5] * m[2]);
+  // |det| relative to the product of the axes' lengths: the sine-like volume
+  // of the unit axes, 1 for any rotation and scale, 0 when they collapse.
+  // 1e-6 leaves room for a matrix written with float's 7 digits.
+  if (!(std::abs(det) > 1e-6 * len[0] * len[1] * len[2]))
+    fail(field, "the transform is singular (axis lengths " + number(len[0]) + ", " + number(len[1]) + ", " + number(len[2]) +
+                    ", determinant " + number(det) + "): it flattens the meshes below it; a zero scale is allowed on all three "
+                    "axes only (it hides the node)");
+  return false;
+}
+
 // Checks the hierarchy below `index` and records it in traversal order:
 // nodes, their static transforms, the mesh uses and the cameras. Poses
 // (pose()) walk the record.
@@ -564,7 +743,7 @@ void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::ve
     if (size_t(n.mesh) >= model_->meshes.size()) fail(field + ".mesh", "mesh " + std::to_string(n.mesh) + " does not exist");
     // Named by the node, else by its mesh (what exporters name), else by its place.
     const std::string& meshName = model_->meshes[size_t(n.mesh)].name;
-    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index, stack});
+    uses_.push_back({n.mesh, {}, !n.name.empty() ? n.name : !meshName.empty() ? meshName : field, index});
     useVisits_.push_back(slot);
   }
   if (n.camera >= 0) {
@@ -573,13 +752,17 @@ void GltfDocument::visit(int index, int parent, std::vector<int>& stack, std::ve
     cameraVisits_.push_back({slot, n.camera});
   }
   stack.push_back(index);
-  for (int c : n.children) visit(c, int(slot), stack, visited);
+  for (int c : n.children) {
+    if (c >= 0 && size_t(c) < parents_.size() && !visited[size_t(c)]) parents_[size_t(c)] = index;
+    visit(c, int(slot), stack, visited);
+  }
   stack.pop_back();
 }
 
 void GltfDocument::decodeNodes() {
   std::vector<char> visited(model_->nodes.size(), 0);
   staticLocal_.assign(model_->nodes.size(), identity4());
+  parents_.assign(model_->nodes.size(), -1);
   std::vector<int> roots;
   if (!model_->scenes.empty()) {
     int s = model_->defaultScene >= 0 ? model_->defaultScene : 0;
@@ -641,22 +824,26 @@ GltfDocument::Pose GltfDocument::pose(std::optional<double> seconds, const std::
   }
   std::vector<Matrix4d> world(visits_.size());
   std::vector<char> moved(visits_.size(), 0);
+  std::vector<int> hiddenBy(visits_.size(), -1);  // the node whose zero scale hides the visit, -1: none
   for (size_t i = 0; i < visits_.size(); ++i) {
     const Visit& v = visits_[i];
     auto it = animated.find(v.node);
-    const Matrix4d local =
-        it == animated.end()
-            ? staticLocal_[size_t(v.node)]
-            : trsMatrix(it->second.t, it->second.r, it->second.s,
-                        "nodes[" + std::to_string(v.node) + "] (animated, at " + formatFloat(*seconds) + " s)");
+    const std::string field = it == animated.end() ? "nodes[" + std::to_string(v.node) + "]"
+                                                   : "nodes[" + std::to_string(v.node) + "] (animated, at " + formatFloat(*seconds) + " s)";
+    const Matrix4d local = it == animated.end() ? staticLocal_[size_t(v.node)] : trsMatrix(it->second.t, it->second.r, it->second.s, field);
     world[i] = mul(v.parent < 0 ? identity4() : world[size_t(v.parent)], local);
     moved[i] = it != animated.end() || (v.parent >= 0 && moved[size_t(v.parent)]);
+    hiddenBy[i] = v.parent >= 0 ? hiddenBy[size_t(v.parent)] : -1;
+    if (hiddenBy[i] < 0 && checkLinear(local, field)) hiddenBy[i] = v.node;
   }
   Pose p;
   p.uses = uses_;  // the static pose's (or, while decoding, the uses without transforms)
   for (size_t i = 0; i < p.uses.size(); ++i) {
     p.uses[i].world = world[useVisits_[i]];
     p.uses[i].animated = moved[useVisits_[i]] != 0;
+    const int by = hiddenBy[useVisits_[i]];
+    p.uses[i].hidden = by >= 0;
+    p.uses[i].hiddenBy = by >= 0 ? "nodes[" + std::to_string(by) + "]" : "";
   }
   for (const CameraVisit& c : cameraVisits_) {
     const int node = visits_[c.visit].node;
@@ -689,6 +876,12 @@ std::optional<Camera> GltfDocument::makeCamera(int nodeIndex, int index, const M
   if (!inTraceableRange(c.znear))
     fail(cfield + ".perspective.znear", number(gc.perspective.znear) + " is outside the range Embree traces (<= 1e+16)");
   // A zfar beyond any coordinate the scene may have is as good as none.
+  // glTF 2.0: zfar, when given, is > 0 and > znear (tinygltf's 0 stands for
+  // an absent zfar, an infinite projection). One at or before znear clipped
+  // every ray: an empty pass with exit status 0.
+  if (gc.perspective.zfar < 0 || (gc.perspective.zfar > 0 && !(gc.perspective.zfar > gc.perspective.znear)))
+    fail(cfield + ".perspective.zfar", "must be greater than znear (" + number(gc.perspective.znear) + "), got " +
+                                           number(gc.perspective.zfar));
   c.zfar = gc.perspective.zfar > 0 && gc.perspective.zfar <= double(kMaxCoordinate) ? float(gc.perspective.zfar) : kInfinity;
   // Rigid part of the node transform: orthonormalized axes, so a scaled
   // camera node (legal in files, meaningless for a pinhole) still works.
@@ -861,6 +1054,12 @@ std::vector<GltfDocument::Primitive> GltfDocument::decodeMesh(int meshIndex) con
     if (auto t = gp.attributes.find("TEXCOORD_0"); t != gp.attributes.end()) {
       d.uvs = readFloats(t->second, field + ".attributes.TEXCOORD_0", 2);
       if (d.uvs.size() != 2 * d.positions.size()) fail(field + ".attributes.TEXCOORD_0", "count differs from POSITION");
+    }
+    // Tangents serve a normal map only (16 bytes a vertex): read for those.
+    if (auto t = gp.attributes.find("TANGENT");
+        t != gp.attributes.end() && d.material >= 0 && materials_[size_t(d.material)].normalTexture >= 0) {
+      d.tangents = readFloats(t->second, field + ".attributes.TANGENT", 4);
+      if (d.tangents.size() != 4 * d.positions.size()) fail(field + ".attributes.TANGENT", "count differs from POSITION");
     }
     std::vector<uint32_t> idx;
     if (gp.indices >= 0) {

@@ -1,4 +1,6 @@
 #include "core/load/gltf_loader.h"
+
+#include "core/scene/tangents.h"
 #include "core/load/obj_loader.h"
 
 #include <tiny_gltf.h>
@@ -10,8 +12,10 @@
 #include <optional>
 
 #include "core/load/cage.h"
+#include "core/image/texture_size.h"
 #include <obscura/error.h>
 #include "core/scene/motion.h"
+#include "core/util/memory_budget.h"
 #include "core/util/option_names.h"
 
 namespace obscura {
@@ -28,10 +32,16 @@ class Builder {
   Builder(const GltfDocument& doc, const LoadOptions& options) : doc_(doc), options_(options) {}
 
   std::unique_ptr<Scene> build() {
+    // Refused before any of it is allocated (core/util/memory_budget.h).
+    if (!options_.unrefined) requireMemory(estimateSceneMemory(doc_, options_), doc_.path());
     scene_ = std::make_unique<Scene>();
     scene_->sourcePath = doc_.path();
     scene_->sourceMeshes = doc_.model().meshes.size();
     scene_->materials = doc_.materials();
+    // --normal-maps off: the scene has no normal map, so no tangent is read
+    // or made and no normal image decoded (renders as without the maps).
+    if (!options_.normalMaps)
+      for (Material& m : scene_->materials) m.normalTexture = -1;
     for (const auto& t : doc_.textures()) scene_->textures.push_back(std::make_unique<Texture>(t.encoded, t.name, true));
     for (const auto& t : doc_.dataTextures())
       scene_->dataTextures.push_back(std::make_unique<Texture>(t.encoded, t.name, false));
@@ -48,7 +58,11 @@ class Builder {
     scene_->commit();
     const SceneStats s = scene_->stats();
     // An empty pass with exit status 0 would pass for a render: refused.
-    if (s.renderedTriangles == 0 && s.subdivisionFaces == 0) throw Error(doc_.path() + ": the scene has no triangles to render");
+    if (s.renderedTriangles == 0 && s.subdivisionFaces == 0)
+      throw Error(doc_.path() + ": the scene has no triangles to render" +
+                  (hidden_.empty() ? "" : " (every mesh is hidden by a zero scale)"));
+    // Warned once the scene is known to render (else the error says it all).
+    for (const std::string& w : hidden_) warn(w);
     return std::move(scene_);
   }
 
@@ -83,18 +97,48 @@ class Builder {
       static_cast<GltfDocument::Primitive&>(d) = p;
       if (disp && d.uvs.empty()) fail(d.field + ".attributes", "TEXCOORD_0 is missing; " + disp->field + " needs it");
       if (sub) cagePrimitive(d, *sub, disp ? &*disp : nullptr, d.field);
+      else attachTangents(d);
       out.push_back(std::move(d));
     }
     return out;
   }
 
+  // A triangle primitive's tangents: kept (the file's TANGENT) or generated
+  // (core/scene/tangents.h) when its material bends normals by a map and the
+  // primitive has the uvs the map is read at; dropped otherwise.
+  void attachTangents(PrimData& d) {
+    const Material* m = d.material >= 0 ? &scene_->materials[size_t(d.material)] : nullptr;
+    if (!m || m->normalTexture < 0) {
+      d.tangents.clear();
+      return;
+    }
+    if (d.uvs.empty()) {
+      warn(d.field + ": normal-mapped material without TEXCOORD_0 (normal map ignored)");
+      d.tangents.clear();
+      return;
+    }
+    if (d.tangents.empty()) d.tangents = generateTangents(d.positions, d.normals, d.uvs, d.indices, true);
+  }
+
   // The object `extras.obscura` of a mesh or node (`owner` names it in
   // errors), or null if there is none.
+  // Every key is one Obscura reads for that owner (a mesh or a node): a
+  // misspelt one ("occludr") used to be ignored, a render without the role
+  // that looked right.
   const tinygltf::Value* obscuraExtras(const tinygltf::Value& extras, const std::string& owner) const {
     if (!extras.IsObject() || !extras.Has("obscura")) return nullptr;
     const tinygltf::Value& ob = extras.Get("obscura");
-    if (!ob.IsObject()) fail(owner + ".extras.obscura", "must be an object");
+    const std::string field = owner + ".extras.obscura";
+    if (!ob.IsObject()) fail(field, "must be an object");
+    static const std::vector<std::string> meshKeys = {"subdivision", "displacement"},
+                                          nodeKeys = {"displacement", "occluder", "camera", "matte", "occlusion"};
+    knownKeys(ob, field, owner.rfind("meshes[", 0) == 0 ? meshKeys : nodeKeys);
     return &ob;
+  }
+  void knownKeys(const tinygltf::Value& object, const std::string& field, const std::vector<std::string>& known) const {
+    for (const std::string& key : object.Keys())
+      if (std::find(known.begin(), known.end(), key) == known.end())
+        fail(field + "." + key, "unknown key" + nearestNameHint(key, known));
   }
 
   // meshes[i].extras.obscura.subdivision = {"scheme": "catmull-clark"|"loop",
@@ -106,6 +150,7 @@ class Builder {
     const std::string field = owner + ".extras.obscura";
     const tinygltf::Value& sub = ob->Get("subdivision");
     if (!sub.IsObject()) fail(field + ".subdivision", "must be an object");
+    knownKeys(sub, field + ".subdivision", {"scheme", "level"});
     SubdivisionRequest r{SubdivisionScheme::CatmullClark, options_.subdivisionLevel};
     if (sub.Has("scheme")) {
       const tinygltf::Value& v = sub.Get("scheme");
@@ -140,6 +185,7 @@ class Builder {
                           owner + ".extras.obscura.displacement", ""};
     const tinygltf::Value& d = ob->Get("displacement");
     if (!d.IsObject()) fail(r.field, "must be an object");
+    knownKeys(d, r.field, {"map", "scale", "midlevel"});
     const tinygltf::Value& map = d.Get("map");  // a null value when absent
     if (!map.IsString() || map.Get<std::string>().empty()) fail(r.field + ".map", "expected the path of a height map");
     r.map = map.Get<std::string>();
@@ -251,7 +297,10 @@ class Builder {
       d.displacement.scaleField = disp->scaleField;
     }
     d.cage = std::move(cage);
-    d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear();
+    const Material* nm = d.material >= 0 ? &scene_->materials[size_t(d.material)] : nullptr;
+    if (nm && nm->normalTexture >= 0)
+      warn(field + ": normal maps on subdivided meshes are not supported (the limit surface's normal is used)");
+    d.positions.clear(), d.normals.clear(), d.uvs.clear(), d.indices.clear(), d.tangents.clear();
   }
 
   // A subdivided primitive's cage, placed by `xf` and refined as the
@@ -305,13 +354,28 @@ class Builder {
     return r;
   }
 
-  // Each mesh use is an object named by its node, with the roles of its
-  // ancestors' extras and then its own (a child overrides its parent).
+  // The roles nodes[node] passes down: its ancestors' extras root first,
+  // then its own (a child overrides its parent). Computed once per node, so
+  // that the leaves of a deep hierarchy do not each walk it again.
+  const ObjectRoles& inheritedRoles(int node) {
+    if (inherited_.empty()) inherited_.resize(doc_.model().nodes.size());
+    std::vector<int> chain;  // the nodes still to compute, deepest first
+    for (int n = node; n >= 0 && !inherited_[size_t(n)]; n = doc_.parentNode(n)) chain.push_back(n);
+    for (auto it = chain.rbegin(); it != chain.rend(); ++it) {
+      const int parent = doc_.parentNode(*it);
+      ObjectRoles r = parent >= 0 ? *inherited_[size_t(parent)] : ObjectRoles{};
+      nodeRoles(*it).applyTo(r);
+      inherited_[size_t(*it)] = r;
+    }
+    return *inherited_[size_t(node)];
+  }
+
+  // Each mesh use is an object named by its node, with the roles its node
+  // inherits (inheritedRoles).
   uint32_t addObject(const GltfDocument::MeshUse& u) {
     SceneObject o;
     o.name = u.node;
-    for (const int a : u.ancestors) nodeRoles(a).applyTo(o.roles);
-    nodeRoles(u.nodeIndex).applyTo(o.roles);
+    o.roles = inheritedRoles(u.nodeIndex);
     scene_->objects.push_back(std::move(o));
     return uint32_t(scene_->objects.size() - 1);
   }
@@ -340,13 +404,19 @@ class Builder {
         std::vector<PrimData> prims = primitives(u.mesh, k.second);
         const int m = prims.empty() ? -1 : scene_->addInstancedMesh(doc_.model().meshes[size_t(u.mesh)].name);
         for (PrimData& p : prims)
-          scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material);
+          scene_->addPrimitiveToMesh(m, p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material,
+                                     std::move(p.tangents));
         it = instanced.emplace(k, m).first;
       }
       return it->second;
     };
     for (size_t i = 0; i < pose_.uses.size(); ++i) {
       const GltfDocument::MeshUse& u = pose_.uses[i];
+      if (u.hidden) {  // a zero scale on every axis (GltfDocument::checkLinear): glTF's way to hide a subtree
+        hidden_.push_back(u.hiddenBy + " has a zero scale on every axis: " + u.node + " (meshes[" + std::to_string(u.mesh) +
+                          "]) is hidden and not rendered");
+        continue;
+      }
       scene_->setCurrentObject(addObject(u));
       Affine xf = Affine::fromColumnMajor4x4(u.world.data());
       const auto k = key(u);
@@ -377,8 +447,24 @@ class Builder {
           }
           for (Vec3& v : p.positions) v = xf.point(v);
           for (Vec3& n : p.normals) n = xf.normal(n);
+          // Tangents are surface directions; a mirroring transform reverses
+          // the bitangent's sign against cross(N, T) (as for instances,
+          // core/scene/surface.cpp normalMapped).
+          // Its winding is reversed too, so that a mesh without normals keeps
+          // the front the normal map's frame is built on (the mirrored
+          // winding would face the other way). Only normal-mapped primitives:
+          // every other one keeps its bits.
+          const bool mirrors = xf.determinant() < 0.0f;
+          for (size_t t = 0; t + 3 < p.tangents.size(); t += 4) {
+            const Vec3 v = xf.vector(Vec3(p.tangents[t], p.tangents[t + 1], p.tangents[t + 2]));
+            p.tangents[t] = v.x, p.tangents[t + 1] = v.y, p.tangents[t + 2] = v.z;
+            if (mirrors) p.tangents[t + 3] = -p.tangents[t + 3];
+          }
+          if (mirrors && !p.tangents.empty())
+            for (size_t t = 0; t + 2 < p.indices.size(); t += 3) std::swap(p.indices[t + 1], p.indices[t + 2]);
           scene_->setPrimitiveName(
-              scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material),
+              scene_->addWorldPrimitive(p.positions, p.indices, std::move(p.normals), std::move(p.uvs), p.material,
+                                        std::move(p.tangents)),
               doc_.model().meshes[size_t(u.mesh)].name);
         }
         if (!prims.empty()) ++scene_->flattenedMeshes;
@@ -406,6 +492,12 @@ class Builder {
     const auto [open, close] = *options_.shutter;
     useGrid_.assign(pose_.uses.size(), {});
     cameraGrid_.assign(pose_.cameras.size(), {});
+    // Each grid at its final size: grown by push_back, a grid of 513 ends
+    // with room for 1024, after copies at every doubling on the way.
+    for (size_t i = 0; i < pose_.uses.size(); ++i)
+      if (pose_.uses[i].animated) useGrid_[i].reserve(kMotionGrid + 1);
+    for (size_t c = 0; c < pose_.cameras.size(); ++c)
+      if (pose_.cameras[c].animated) cameraGrid_[c].reserve(kMotionGrid + 1);
     for (int j = 0; j <= kMotionGrid; ++j) {
       const GltfDocument::Pose p = doc_.pose(open + (close - open) * double(j) / kMotionGrid, options_.animations);
       for (size_t i = 0; i < p.uses.size(); ++i)
@@ -457,9 +549,68 @@ class Builder {
   std::unique_ptr<Scene> scene_;
   std::map<std::string, std::shared_ptr<const HeightMap>> heightMaps_;  // by absolute path
   bool cliDisplacementUsed_ = false;
+  std::vector<std::optional<ObjectRoles>> inherited_;  // by node index: inheritedRoles()
+  std::vector<std::string> hidden_;  // a warning per mesh use a zero scale hides
 };
 
 }  // namespace
+
+MemoryEstimate estimateSceneMemory(const GltfDocument& doc, const LoadOptions& options) {
+  MemoryEstimate e;
+  // Textures as decode() will hold them, from their headers, and the
+  // largest decoder buffer: each is freed as its decode ends, and textures
+  // decode one at a time unless threads meet two first uses at once.
+  uint64_t transient = 0;
+  for (const auto* list : {&doc.textures(), &doc.dataTextures()})
+    for (const auto& t : *list) {
+      const DecodedImageSize d = decodedImageSize(t.encoded);
+      e.add("textures", d.kept);
+      transient = std::max(transient, d.transient);
+    }
+  e.add("textures", transient);
+  // The parsed file, held for the extras (tinygltf's node records dominate
+  // a large hierarchy).
+  e.add("parsed file", uint64_t(doc.model().nodes.size()) * sizeof(tinygltf::Node));
+  // The mesh uses: the document's and a pose's tables, an object and an
+  // instance each (their names beyond the string's own buffer counted).
+  const auto& uses = doc.meshUses();
+  uint64_t names = 0;
+  for (const auto& u : uses) names += u.node.capacity() > 15 ? u.node.capacity() + 1 : 0;
+  e.add("node tables", uint64_t(uses.size()) * (2 * sizeof(GltfDocument::MeshUse) + sizeof(SceneObject) + sizeof(Instance)) +
+                           3 * names);
+  // Triangles as the file declares them (each use of a mesh baked or
+  // instanced): positions, indices, normals and uvs, and the BVH over them
+  // (docs/cli.md "Memory" gives the per-triangle figure's origin).
+  uint64_t triangles = 0, vertices = 0;
+  std::vector<uint64_t> meshTriangles(doc.model().meshes.size(), 0), meshVertices(doc.model().meshes.size(), 0);
+  for (size_t m = 0; m < doc.model().meshes.size(); ++m)
+    for (const auto& p : doc.model().meshes[m].primitives) {
+      const auto pos = p.attributes.find("POSITION");
+      const auto count = [&](int a) -> uint64_t {
+        return a >= 0 && size_t(a) < doc.model().accessors.size() ? doc.model().accessors[size_t(a)].count : 0;
+      };
+      const uint64_t v = pos == p.attributes.end() ? 0 : count(pos->second);
+      meshVertices[m] += v;
+      meshTriangles[m] += (p.indices >= 0 ? count(p.indices) : v) / 3;
+    }
+  std::vector<char> seen(doc.model().meshes.size(), 0);
+  for (const auto& u : uses) {
+    if (seen[size_t(u.mesh)]) continue;  // instanced: its triangles once
+    seen[size_t(u.mesh)] = 1;
+    triangles += meshTriangles[size_t(u.mesh)];
+    vertices += meshVertices[size_t(u.mesh)];
+  }
+  e.add("geometry", vertices * (2 * sizeof(Vec3) + 2 * sizeof(float)) + triangles * 3 * sizeof(uint32_t));
+  e.add("BVH", (triangles + uses.size()) * kBvhBytesPerPrimitive);
+  // Motion blur: every animated use sampled at kMotionGrid + 1 times.
+  if (options.shutter && !options.unrefined) {
+    const GltfDocument::Pose p = doc.pose(options.time, options.animations);
+    uint64_t animated = 0;
+    for (const auto& u : p.uses) animated += u.animated ? 1 : 0;
+    e.add("motion grids", animated * (kMotionGrid + 1) * sizeof(Affine));
+  }
+  return e;
+}
 
 std::unique_ptr<Scene> buildGltfScene(const GltfDocument& doc, const LoadOptions& options) {
   return Builder(doc, options).build();

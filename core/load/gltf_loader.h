@@ -20,6 +20,7 @@
 #include "core/load/gltf_document.h"
 #include "core/load/load_options.h"
 #include "core/scene/scene.h"
+#include "core/util/memory_budget.h"
 
 namespace obscura {
 
@@ -28,6 +29,14 @@ std::unique_ptr<Scene> loadGltf(const std::string& path, const LoadOptions& opti
 // A scene from a document already read: as often as needed, never reading
 // the file again.
 std::unique_ptr<Scene> buildGltfScene(const GltfDocument& document, const LoadOptions& options);
+
+// What building `document` with `options` will take, from counts and
+// headers, before any of it is allocated (core/util/memory_budget.h):
+// decoded textures, the node tables, geometry and BVH, motion grids. The
+// scene build refuses past the budget; `obscura info` prints it.
+MemoryEstimate estimateSceneMemory(const GltfDocument& document, const LoadOptions& options);
+// Bytes of Embree BVH per triangle or instance, measured (docs/cli.md "Memory").
+inline constexpr uint64_t kBvhBytesPerPrimitive = 110;
 
 // A scene file read once, from which scenes are built with different
 // options (adaptive subdivision first builds the unrefined scene to find the

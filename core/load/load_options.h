@@ -15,6 +15,9 @@ namespace obscura {
 
 struct LoadOptions {
   bool robust = false;  // Scene::setRobust
+  // glTF normalTexture bends the shading normal (docs/scenes.md "Normal
+  // maps"); false: every normal map is ignored, as if the file had none.
+  bool normalMaps = true;
   // Subdivision of polygon cages (OBJ): off by default; the scheme and the
   // uniform level when on, and the memory a refinement may take.
   bool subdivision = false;

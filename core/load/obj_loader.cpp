@@ -1,8 +1,10 @@
 #include "core/load/obj_loader.h"
+#include "core/util/input_file.h"
 
 #include <tiny_obj_loader.h>
 
 #include <charconv>
+#include <climits>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -42,8 +44,39 @@ void prescanObj(const std::string& path) {
       if (i > b) tok.push_back(s.substr(b, i - b));
     }
     if (tok.empty()) continue;
+    // tinyobjloader reads a material library to its end: a FIFO or a
+    // device named here would block it or take all memory.
+    if (tok[0] == "mtllib")
+      for (size_t k = 1; k < tok.size(); ++k) {
+        const std::filesystem::path lib = std::filesystem::path(path).parent_path() / std::string(tok[k]);
+        const std::string kind = nonRegularKind(lib.string());
+        if (!kind.empty()) fail("mtllib " + lib.string() + ": is " + kind + ", not a regular file");
+      }
     if (tok[0] == "f" && tok.size() - 1 > 255)
       fail("face has " + std::to_string(tok.size() - 1) + " vertices (at most 255)");
+    // tinyobjloader reads an index into an int without a range check: 2147483648
+    // wrapped to a negative index (reported as -2147483644) and
+    // 99999999999999999999 to one that happened to be valid (it rendered).
+    if (tok[0] == "f" || tok[0] == "l" || tok[0] == "p") {
+      for (size_t k = 1; k < tok.size(); ++k) {
+        std::string_view ref = tok[k];
+        for (size_t part = 0; !ref.empty() || part == 0; ++part) {
+          const size_t slash = ref.find('/');
+          std::string_view t = ref.substr(0, slash);
+          ref = slash == std::string_view::npos ? std::string_view() : ref.substr(slash + 1);
+          if (t.empty() && part > 0) continue;  // "1//3": no texture coordinate
+          if (t.size() > 1 && t[0] == '+') t.remove_prefix(1);
+          long long x = 0;
+          const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), x);
+          if (ec == std::errc::result_out_of_range || (ec == std::errc() && (x > INT_MAX || x < -INT_MAX)))
+            fail("index '" + std::string(t) + "' in '" + std::string(tok[k]) + "' is outside [-" + std::to_string(INT_MAX) +
+                 ", " + std::to_string(INT_MAX) + "]");
+          if (ec != std::errc() || end != t.data() + t.size() || x == 0)
+            fail("'" + std::string(tok[k]) + "' is not a vertex reference (v, v/vt, v//vn or v/vt/vn, each a non-zero integer)");
+          if (slash == std::string_view::npos) break;
+        }
+      }
+    }
     if (tok[0] != "v" && tok[0] != "vt") continue;
     if (tok[0] == "v" && tok.size() < 4) fail("a vertex needs 3 coordinates");
     for (size_t k = 1; k < tok.size(); ++k) {
@@ -61,6 +94,7 @@ void prescanObj(const std::string& path) {
 }  // namespace
 
 std::unique_ptr<Scene> loadObj(const std::string& path, const LoadOptions& options) {
+  checkInputFile(path);
   if (!std::filesystem::is_regular_file(path)) throw Error(path + ": cannot open: no such file");
   prescanObj(path);
   tinyobj::ObjReaderConfig config;

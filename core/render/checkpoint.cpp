@@ -1,4 +1,5 @@
 #include "core/render/checkpoint.h"
+#include "core/util/input_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -79,9 +80,17 @@ Checkpoint::Checkpoint(std::string path, double intervalSeconds) : path_(std::mo
 
 Checkpoint::~Checkpoint() = default;
 
+void Checkpoint::checkPath() const {
+  // A directory at the path failed inside libstdc++ ("basic_filebuf::underflow
+  // error reading the file: Is a directory"), naming neither the file nor the
+  // option; a FIFO blocked the read forever.
+  checkInputFile(path_, "--checkpoint ");
+}
+
 bool Checkpoint::read() {
   std::error_code ec;
   if (!std::filesystem::exists(path_, ec)) return false;
+  checkPath();
   {
     std::ifstream in(path_, std::ios::binary);
     if (!in) throw Error(path_ + ": cannot read the checkpoint");

@@ -65,6 +65,9 @@ class Checkpoint {
   // naming the file and what is wrong (not a checkpoint, another format
   // version, truncated, corrupt).
   bool read();
+  // Throws obscura::Error when something other than a regular file is at
+  // the path (a directory): checked before the render starts.
+  void checkPath() const;
   bool loaded() const { return loaded_; }
   // The fingerprint of this render. With a file read, throws obscura::Error
   // naming the first key whose value differs (and how to start over).

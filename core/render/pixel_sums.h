@@ -102,7 +102,7 @@ float standardError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfS
 float compositedError(const Sum3& num, const Sum3& den, uint32_t hits, const HalfSums& even,
                       const Integrator& integrator, Vec3 albedo, uint32_t n);
 
-// What the W.error plane holds at pixel (fx, fy), once R,G,B,A are
+// What the W_error plane holds at pixel (fx, fy), once R,G,B,A are
 // written: `se` (standardError), or where it is unknown |W|, the largest
 // channel of the un-premultiplied pass (the error of a guess of 0).
 float writtenError(float se, const Film& film, int fx, int fy);

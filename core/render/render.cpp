@@ -458,7 +458,7 @@ class TileRenderer {
   const bool mattes_;
   const CryptomatteFilm* crypto_;  // null: Cryptomatte off
   const PixelRect window_;
-  const int errorPlane_, sppPlane_;  // film planes W.error and spp, or -1
+  const int errorPlane_, sppPlane_;  // film planes W_error and spp, or -1
   const SampleSchedule* schedule_ = nullptr;  // null: every pixel takes spp samples in one round
   WindowSums* window_sums_ = nullptr;
   uint32_t* objects_ = nullptr;  // --denoise: each pixel's first object (window row-major), else null
@@ -642,7 +642,7 @@ void checkSettings(const RenderSettings& s) {
                          "render without --checkpoint");
   }
   if (s.denoise && !s.aovs)
-    throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W.error); drop --no-aovs");
+    throw Error("--denoise: the denoiser is guided by the AOVs (N, Z, W_error); drop --no-aovs");
   // The filter reads neighbours up to 62 pixels away: a region's edge pixels
   // would be filtered with fewer neighbours than the full frame's, so merged
   // tiles would show seams; and a checkpoint's saved tiles do not keep the
@@ -664,7 +664,7 @@ DenoiseSettings denoiseSettings(const RenderSettings& s) {
 }
 
 // The denoiser's input from the film: the pass in the planes from `color`
-// on (R,G,B or noisy.*), its variance W.error^2 (into `variance`), the
+// on (R,G,B or noisy.*), its variance W_error^2 (into `variance`), the
 // guides, the albedo planes only for a pass whose W follows the pixel's albedo.
 DenoiseInput denoiseInput(const Film& film, int color, const IntegratorNeeds& needs, const uint32_t* objects,
                           LargeVector<float>& variance) {
@@ -937,6 +937,9 @@ Film render(const Scene& scene, const Camera& camera, std::span<const RenderPass
   // blocks on a lazy decode (the albedo textures: in each loop).
   if (std::any_of(passes.begin(), passes.end(), [](const RenderPass& p) { return p.needs.roughness; }))
     for (const auto& t : scene.dataTextures) t->decode();
+  // Normal maps bend the shading normal every pass reads (the hit's ns, the
+  // N AOV, the G-buffer's normal): decoded whenever the scene kept them.
+  scene.decodeNormalMaps();
 
   // The loops after the primary's leave the ID mattes to it.
   RenderSettings others = s;

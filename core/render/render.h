@@ -62,7 +62,7 @@ struct RenderSettings {
   double timeLimit = 0;   // seconds; 0: none. No round starts that is predicted to end past it
   // --denoise (core/image/denoise.h; docs/sampling.md "Denoising"): the primary pass's R,G,B
   // (and its layer, shaded.*) replaced by the edge-aware filter's output,
-  // guided by N, Z, W.error, the pixels' objects and (for passes that read
+  // guided by N, Z, W_error, the pixels' objects and (for passes that read
   // it) albedo; the raw pass kept as noisy.R/G/B. Needs the AOVs.
   bool denoise = false;
   RayRecorder* recorder = nullptr;  // benchmarks only: sees every traced batch (core/scene/tracer.h)

@@ -13,7 +13,9 @@ float AlphaSurface::alphaAt(uint32_t prim, float u, float v) const {
   const float* t1 = uvs + size_t(tri[1]) * 2;
   const float* t2 = uvs + size_t(tri[2]) * 2;
   // The same uv a baseColorTexture lookup uses (core/scene/surface.cpp).
-  return alpha * texture->sampleAlpha(t0[0] * w + t1[0] * u + t2[0] * v, t0[1] * w + t1[1] * u + t2[1] * v, wrapS, wrapT);
+  float s = t0[0] * w + t1[0] * u + t2[0] * v, t = t0[1] * w + t1[1] * u + t2[1] * v;
+  transform.apply(s, t);
+  return alpha * texture->sampleAlpha(s, t, wrapS, wrapT);
 }
 
 namespace {

@@ -26,6 +26,7 @@ struct AlphaSurface {
   const float* uvs = nullptr;         // 2 per vertex, or null: the factor alone
   const Texture* texture = nullptr;   // null: the factor alone
   WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+  UvTransform transform;  // the base colour texture's KHR_texture_transform
   AlphaMode mode = AlphaMode::Opaque;
   float alpha = 1.0f, cutoff = 0.5f;
 

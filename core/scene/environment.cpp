@@ -40,6 +40,7 @@
 // for maps above 2^24 texels, whose base blocks are leaves (a 16384 x 8192
 // map: blocks of 4 x 4 texels, 0.0015 rad, 150 MB).
 #include "core/scene/environment.h"
+#include "core/image/png_check.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -118,6 +119,7 @@ void readTexels(const std::string& path, uint32_t& width, uint32_t& height, std:
     return;
   }
   int w = 0, h = 0;
+  checkPngFitsItsFile(path);
   oiioModule(path).readRgb(path, w, h, rgb);
   width = uint32_t(w), height = uint32_t(h);
 }

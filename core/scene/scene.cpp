@@ -45,7 +45,10 @@ Scene::~Scene() {
 
 Primitive Scene::makePrimitive(RTCScene target, const std::vector<Vec3>& positions,
                                const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
-                               std::vector<float> uvs, int material, unsigned* geomID) {
+                               std::vector<float> uvs, int material, std::vector<float> tangents,
+                               unsigned* geomID) {
+  if (!tangents.empty() && (tangents.size() != 4 * positions.size() || uvs.size() != 2 * positions.size()))
+    throw Error("internal: tangents need 4 floats and a uv per vertex");
   Primitive p;
   p.vertexCount = uint32_t(positions.size());
   p.triangleCount = uint32_t(indices.size() / 3);
@@ -69,14 +72,18 @@ Primitive Scene::makePrimitive(RTCScene target, const std::vector<Vec3>& positio
   p.indices = ib;
   p.normals = std::move(normals);
   p.uvs = std::move(uvs);
+  p.tangents = std::move(tangents);
+  if (!p.tangents.empty()) ++normalMapped_;
   p.material = material;
   return p;
 }
 
 int Scene::addWorldPrimitive(const std::vector<Vec3>& positions, const std::vector<uint32_t>& indices,
-                             std::vector<Vec3> normals, std::vector<float> uvs, int material) {
+                             std::vector<Vec3> normals, std::vector<float> uvs, int material,
+                             std::vector<float> tangents) {
   unsigned id = 0;
-  Primitive p = makePrimitive(top_, positions, indices, std::move(normals), std::move(uvs), material, &id);
+  Primitive p =
+      makePrimitive(top_, positions, indices, std::move(normals), std::move(uvs), material, std::move(tangents), &id);
   for (const Vec3& v : positions) bounds_.extend(v);
   if (topLevel_.size() <= id) topLevel_.resize(id + 1);
   topLevel_[id].primitive = int(worldPrimitives_.size());
@@ -200,10 +207,12 @@ int Scene::addInstancedMesh(std::string name) {
 }
 
 void Scene::addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions, const std::vector<uint32_t>& indices,
-                               std::vector<Vec3> normals, std::vector<float> uvs, int material) {
+                               std::vector<Vec3> normals, std::vector<float> uvs, int material,
+                               std::vector<float> tangents) {
   InstancedMesh& m = meshes_.at(size_t(mesh));
   unsigned id = 0;
-  Primitive p = makePrimitive(m.rtcScene, positions, indices, std::move(normals), std::move(uvs), material, &id);
+  Primitive p = makePrimitive(m.rtcScene, positions, indices, std::move(normals), std::move(uvs), material,
+                              std::move(tangents), &id);
   for (const Vec3& v : positions) m.objectBounds.extend(v);
   if (m.primitives.size() != id) throw Error("internal: unexpected Embree geometry id");
   m.primitives.push_back(std::move(p));
@@ -264,6 +273,27 @@ void Scene::commit() {
         throw Error((sourcePath.empty() ? "" : sourcePath + ": ") + "the scene's bounds reach " + buf +
                     " (after node transforms), outside the range Embree traces (|x| <= 1e+16)");
       }
+  // And below: Embree's triangle tests are single precision and form
+  // products of three lengths (an edge, an edge and the distance along the
+  // ray: T = Ng . C); once those leave float's normal range (2^-126) hits
+  // are lost at corners, then everywhere (a cornell box scaled by 1e-16 came
+  // out blank, exit status 0). The pass is scale-invariant above the limit
+  // (tests/test_scene_scale.cpp): 2^-40 keeps size^3 at 2^-120, a margin of
+  // 2^6 for the smaller triangles and distances of a scene. Embree's robust
+  // (watertight) test loses occlusion much earlier - measured on the cornell
+  // box, wrong at 1.7e-9 across and right at 5.6e-9 - so it needs 2^-28
+  // (docs/scenes.md "Scene scale").
+  if (!all.empty()) {
+    const Vec3 d = all.diagonal();
+    const double size = std::max({double(d.x), double(d.y), double(d.z)});
+    const double limit = robust_ ? 0x1p-28 : 0x1p-40;
+    if (!(size >= limit)) {
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "the scene is %g across (its largest extent), below %g", size, limit);
+      throw Error((sourcePath.empty() ? "" : sourcePath + ": ") + buf + (robust_ ? " (robust traversal)" : "") +
+                  ", the smallest scale single-precision ray tracing renders correctly; scale it up (e.g. a node scale)");
+    }
+  }
   for (const SceneObject& o : objects)
     if (o.roles.occlusion != OcclusionScope::All) {
       scopes_.objectCount = uint32_t(objects.size());
@@ -340,6 +370,7 @@ void Scene::attachAlphaFilters() {
     s->uvs = tex ? p.uvs.data() : nullptr;
     s->texture = tex && tex->hasAlpha() ? tex : nullptr;
     s->wrapS = m->wrapS, s->wrapT = m->wrapT;
+    s->transform = m->transform;
     s->mode = m->alphaMode;
     s->alpha = m->alpha;
     s->cutoff = m->alphaCutoff;
@@ -352,10 +383,16 @@ void Scene::attachAlphaFilters() {
     for (const Primitive& p : m.primitives) attach(p);
 }
 
+void Scene::decodeNormalMaps() const {
+  if (!hasNormalMaps()) return;
+  for (const Material& m : materials)
+    if (m.normalTexture >= 0) dataTextures.at(size_t(m.normalTexture))->decode();
+}
+
 size_t Scene::attributeBytes() const {
   size_t b = 0;
   const auto add = [&](const Primitive& p) {
-    b += p.normals.size() * sizeof(Vec3) + p.uvs.size() * sizeof(float);
+    b += p.normals.size() * sizeof(Vec3) + (p.uvs.size() + p.tangents.size()) * sizeof(float);
     if (p.subdivision) b += p.subdivision->uvs.bytes() + p.subdivision->faceRate.size() * sizeof(float);
   };
   for (const auto& p : worldPrimitives_) add(p);

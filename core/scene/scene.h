@@ -38,6 +38,7 @@ struct Material {
   Vec3 baseColorFactor{1, 1, 1};
   int texture = -1;  // index into Scene::textures, -1 = none
   WrapMode wrapS = WrapMode::Repeat, wrapT = WrapMode::Repeat;
+  UvTransform transform;  // the base colour texture's (also its alpha's)
   // Coverage: alpha = alpha factor (baseColorFactor's 4th component) x the
   // texture's alpha channel.
   AlphaMode alphaMode = AlphaMode::Opaque;
@@ -49,6 +50,15 @@ struct Material {
   float roughnessFactor = 1.0f;
   int roughnessTexture = -1;  // index into Scene::dataTextures, -1 = none
   WrapMode roughnessWrapS = WrapMode::Repeat, roughnessWrapT = WrapMode::Repeat;
+  UvTransform roughnessTransform;
+  // glTF normalTexture: a tangent-space normal map (linear data) bending
+  // the shading normal (core/scene/surface.cpp applyNormalMap, docs/math.md
+  // §16); normalScale scales its x and y. -1 when the file has none or the
+  // load turned normal maps off (LoadOptions::normalMaps).
+  int normalTexture = -1;  // index into Scene::dataTextures
+  float normalScale = 1.0f;
+  WrapMode normalWrapS = WrapMode::Repeat, normalWrapT = WrapMode::Repeat;
+  UvTransform normalTransform;
   // Does anything a ray meets depend on alpha? (OPAQUE never; MASK and
   // BLEND unless alpha is 1 everywhere.)
   bool cutsOut(bool textureHasAlpha) const {
@@ -83,6 +93,10 @@ struct Primitive {
   uint32_t vertexCount = 0, triangleCount = 0;
   std::vector<Vec3> normals;  // per vertex, empty if the file has none
   std::vector<float> uvs;     // 2 per vertex, empty if none
+  // 4 per vertex (xyz, w = the bitangent's sign, as glTF's TANGENT), in the
+  // primitive's space; only when its material has a normal map (and uvs):
+  // the file's TANGENT or generated (core/scene/tangents.h).
+  std::vector<float> tangents;
   int material = -1;          // -1 = default material (albedo 1)
   // Set for an Embree subdivision surface (positions, indices, normals and
   // uvs are then empty: hits are evaluated on the patches).
@@ -169,8 +183,10 @@ class Scene {
 
   // Geometry construction (used by the glTF loader and by tests).
   // Adds a world-space triangle list to the top-level scene.
+  // `tangents`: Primitive::tangents (empty: none).
   int addWorldPrimitive(const std::vector<Vec3>& positions, const std::vector<uint32_t>& indices,
-                        std::vector<Vec3> normals, std::vector<float> uvs, int material);
+                        std::vector<Vec3> normals, std::vector<float> uvs, int material,
+                        std::vector<float> tangents = {});
   // Adds a Catmull-Clark cage as an Embree subdivision surface in world
   // space. edgeLevels: the tessellation rate of each face corner's outgoing
   // edge (parallel to cage.faceIndices; shared edges must agree, or cracks
@@ -210,7 +226,7 @@ class Scene {
   int addInstancedMesh(std::string name);
   void addPrimitiveToMesh(int mesh, const std::vector<Vec3>& positions,
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
-                          std::vector<float> uvs, int material);
+                          std::vector<float> uvs, int material, std::vector<float> tangents = {});
   void addInstance(int mesh, const Affine& toWorld, std::string node);
   // A moving instance: `steps` are its transforms at uniformly spaced times
   // across the shutter (2..129 of them, Embree's limit; Instance::motion).
@@ -266,6 +282,12 @@ class Scene {
     return p.material >= 0 ? &materials[p.material] : nullptr;
   }
   bool anyTextures() const { return !textures.empty(); }
+  // Does any primitive bend its shading normal by a normal map (has
+  // tangents)? Set by the primitives added.
+  bool hasNormalMaps() const { return normalMapped_ > 0; }
+  // Decodes the normal maps' images (once; throws obscura::Error on a
+  // corrupt one): before a render loop, which then never blocks on it.
+  void decodeNormalMaps() const;
   const std::vector<Instance>& instances() const { return instances_; }
   const std::vector<InstancedMesh>& instancedMeshes() const { return meshes_; }
 
@@ -279,7 +301,7 @@ class Scene {
   void attachAlphaFilters();
   Primitive makePrimitive(RTCScene target, const std::vector<Vec3>& positions,
                           const std::vector<uint32_t>& indices, std::vector<Vec3> normals,
-                          std::vector<float> uvs, int material, unsigned* geomID);
+                          std::vector<float> uvs, int material, std::vector<float> tangents, unsigned* geomID);
   std::unique_ptr<MemoryCounter> memory_ = std::make_unique<MemoryCounter>();
   RTCDevice device_ = nullptr;
   RTCScene top_ = nullptr;
@@ -294,6 +316,7 @@ class Scene {
   bool robust_ = false;
   bool hasSubdivision_ = false;
   size_t moving_ = 0;  // moving instances
+  size_t normalMapped_ = 0;  // primitives with tangents
   uint32_t currentObject_ = kNoObject;
   std::vector<uint8_t> matte_;           // per object, when any is a matte
   std::vector<uint32_t> objectOfTop_;    // per top-level geomID, when scopes are on

@@ -21,6 +21,21 @@ Vec3 materialFactor(const Scene& scene, const Primitive& prim) {
 
 float absMax(Vec3 a) { return std::max(std::abs(a.x), std::max(std::abs(a.y), std::abs(a.z))); }
 
+// Normals before normalization scale with the scene: a cross product of two
+// edges as its size squared, a normal through an instance's cofactor matrix
+// likewise, and |n|^2 as the fourth power. For a scene scaled by 1e-12
+// |n|^2 (~1e-48) is below float's range and the length came out 0: every
+// triangle took the degenerate fallback (facing the ray) and the pass was
+// wrong (docs/scenes.md "Scene scale"). Below kTinyNormal2 the vector is
+// first divided by its largest component (magnitude 1); above, nothing
+// changes, so a render of an ordinary scene keeps its bits.
+constexpr float kTinyNormal2 = 0x1p-100f;
+Vec3 rescaledIfTiny(Vec3 n) {
+  if (!(dot(n, n) < kTinyNormal2)) return n;  // NaN and infinite as they were
+  const float m = absMax(n);
+  return m > 0.0f ? n * (1.0f / m) : n;
+}
+
 // The limit surface of an Embree subdivision face at patch coordinates
 // (u, v): its tangents dP/du, dP/dv.
 void limitTangents(const Primitive& prim, unsigned face, float u, float v, Vec3& du, Vec3& dv) {
@@ -104,7 +119,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
   // o + t d errs by ulps of |o| and of t|d|; the grid test by ulps of |p|.
   const float mag = std::max(absMax(out.p), absMax(org) + out.t * absMax(dir));
   out.eps = std::max(mag * kRayOffsetRelative, std::numeric_limits<float>::min());
-  Vec3 ng(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+  Vec3 ng = rescaledIfTiny(Vec3(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z));
   const float ngLen = length(ng);
   ng = (ngLen > 0.0f && std::isfinite(ngLen)) ? ng * (1.0f / ngLen) : normalize(-dir);
   if (dot(ng, dir) > 0.0f) ng = -ng;
@@ -113,7 +128,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
   const SubdivisionSurface& s = *prim.subdivision;
   Vec3 du, dv;
   limitTangents(prim, face, u, v, du, dv);
-  Vec3 n = cross(du, dv);
+  Vec3 n = rescaledIfTiny(cross(du, dv));
   if (s.height) {
     // Differences divide by the span patchStep actually took.
     const float h = 0.5f / s.faceRate[face];
@@ -125,7 +140,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) {
       const Vec3 N = n * (1.0f / len);
-      n = cross(du + N * ddu, dv + N * ddv);
+      n = rescaledIfTiny(cross(du + N * ddu, dv + N * ddv));
     }
   }
   const float len = length(n);
@@ -141,6 +156,7 @@ void subdivisionHit(const Scene& scene, const Primitive& prim, const RayHit& rh,
 // The material of a primitive with texture coordinates at (tu, tv).
 Vec3 materialAlbedo(const Scene& scene, const Material& m, float tu, float tv) {
   const Texture& tex = *scene.textures[size_t(m.texture)];
+  m.transform.apply(tu, tv);  // KHR_texture_transform, in the file's uv convention
   return m.baseColorFactor * tex.sample(tu, tv, m.wrapS, m.wrapT);
 }
 
@@ -153,6 +169,81 @@ Vec3 primitiveAlbedo(const Scene& scene, const Primitive& prim, const uint32_t* 
   const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
   const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
   return materialAlbedo(scene, *m, t0[0] * w + t1[0] * u + t2[0] * v, t0[1] * w + t1[1] * u + t2[1] * v);
+}
+// The shading normal a normal map gives (docs/math.md §16). `front`: the
+// unit interpolated vertex normal (or the triangle's, without normals) in
+// world space, on the side the triangle's winding and its normals agree on,
+// before the two-sided flip; ng: the geometric normal facing the ray; dir:
+// the unit ray direction. `fallback` (the unmapped shading normal) when the
+// tangent frame or the map's normal is degenerate.
+Vec3 normalMapped(const Scene& scene, const Primitive& prim, const uint32_t* tri, float u, float v,
+                  const Affine* toWorld, Vec3 front, Vec3 ng, Vec3 dir, Vec3 fallback) {
+  const Material& m = scene.materials[size_t(prim.material)];
+  const float w = 1.0f - u - v;
+  const float* q0 = &prim.tangents[size_t(tri[0]) * 4];
+  const float* q1 = &prim.tangents[size_t(tri[1]) * 4];
+  const float* q2 = &prim.tangents[size_t(tri[2]) * 4];
+  Vec3 t(q0[0] * w + q1[0] * u + q2[0] * v, q0[1] * w + q1[1] * u + q2[1] * v, q0[2] * w + q1[2] * u + q2[2] * v);
+  float sign = q0[3] * w + q1[3] * u + q2[3] * v < 0.0f ? -1.0f : 1.0f;
+  if (toWorld) {
+    // Tangents are surface directions (vectors); a mirroring transform
+    // reverses cross(N, T) against the transformed bitangent, and the
+    // world winding of a mesh without normals against its object-space
+    // front (Affine::normal keeps the latter).
+    t = toWorld->vector(t);
+    if (toWorld->determinant() < 0.0f) {
+      sign = -sign;
+      if (prim.normals.empty()) front = -front;
+    }
+  }
+  // Gram-Schmidt: T in the plane of the (interpolated) normal.
+  t = t - front * dot(front, t);
+  const float tLen = length(t);
+  if (!(tLen > 0.0f) || !std::isfinite(tLen)) return fallback;
+  const Vec3 T = t * (1.0f / tLen);
+  const Vec3 B = cross(front, T) * sign;
+  // The texture lookup at the primitive's uv (file convention) through the
+  // map's KHR_texture_transform.
+  const float* u0 = &prim.uvs[size_t(tri[0]) * 2];
+  const float* u1 = &prim.uvs[size_t(tri[1]) * 2];
+  const float* u2 = &prim.uvs[size_t(tri[2]) * 2];
+  float tu = u0[0] * w + u1[0] * u + u2[0] * v, tv = u0[1] * w + u1[1] * u + u2[1] * v;
+  m.normalTransform.apply(tu, tv);
+  const Vec3 c = scene.dataTextures[size_t(m.normalTexture)]->sample(tu, tv, m.normalWrapS, m.normalWrapT);
+  // glTF 2.0 3.9.3: (2r - 1, 2g - 1, 2b - 1), x and y scaled by `scale`.
+  const float x = (2.0f * c.x - 1.0f) * m.normalScale, y = (2.0f * c.y - 1.0f) * m.normalScale;
+  const float z = 2.0f * c.z - 1.0f;
+  // A flat texel (or scale 0) is the interpolated normal itself: returned
+  // as it is, so a flat map renders as no map, bit for bit, rather than
+  // through a renormalization's rounding.
+  if (x == 0.0f && y == 0.0f && z > 0.0f) return fallback;
+  // A rotated texture turns the map's axes on the surface by the inverse
+  // rotation (docs/math.md §16.3).
+  const float cr = m.normalTransform.cosR, sr = m.normalTransform.sinR;
+  const float xs = cr * x + sr * y, ys = cr * y - sr * x;
+  Vec3 n = T * xs + B * ys + front * z;
+  const float nLen = length(n);
+  if (!(nLen > 0.0f) || !std::isfinite(nLen)) return fallback;
+  n = n * (1.0f / nLen);
+  if (dot(front, ng) < 0.0f) n = -n;  // two-sided, as the unmapped normal
+  // Keep the view's mirror direction above the geometric surface
+  // (docs/math.md §16.4): with I towards the eye and R = 2 (n.I) n - I, a
+  // reflection below the plane (R.ng < q) is lifted to elevation q at its
+  // azimuth, and n becomes the half vector of I and the lifted R.
+  const Vec3 I = -dir;
+  const float cosView = dot(ng, I);
+  const float q = std::min(0.9f * cosView, 0.01f);
+  const Vec3 R = n * (2.0f * dot(n, I)) - I;
+  const float rUp = dot(R, ng);
+  if (rUp >= q) return n;
+  const Vec3 flat = R - ng * rUp;
+  const float flatLen = length(flat);
+  const Vec3 lifted = flatLen > 0.0f && std::isfinite(flatLen)
+                          ? flat * (std::sqrt(std::max(0.0f, 1.0f - q * q)) / flatLen) + ng * q
+                          : ng;
+  const Vec3 h = I + lifted;
+  const float hLen = length(h);
+  return hLen > 0.0f && std::isfinite(hLen) ? h * (1.0f / hLen) : ng;
 }
 }  // namespace
 
@@ -197,7 +288,7 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
 
   // Geometric normal, facing the incoming ray. A (numerically) degenerate
   // triangle falls back to facing the ray head-on.
-  Vec3 ng = cross(v1 - v0, v2 - v0);
+  Vec3 ng = rescaledIfTiny(cross(v1 - v0, v2 - v0));
   const float ngLen = length(ng);
   ng = (ngLen > 0.0f && std::isfinite(ngLen)) ? ng * (1.0f / ngLen) : normalize(-dir);
   const bool flipped = dot(ng, dir) > 0.0f;
@@ -205,15 +296,21 @@ void computeSurfaceHit(const Scene& scene, unsigned geomID, unsigned primID, uns
   out.ng = ng;
 
   Vec3 ns = ng;
+  Vec3 front = flipped ? -ng : ng;  // the winding's side, before facing the ray
   if (!prim.normals.empty()) {
     Vec3 n = prim.normals[i0] * w + prim.normals[i1] * u + prim.normals[i2] * v;
     if (toWorld) n = toWorld->normal(n);
+    n = rescaledIfTiny(n);
     const float len = length(n);
     if (len > 0.0f && std::isfinite(len)) {
       n = n * (1.0f / len);
+      front = n;
       ns = dot(n, ng) < 0.0f ? -n : n;  // two-sided: the side the ray came from
     }
   }
+  // Only primitives whose material has a normal map carry tangents (and
+  // only when the load kept normal maps).
+  if (!prim.tangents.empty()) ns = normalMapped(scene, prim, tri, u, v, toWorld, front, ng, out.dir, ns);
   out.ns = ns;
 
   if (albedo) out.albedo = primitiveAlbedo(scene, prim, tri, u, v);
@@ -266,6 +363,18 @@ inline V4 select(__m128 mask, V4 a, V4 b) { return {select(mask, a.x, b.x), sele
 inline __m128 absv(__m128 a) { return _mm_andnot_ps(_mm_set1_ps(-0.0f), a); }
 // absMax(a) = max(|x|, max(|y|, |z|)) in std::max's operand order.
 inline __m128 absMax(V4 a) { return _mm_max_ps(_mm_max_ps(absv(a.z), absv(a.y)), absv(a.x)); }
+// The scalar rescaledIfTiny per lane (the same operations: the same bits);
+// the division only when a lane needs it.
+inline V4 rescaledIfTiny(V4 n) {
+  const __m128 d = dot(n, n);
+  // !(d < kTinyNormal2) lanes keep n: NaN compares false, as in the scalar test.
+  const __m128 tiny = _mm_cmplt_ps(d, _mm_set1_ps(kTinyNormal2));
+  if (_mm_movemask_ps(tiny) == 0) return n;
+  const __m128 m = absMax(n);
+  const __m128 use = _mm_and_ps(tiny, _mm_cmpgt_ps(m, _mm_setzero_ps()));
+  const __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), m);
+  return select(use, mul(n, inv), n);
+}
 // Scalar length's test: len > 0 and finite (len = sqrt(...) is never -inf).
 inline __m128 usableLength(__m128 len) {
   return _mm_and_ps(_mm_cmpgt_ps(len, _mm_setzero_ps()), _mm_cmplt_ps(len, _mm_set1_ps(kInfinity)));
@@ -316,7 +425,7 @@ void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, Surfa
   const __m128 eps =
       _mm_max_ps(_mm_set1_ps(std::numeric_limits<float>::min()), _mm_mul_ps(mag, _mm_set1_ps(kRayOffsetRelative)));
   // Geometric normal facing the ray; degenerate: -unit dir (= normalize(-dir) bit for bit).
-  V4 ng = cross(sub(v1, v0), sub(v2, v0));
+  V4 ng = rescaledIfTiny(cross(sub(v1, v0), sub(v2, v0)));
   const __m128 ngLen = _mm_sqrt_ps(dot(ng, ng));
   ng = select(usableLength(ngLen), mul(ng, _mm_div_ps(one, ngLen)), negateWhere(unitDir, _mm_castsi128_ps(_mm_set1_epi32(-1))));
   ng = negateWhere(ng, _mm_cmpgt_ps(dot(ng, dir), _mm_setzero_ps()));
@@ -335,6 +444,7 @@ void triangleLanes(const HitRows& in, const Affine* const* toWorld, int m, Surfa
       }
     n = {_mm_load_ps(t[0]), _mm_load_ps(t[1]), _mm_load_ps(t[2])};
   }
+  n = rescaledIfTiny(n);
   const __m128 nLen = _mm_sqrt_ps(dot(n, n));
   n = mul(n, _mm_div_ps(one, nLen));
   n = negateWhere(n, _mm_cmplt_ps(dot(n, ng), _mm_setzero_ps()));
@@ -370,9 +480,11 @@ void computeSurfaceHits(const Scene& scene, const RayHit* rays, const uint32_t* 
     const unsigned geomID = rh.hit.geomID, instID = rh.hit.instID[0];
     const Affine* xf = nullptr;
     const Primitive& prim = scene.primitiveAt(geomID, instID, rh.ray.time, moved, &xf);
-    // Subdivision surfaces and moving instances (a transform per ray time,
-    // which primitiveAt puts in `moved`): the scalar form.
-    if (prim.subdivision || xf == &moved) {
+    // Subdivision surfaces, moving instances (a transform per ray time,
+    // which primitiveAt puts in `moved`) and normal-mapped primitives (a
+    // texture lookup per hit, which dwarfs what the lanes save): the scalar
+    // form.
+    if (prim.subdivision || xf == &moved || !prim.tangents.empty()) {
       computeSurfaceHit(scene, rh, albedo, h);
       continue;
     }
@@ -435,7 +547,8 @@ float surfaceRoughness(const Scene& scene, const SurfaceHit& h) {
   const float* t0 = &prim.uvs[size_t(tri[0]) * 2];
   const float* t1 = &prim.uvs[size_t(tri[1]) * 2];
   const float* t2 = &prim.uvs[size_t(tri[2]) * 2];
-  const float tu = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV, tv = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  float tu = t0[0] * w + t1[0] * h.hitU + t2[0] * h.hitV, tv = t0[1] * w + t1[1] * h.hitU + t2[1] * h.hitV;
+  m->roughnessTransform.apply(tu, tv);
   // G is roughness (glTF 2.0 3.9.2); the product stays in [0, 1] (the factor
   // is checked at load, texels are in [0, 1]) up to rounding, clamped.
   const float r = m->roughnessFactor * tex.sample(tu, tv, m->roughnessWrapS, m->roughnessWrapT).y;

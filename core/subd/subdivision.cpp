@@ -1,4 +1,6 @@
 #include "core/subd/subdivision.h"
+#include "core/image/png_check.h"
+#include "core/util/input_file.h"
 
 #include <opensubdiv/far/error.h>
 #include <opensubdiv/far/primvarRefiner.h>
@@ -472,6 +474,8 @@ void CageUvs::at(uint32_t face, float u, float v, float& s, float& t) const {
 }
 
 HeightMap::HeightMap(const std::string& path) {
+  checkInputFile(path);
+  checkPngFitsItsFile(path);
   // Any format OpenImageIO reads, so through its module (core/image/oiio_module.h).
   oiioModule(path).readFirstChannel(path, w_, h_, texels_);
   for (const float t : texels_)

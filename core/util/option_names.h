@@ -7,6 +7,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 namespace obscura {
 
@@ -31,5 +32,12 @@ enum class Setting {
 const std::string& settingName(Setting s);
 // Replaces it (not thread-safe: call before rendering or loading).
 void setSettingName(Setting s, std::string name);
+
+// For a name that is not one of `known` (an unknown key in a file, a
+// misspelt option): "; did you mean 'K'?" naming the known name nearest to
+// it by edit distance (Levenshtein) when it is close - at most a third of
+// its length, and at least 2 (two letters swapped) - else nothing; then
+// " (one of: a, b, c)".
+std::string nearestNameHint(const std::string& name, const std::vector<std::string>& known);
 
 }  // namespace obscura
