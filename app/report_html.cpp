@@ -84,7 +84,9 @@ tbody tr { cursor: pointer; }
 .gallery { display: flex; gap: 10px; flex-wrap: wrap; }
 .gallery figure { margin: 0; font-size: 11px; }
 .gallery img { display: block; border: 1px solid #999; width: 320px; image-rendering: pixelated; }
-.bar { display: inline-flex; flex-direction: column; font-size: 11px; }
+.gallery.small img { width: 240px; }
+#flipview { image-rendering: pixelated; border: 1px solid #999; }
+.bar { display: inline-flex; flex-direction: column; align-items: flex-start; font-size: 11px; }
 .bar .ticks { display: flex; justify-content: space-between; width: 256px; }
 )CSS";
 
@@ -94,7 +96,18 @@ const R = JSON.parse(document.getElementById("results").textContent);
 const META = JSON.parse(document.getElementById("meta").textContent);
 const cells = R.cells;
 const images = { cells: {}, reference: null };  // decoded Float32Arrays, RGBA per pixel
-const state = { selected: 0, exposure: 0, wipe: 0.5, show: "wipe", sortKey: null, sortUp: true };
+const state = { selected: 0, exposure: 0, wipe: 0.5, show: "wipe", heat: "e", sortKey: null, sortUp: true };
+// The heat maps results.json lists per cell ("...Heatmap": FLIP's, on FLIP's
+// own [0, 1] scale), with their names and the cell's mean of each.
+const MAPS = { flipHeatmap: { label: "FLIP", mean: "flip" }, flipHdrHeatmap: { label: "HDR-FLIP", mean: "flipHdr" } };
+function mapLabel(k) { return MAPS[k] ? MAPS[k].label : k.replace(/Heatmap$/, ""); }
+function cellMaps(c) {
+  const known = Object.keys(MAPS), rank = function (k) { const i = known.indexOf(k); return i < 0 ? known.length : i; };
+  return Object.keys(c).filter(function (k) { return /Heatmap$/.test(k) && typeof c[k] === "string"; })
+    .sort(function (a, b) { return rank(a) - rank(b) || a.localeCompare(b); });
+}
+const anyMaps = cells.some(function (c) { return cellMaps(c).length > 0; });
+const ppdText = R.flipPpd ? " at " + fmt(R.flipPpd) + " pixels per degree" : "";
 
 function fmt(v) {
   if (v === undefined || v === null) return "";
@@ -160,6 +173,22 @@ function draw() {
   view.getContext("2d").putImageData(vi, 0, 0);
   hm.getContext("2d").putImageData(hi, 0, 0);
   const c = cells[state.selected];
+  // The right-hand view: |e| drawn here, or the cell's FLIP heat map file.
+  const fv = document.getElementById("flipview"), heatNote = document.getElementById("heatnote");
+  if (state.heat !== "e" && c[state.heat]) {
+    fv.src = c[state.heat];
+    fv.alt = mapLabel(state.heat) + " of " + c.config + " @ " + c.spp;
+    fv.style.width = w * zoom + "px";
+    fv.hidden = false;
+    hm.hidden = true;
+    heatNote.textContent = mapLabel(state.heat) + " per pixel of the first seed's pass" + ppdText +
+      ", on FLIP's own scale: 0 (no visible difference) to 1 (grey: not compared); mean " +
+      fmt(MAPS[state.heat] ? c[MAPS[state.heat].mean] : undefined);
+  } else {
+    fv.hidden = true;
+    hm.hidden = false;
+    heatNote.textContent = "|e| of W, mean over R, G, B, on the shared scale of the colour bar below (grey: not compared)";
+  }
   note.textContent = (state.show === "wipe" ? "left of the line: " + c.config + " @ " + c.spp + " spp; right: the GI reference"
     : state.show === "pass" ? c.config + " @ " + c.spp + " spp" : "the GI reference") +
     " (first seed's pass" + (META.factor > 1 ? ", averaged over " + META.factor + "x" + META.factor + " pixels" : "") + ")";
@@ -241,31 +270,44 @@ function buildTable() {
 }
 
 function buildVerdicts() {
-  const t = document.getElementById("verdicts");
-  (R.targets || []).forEach(function (v) {
-    const tr = document.createElement("tr");
-    const f = v.fastest;
-    [fmt(v.rmse), f ? f.config + " @ " + f.spp + " spp, " + fmt(f.seconds) + " s" : "not reached", v.verdict || "", v.verdictText || ""]
-      .forEach(function (text, k) { const td = document.createElement("td"); td.textContent = text; if (k) td.className = "t"; tr.appendChild(td); });
-    if (f) tr.addEventListener("click", function () { select(cellIndex(f.config, f.spp)); });
-    t.appendChild(tr);
-  });
+  // One table per measure: targets (RMSE) and flipTargets (FLIP), each row a
+  // target with its winner, verdict and confidence.
+  const rows = function (list, measure, id) {
+    const t = document.getElementById(id);
+    list.forEach(function (v) {
+      const tr = document.createElement("tr");
+      tr.dataset.measure = measure;
+      tr.dataset.target = v[measure];
+      const f = v.fastest;
+      [fmt(v[measure]), f ? f.config + " @ " + f.spp + " spp, " + fmt(f.seconds) + " s" : "not reached", v.verdict || "", v.verdictText || ""]
+        .forEach(function (text, k) { const td = document.createElement("td"); td.textContent = text; if (k) td.className = "t"; tr.appendChild(td); });
+      if (f) tr.addEventListener("click", function () { select(cellIndex(f.config, f.spp)); });
+      t.appendChild(tr);
+    });
+  };
+  rows(R.targets || [], "rmse", "verdicts");
+  rows(R.flipTargets || [], "flip", "flipverdicts");
+  if (!(R.flipTargets || []).length) document.getElementById("flipverdictsection").hidden = true;
+  else document.getElementById("flipverdictnote").textContent = "FLIP" + ppdText + "; the verdict compares the times as for RMSE " +
+    "(FLIP itself has no interval: its per-seed values are not kept).";
   const list = document.getElementById("pareto");
   (R.paretoFront || []).forEach(function (p) {
     const li = document.createElement("li"), i = cellIndex(p.config, p.spp);
-    li.textContent = p.config + " @ " + p.spp + " spp: " + fmt(cells[i].seconds) + " s, RMSE " + fmt(cells[i].rmse);
+    li.textContent = p.config + " @ " + p.spp + " spp: " + fmt(cells[i].seconds) + " s, RMSE " + fmt(cells[i].rmse) +
+      (cells[i].flip !== undefined ? ", FLIP " + fmt(cells[i].flip) : "");
     li.style.cursor = "pointer";
     li.addEventListener("click", function () { select(i); });
     list.appendChild(li);
   });
 }
 
-function buildBar(canvasId, max) {
+// A colour bar from 0 to max; `clipped`: larger values are drawn as max.
+function buildBar(canvasId, max, clipped) {
   const bar = document.getElementById(canvasId), g = bar.getContext("2d"), img = g.createImageData(256, 12);
   for (let x = 0; x < 256; ++x) for (let y = 0; y < 12; ++y) heat(x / 255, img.data, 4 * (y * 256 + x));
   g.putImageData(img, 0, 0);
   const ticks = bar.parentNode.querySelector(".ticks");
-  [0, max / 2, max].forEach(function (v, k) { const s = document.createElement("span"); s.textContent = (k === 2 ? "\u2265 " : "") + fmt(v); ticks.appendChild(s); });
+  [0, max / 2, max].forEach(function (v, k) { const s = document.createElement("span"); s.textContent = (k === 2 && clipped ? "\u2265 " : "") + fmt(v); ticks.appendChild(s); });
 }
 
 function buildGallery() {
@@ -278,20 +320,33 @@ function buildGallery() {
     fig.append(img, cap);
     g.appendChild(fig);
   });
-  // Heat maps results.json lists per cell (e.g. FLIP's): keys ending in "Heatmap", on their own 0-1 scale.
-  let any = false;
-  cells.forEach(function (c) {
-    Object.keys(c).filter(function (k) { return /Heatmap$/.test(k) && typeof c[k] === "string"; }).forEach(function (k) {
-      any = true;
+  // Heat maps results.json lists per cell (FLIP's: keys ending in "Heatmap"), on FLIP's own 0-1 scale.
+  cells.forEach(function (c, i) {
+    cellMaps(c).forEach(function (k) {
       const fig = document.createElement("figure"), img = document.createElement("img"), cap = document.createElement("figcaption");
       img.src = c[k];
-      img.alt = k + " of " + c.config + " @ " + c.spp;
-      cap.textContent = k + ": " + c.config + " @ " + c.spp + " spp";
+      img.alt = mapLabel(k) + " of " + c.config + " @ " + c.spp;
+      img.dataset.map = k;
+      cap.textContent = mapLabel(k) + ": " + c.config + " @ " + c.spp + " spp" +
+        (MAPS[k] && c[MAPS[k].mean] !== undefined ? ", mean " + fmt(c[MAPS[k].mean]) : "");
+      fig.style.cursor = "pointer";
+      fig.addEventListener("click", function () { setHeat(k); select(i); });
       fig.append(img, cap);
       fg.appendChild(fig);
     });
   });
-  if (!any) document.getElementById("flipsection").hidden = true;
+  if (!anyMaps) {
+    document.getElementById("flipsection").hidden = true;
+    document.querySelectorAll(".mapchoice").forEach(function (el) { el.hidden = true; });
+    return;
+  }
+  document.getElementById("flipnote").textContent = "FLIP per pixel" + ppdText + " (docs/compare.md \"FLIP\"): 0 no " +
+    "visible difference, 1 the largest; FLIP's own scale, not |e|'s. Every cell, its first seed's pass; click one to view it above.";
+  buildBar("flipbar", 1, false);
+}
+function setHeat(k) {
+  state.heat = k;
+  document.querySelectorAll("input[name=heat]").forEach(function (el) { el.checked = el.value === k; });
 }
 
 document.querySelectorAll("#plot circle.pt").forEach(function (el) {
@@ -306,6 +361,9 @@ document.getElementById("wipe").addEventListener("input", function (e) { state.w
 document.querySelectorAll("input[name=show]").forEach(function (el) {
   el.addEventListener("change", function () { state.show = el.value; draw(); });
 });
+document.querySelectorAll("input[name=heat]").forEach(function (el) {
+  el.addEventListener("change", function () { state.heat = el.value; draw(); });
+});
 document.getElementById("viewer").addEventListener("click", function (e) {
   // A click on the image moves the wipe there.
   const r = e.target.getBoundingClientRect();
@@ -315,7 +373,7 @@ document.getElementById("viewer").addEventListener("click", function (e) {
 });
 buildTable();
 buildVerdicts();
-buildBar("bar", META.scale);
+buildBar("bar", META.scale, true);
 buildGallery();
 loadScript("report_data/reference.js");
 // The first cell of the Pareto front (the fastest worth looking at), else the first.
@@ -379,21 +437,30 @@ void writeReportHtml(const CompareReport& r, const std::string& resultsJson, con
     << "<label>wipe <input id=\"wipe\" type=\"range\" min=\"0\" max=\"100\" value=\"50\"></label>"
     << "<label><input type=\"radio\" name=\"show\" value=\"wipe\" checked> wipe</label>"
     << "<label><input type=\"radio\" name=\"show\" value=\"pass\"> pass</label>"
-    << "<label><input type=\"radio\" name=\"show\" value=\"reference\"> reference</label></div>\n"
+    << "<label><input type=\"radio\" name=\"show\" value=\"reference\"> reference</label>"
+    << "<span>heat map:</span><label><input type=\"radio\" name=\"heat\" value=\"e\" checked> |e|</label>"
+    << "<label class=\"mapchoice\"><input type=\"radio\" name=\"heat\" value=\"flipHeatmap\"> FLIP</label>"
+    << "<label class=\"mapchoice\"><input type=\"radio\" name=\"heat\" value=\"flipHdrHeatmap\"> HDR-FLIP</label></div>\n"
     << "<div class=\"views\"><figure style=\"margin:0\"><canvas id=\"viewer\"></canvas><figcaption class=\"note\" "
        "id=\"viewnote\"></figcaption></figure>\n"
-    << "<figure style=\"margin:0\"><canvas id=\"heat\"></canvas><figcaption class=\"note\">|e| of W, mean over R, G, B "
-       "(grey: not compared)</figcaption></figure></div>\n"
+    << "<figure style=\"margin:0\"><canvas id=\"heat\"></canvas><img id=\"flipview\" hidden alt=\"\">"
+       "<figcaption class=\"note\" id=\"heatnote\">|e| of W, mean over R, G, B (grey: not compared)</figcaption></figure></div>\n"
     << "<div id=\"status\" class=\"note\"></div>\n"
     << "<h2>Heat maps of |e| (each config's highest spp)</h2>\n"
     << "<div class=\"bar\"><canvas id=\"bar\" width=\"256\" height=\"12\"></canvas><div class=\"ticks\"></div>"
-       "<span>|e| = |W - W_ref|, one scale for every heat map on this page (results.json heatmapScale)</span></div>\n"
+       "<span>|e| = |W - W_ref|, one scale for every |e| heat map on this page (results.json heatmapScale)</span></div>\n"
     << "<div id=\"gallery\" class=\"gallery\"></div>\n"
-    << "<div id=\"flipsection\"><h2>Perceptual error heat maps</h2><div class=\"note\">their own scale, 0 to 1</div>"
-       "<div id=\"flipgallery\" class=\"gallery\"></div></div>\n"
+    << "<div id=\"flipsection\"><h2>FLIP and HDR-FLIP heat maps (every cell)</h2>\n"
+    << "<div class=\"bar\"><canvas id=\"flipbar\" width=\"256\" height=\"12\"></canvas><div class=\"ticks\"></div>"
+       "<span id=\"flipnote\"></span></div>\n"
+    << "<div id=\"flipgallery\" class=\"gallery small\"></div></div>\n"
     << "<h2>Verdicts: the fastest config reaching each RMSE target</h2>\n"
     << "<table><thead><tr><th>RMSE target</th><th class=\"t\">fastest</th><th class=\"t\">verdict</th><th "
        "class=\"t\">confidence</th></tr></thead><tbody id=\"verdicts\"></tbody></table>\n"
+    << "<div id=\"flipverdictsection\"><h2>Verdicts: the fastest config reaching each FLIP target</h2>\n"
+    << "<div class=\"note\" id=\"flipverdictnote\"></div>\n"
+    << "<table><thead><tr><th>FLIP target</th><th class=\"t\">fastest</th><th class=\"t\">verdict</th><th "
+       "class=\"t\">confidence</th></tr></thead><tbody id=\"flipverdicts\"></tbody></table></div>\n"
     << "<h2>Pareto front (no other cell is both faster and more accurate)</h2>\n<ol id=\"pareto\"></ol>\n"
     << "<h2>Every cell (click a header to sort)</h2>\n<table id=\"cells\"></table>\n"
     << "<script type=\"application/json\" id=\"results\">" << scriptJson(resultsJson) << "</script>\n"

@@ -2,7 +2,8 @@
 // "The report page"): headless Chromium loads the page of a small compare
 // from disk; its scripts must run without a console message, build a table
 // row for every cell of results.json and a clickable point for each, decode
-// the float data into the viewer, and a screenshot is taken. Skipped (with
+// the float data into the viewer, show every cell's FLIP heat maps and a
+// verdict row per RMSE and FLIP target, and a screenshot is taken. Skipped (with
 // the reason) where chromium is absent, except in CI (.ci/run sets
 // OBSCURA_REQUIRE_SCENES; CI=true as well), where its absence fails.
 #include <gtest/gtest.h>
@@ -92,9 +93,10 @@ TEST(CompareReportPage, EveryCellIsOnThePageInHeadlessChromium) {
     GTEST_SKIP() << why;
   }
   const std::string dir = tempDir("compare_report_page");
-  // Tiny: two configs, two spp, two seeds (the intervals and bars appear).
+  // Tiny: two configs, two spp, two seeds (the intervals and bars appear),
+  // RMSE and FLIP targets.
   const CliResult r = runCli({"compare", sourcePath("scenes/default.gltf"), "-o", dir + "/out", "--res", "48x27",
-                              "--reference-spp", "16", "--spp", "2,8", "--seeds", "2", "--targets", "0.5,0.2", "-q",
+                              "--reference-spp", "16", "--spp", "2,8", "--seeds", "2", "--targets", "0.5,0.2", "--targets-flip", "0.5,0.2", "-q",
                               "-c", "ao", "-c", "obscurance:falloff=sqrt,distance=0.5"},
                              dir + "/compare.txt");
   ASSERT_EQ(r.exitCode, 0) << r.stderrText;
@@ -130,9 +132,24 @@ TEST(CompareReportPage, EveryCellIsOnThePageInHeadlessChromium) {
     EXPECT_TRUE(std::regex_search(html, std::regex("<circle class=\"pt( sel)?\" data-cell=\"" + std::to_string(i) + "\"")))
         << "no plot point for cell " << i;
     EXPECT_TRUE(c.contains("rmseInterval") && c.contains("secondsInterval")) << c.dump();
+    // FLIP's two heat maps of every cell are images on the page.
+    for (const char* map : {"flipHeatmap", "flipHdrHeatmap"}) {
+      ASSERT_TRUE(c.contains(map)) << c.dump();
+      EXPECT_NE(html.find("src=\"" + attributeEscape(c[map].get<std::string>()) + "\""), std::string::npos)
+          << "no " << map << " image for cell " << i;
+    }
   }
-  // Each target's verdict is a row of the verdict table.
-  EXPECT_EQ(results["targets"].size(), 2u);
+  EXPECT_EQ(html.find("id=\"flipsection\" hidden"), std::string::npos) << "the FLIP heat maps are hidden";
+  // Each target's verdict (RMSE and FLIP) is a row of its verdict table.
+  for (const auto& [list, measure] : {std::pair{"targets", "rmse"}, std::pair{"flipTargets", "flip"}}) {
+    EXPECT_EQ(results[list].size(), 2u) << list;
+    for (const auto& t : results[list]) {
+      std::ostringstream row;
+      row << "<tr data-measure=\"" << measure << "\" data-target=\"" << t[measure].get<double>() << "\"";
+      EXPECT_NE(html.find(row.str()), std::string::npos) << "no verdict row " << row.str();
+      EXPECT_TRUE(t.contains("verdict")) << t.dump();
+    }
+  }
 
   const std::string shot = dir + "/page.png";
   ASSERT_EQ(std::system((chromiumCommand(chromium, dir, "--hide-scrollbars --window-size=1300,2200 --screenshot='" +
