@@ -532,6 +532,83 @@ TEST(CompareEndToEnd, FlipColumnsHeatMapsAndTargets) {
   }
 }
 
+// results.csv of the earlier formats (docs/compare.md): the current file is
+// resumed whole; main's 23-column file of the FLIP columns (before the
+// per-seed values) keeps a one-seed cell with its FLIP and measures a
+// two-seed cell again, whose intervals then come back; V2's 20 columns keep
+// a one-seed cell, its FLIP taken from its pass.
+TEST(CompareEndToEnd, OlderResultsCsvFormatsResume) {
+  const std::string dir = tempDir("compare_old_csv");
+  // The file cut to its first n columns, header too (quotes respected).
+  const auto cutTo = [](const std::string& path, size_t n) {
+    std::ifstream in(path);
+    std::string text, line;
+    while (std::getline(in, line)) {
+      size_t fields = 1, i = 0;
+      bool quoted = false;
+      for (; i < line.size(); ++i) {
+        if (line[i] == '"') quoted = !quoted;
+        else if (line[i] == ',' && !quoted && ++fields > n) break;
+      }
+      text += line.substr(0, i) + "\n";
+    }
+    in.close();
+    std::ofstream(path) << text;
+  };
+  for (const int seeds : {1, 2}) {
+    const std::string out = dir + "/seeds" + std::to_string(seeds), csv = out + "/results.csv";
+    const std::vector<std::string> args = {"compare", "-o", out, "--res", "32x18", "--reference-spp", "16", "--spp",
+                                           "2,8", "--seeds", std::to_string(seeds), "-q", "-c", "ao"};
+    const CliResult r1 = runCli(args, dir + "/err1.txt");
+    ASSERT_EQ(r1.exitCode, 0) << r1.stderrText;
+    const auto before = readCsvRows(csv);
+    ASSERT_EQ(before.size(), 2u);
+    ASSERT_EQ(before[0].size(), 29u);
+    for (const auto& row : before)
+      EXPECT_EQ(size_t(std::count(row.at("seed_mse").begin(), row.at("seed_mse").end(), ';')), size_t(seeds - 1));
+
+    const CliResult r2 = runVerbose(args, dir + "/err2.txt");
+    ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+    EXPECT_EQ(keptCells(r2.stderrText), 2u) << r2.stderrText;
+    EXPECT_EQ(readCsvRows(csv), before);
+
+    cutTo(csv, 23);
+    const CliResult r3 = runVerbose(args, dir + "/err3.txt");
+    ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
+    const auto after = readCsvRows(csv);
+    ASSERT_EQ(after.size(), 2u);
+    EXPECT_EQ(after[0].size(), 29u);
+    for (size_t k = 0; k < after.size(); ++k) {
+      if (seeds == 1) {  // kept, as the file had it
+        EXPECT_EQ(after[k].at("flip"), before[k].at("flip"));
+        EXPECT_EQ(after[k].at("rmse"), before[k].at("rmse"));
+        EXPECT_EQ(after[k].at("seed_mse"), "");
+        EXPECT_EQ(after[k].at("rmse_lo"), "");
+      } else {  // measured again: one value per seed and the intervals
+        EXPECT_EQ(std::count(after[k].at("seed_mse").begin(), after[k].at("seed_mse").end(), ';'), 1);
+        EXPECT_EQ(std::count(after[k].at("seed_time_s").begin(), after[k].at("seed_time_s").end(), ';'), 1);
+        EXPECT_FALSE(after[k].at("rmse_lo").empty());
+        EXPECT_LE(std::stod(after[k].at("rmse_lo")), std::stod(after[k].at("rmse")));
+        EXPECT_GE(std::stod(after[k].at("rmse_hi")), std::stod(after[k].at("rmse")));
+      }
+    }
+    EXPECT_EQ(keptCells(r3.stderrText), seeds == 1 ? 2u : 0u) << r3.stderrText;
+
+    if (seeds != 1) continue;
+    cutTo(csv, 20);
+    const CliResult r4 = runVerbose(args, dir + "/err4.txt");
+    ASSERT_EQ(r4.exitCode, 0) << r4.stderrText;
+    EXPECT_EQ(keptCells(r4.stderrText), 2u) << r4.stderrText;
+    const auto v2 = readCsvRows(csv);
+    ASSERT_EQ(v2.size(), 2u);
+    for (size_t k = 0; k < v2.size(); ++k) {
+      const double flip = std::stod(before[k].at("flip"));
+      EXPECT_NEAR(std::stod(v2[k].at("flip")), flip, 1e-7 * flip);
+      EXPECT_NEAR(std::stod(v2[k].at("flip_ppd")), kFlipDefaultPpd, 1e-6);
+    }
+  }
+}
+
 // Ctrl-C: the run stops with exit code 130, says so, and results.csv holds
 // the cells that finished (complete rows only); running again keeps them.
 TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {
