@@ -30,8 +30,10 @@
 #include "app/exr_header.h"
 #include "app/options.h"
 #include "app/interrupt.h"
+#include "app/render_setup.h"
 #include "app/report.h"
 #include <obscura/error.h>
+#include "core/load/gltf_document.h"
 #include "core/load/gltf_loader.h"
 #include "core/image/metrics.h"
 #include "core/render/plugin_loader.h"
@@ -298,6 +300,31 @@ ComparePlan planCompare(const CompareArgs& a) {
   if (fs::exists(p.dir) && !fs::is_directory(p.dir)) throw Error(a.output + ": exists and is not a directory");
   if (!p.dir.parent_path().empty() && !fs::is_directory(p.dir.parent_path()))
     throw Error(a.output + ": cannot create: directory '" + p.dir.parent_path().string() + "' does not exist");
+  // The files compare writes in DIR may not be files the renders read (the
+  // scene, the files it names, the maps): checked before any work, as
+  // render's -o (docs/compare.md).
+  {
+    std::vector<std::pair<std::string, std::string>> inputs = {{"the scene", a.scene}, {"--displace", a.displace},
+                                                               {"--environment", a.env.environment}};
+    if (!hasExtension(a.scene, ".obj"))
+      for (auto& [field, path] : gltfExternalFiles(a.scene)) inputs.push_back({a.scene + " " + field, std::move(path)});
+    std::error_code ec;
+    const fs::path dir = fs::weakly_canonical(p.dir, ec);
+    for (const auto& [what, path] : inputs) {
+      if (path.empty()) continue;
+      const fs::path file = fs::weakly_canonical(path, ec);
+      const fs::path rel = file.lexically_relative(dir);
+      if (rel.empty() || *rel.begin() == "..") continue;
+      const std::string top = rel.begin()->string();
+      const bool written = std::distance(rel.begin(), rel.end()) > 1
+                               ? (top == "passes" || top == "cache" || top == "heatmaps" || top == "previews")
+                               : (top == "results.csv" || top == "results.json" || top == "summary.md" ||
+                                  top == "error_vs_time.svg" || top == "contact_sheet.svg" || top == "contact_sheet.png");
+      if (written)
+        throw Error("-o " + a.output + ": compare writes " + (p.dir / rel).string() + ", which is " + what + " " + path +
+                    "; refusing to overwrite an input");
+    }
+  }
   if (!a.reference.empty()) p.givenReference = p.lit ? readPass(a.reference, "shaded.") : readPass(a.reference);
   return p;
 }

@@ -20,6 +20,7 @@
 #include <obscura/error.h>
 #include "core/image/image_io.h"
 #include "core/util/large_vector.h"
+#include "tests/gltf_builder.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -351,6 +352,53 @@ TEST(Outputs, OutputEqualToAnInputIsRefused) {
   }
   for (const auto& [f, bytes] : before) EXPECT_EQ(fileBytes(f), bytes) << f;
   EXPECT_FALSE(std::filesystem::exists(dir + "/full.png"));
+}
+
+// An output that is a file the scene names - an external buffer, an image
+// (a texture or cut-out), a height map of extras.obscura.displacement.map,
+// in a .gltf or a .glb - is refused before any work like the other inputs,
+// naming the scene and the field; so is a compare directory whose report
+// files would replace one. These outputs used to be written over the input.
+TEST(Outputs, OutputEqualToAFileTheSceneNamesIsRefused) {
+  const std::string dir = tempDir("outputs_scene_files");
+  const std::vector<float> rgb(8 * 4 * 3, 0.5f);
+  writeRgbExr(dir + "/h.exr", 8, 4, rgb, {});
+  std::filesystem::create_directories(dir + "/report");
+  const std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};  // never decoded here
+  writeBytes(dir + "/tex.png", png.data(), png.size());
+  writeBytes(dir + "/report/contact_sheet.png", png.data(), png.size());
+  GltfBuilder g;
+  const int mesh = g.quadMesh(1.0f, -1, true);
+  g.doc["meshes"][size_t(mesh)]["extras"] = {{"obscura", {{"subdivision", {{"level", 1}}}, {"displacement", {{"map", "h.exr"}}}}}};
+  g.doc["images"] = json::array({{{"uri", "tex.png"}}, {{"uri", "report/contact_sheet.png"}}});
+  g.scene({g.node({{"mesh", mesh}})});
+  const std::string gltf = g.writeGltf(dir, "s"), glb = g.writeGlb(dir, "b");
+  const std::string bin = dir + "/s.bin", tex = dir + "/tex.png", h = dir + "/h.exr", sheet = dir + "/report/contact_sheet.png";
+  std::map<std::string, std::string> before;
+  for (const std::string& f : {gltf, glb, bin, tex, h, sheet}) before[f] = fileBytes(f);
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {{"render", gltf, "-o", bin}, "-o " + bin + ": is the same file as " + gltf + " buffers[0] " + bin},
+      {{"render", gltf, "-o", dir + "/p.exr", "--preview", tex}, "--preview " + tex + ": is the same file as " + gltf + " images[0] " + tex},
+      {{"render", gltf, "-o", h}, "-o " + h + ": is the same file as " + gltf + " meshes[0].extras.obscura.displacement.map " + h},
+      {{"render", glb, "-o", tex}, "-o " + tex + ": is the same file as " + glb + " images[0] " + tex},
+      {{"compare", gltf, "-o", dir + "/report", "-c", "ao"},
+       "-o " + dir + "/report: compare writes " + dir + "/report/contact_sheet.png, which is " + gltf + " images[1] " + sheet},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    std::vector<std::string> args = c.args;
+    args.push_back("-q");
+    const CliResult r = runCli(args, dir + "/err" + std::to_string(k++) + ".txt");
+    EXPECT_EQ(r.exitCode, 1) << c.says << ": " << r.stderrText;
+    EXPECT_NE(r.stderrText.find(c.says), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
+  for (const auto& [f, bytes] : before) EXPECT_EQ(fileBytes(f), bytes) << f;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/p.exr"));
 }
 
 // Bands of 64 scanlines: a film of several bands and a ragged last band
