@@ -354,6 +354,49 @@ TEST(Outputs, OutputEqualToAnInputIsRefused) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/full.png"));
 }
 
+// A disk that fills at the EXR's last bytes (here a file-size limit one
+// byte short of the file) is an error naming the file, and the previous EXR
+// stays as it was with no temporary left. OpenEXR's own stream flushed its
+// last buffer, and wrote the line-offset table, in ~OutputFile, where errors
+// are swallowed: the cut file was renamed over the good one, "written".
+TEST(Outputs, ExrFinalFlushFailureKeepsThePreviousFile) {
+  const std::string dir = tempDir("outputs_exr_final_flush");
+  const std::string exr = dir + "/pass.exr";
+  // A small file (RGBA, 4 pixels wide, uncompressed: the same size for any
+  // pixels): every write fits a stream buffer, so the bytes reach the disk
+  // only when the file is flushed and closed at the end.
+  ExrOptions o;
+  o.compression = ExrCompression::None;
+  writeExr(exr, rampFilm(4, 48, false), o);
+  const std::string good = fileBytes(exr);
+  Film other = rampFilm(4, 48, false);
+  for (int c : other.channels()) other.at(c, 3, 5) += 1.0f;
+  // In this process (OpenEXR's thread pool does not survive a fork): the
+  // soft limit lowered for the one write, then restored.
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  const auto oldHandler = signal(SIGXFSZ, SIG_IGN);
+  rlimit cut = saved;
+  cut.rlim_cur = rlim_t(good.size() - 1);
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &cut), 0);
+  std::string message = "(none: the cut EXR was reported written)";
+  try {
+    writeExr(exr, other, o);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  setrlimit(RLIMIT_FSIZE, &saved);
+  signal(SIGXFSZ, oldHandler);
+  EXPECT_NE(message.find(exr + ": write failed: File too large"), std::string::npos) << message;
+  EXPECT_TRUE(fileBytes(exr) == good) << "the previous EXR was replaced (" << fileBytes(exr).size() << " of " << good.size()
+                                      << " bytes)";
+  EXPECT_EQ(otherFiles(dir, {"pass.exr"}), std::vector<std::string>{});
+  // Without the limit the same write lands, whole.
+  writeExr(exr, other, o);
+  EXPECT_EQ(fileBytes(exr).size(), good.size());
+  EXPECT_EQ(readExr(exr).planes.at("R")[5 * 4 + 3], other.at(kR, 3, 5));
+}
+
 // An output that is a file the scene names - an external buffer, an image
 // (a texture or cut-out), a height map of extras.obscura.displacement.map,
 // in a .gltf or a .glb - is refused before any work like the other inputs,

@@ -7,6 +7,7 @@
 #include <OpenEXR/ImfChromaticitiesAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfIntAttribute.h>
 #include <OpenEXR/ImfFloatAttribute.h>
@@ -25,6 +26,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <ctime>
 #include <filesystem>
 
@@ -77,6 +79,78 @@ void insertHeaderAttributes(Imf::Header& header, const std::vector<HeaderAttribu
         header.insert(a.name, Imf::M44fAttribute(Imath::M44f(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9],
                                                               m[10], m[11], m[12], m[13], m[14], m[15])));
     }
+  }
+}
+
+// The EXR's bytes to a new file, every write checked, the last ones too.
+// OpenEXR's own file stream (an std::ofstream) is flushed and closed by
+// ~OutputFile, which also writes the line-offset table there and swallows
+// any error: a disk that filled at that point left a truncated EXR that was
+// renamed over the good one, exit 0. Here the writes go through a buffer of
+// our own; an error there (even inside ~OutputFile) is kept and finish()
+// reports it, after the last bytes and the close.
+class CheckedExrStream : public Imf::OStream {
+ public:
+  explicit CheckedExrStream(const std::string& tmp) : Imf::OStream(tmp.c_str()) {
+    fd_ = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw std::runtime_error(std::strerror(errno));
+  }
+  ~CheckedExrStream() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  void write(const char c[], int n) override {
+    if (pos_ != start_ + buf_.size()) flush(), start_ = pos_;
+    buf_.insert(buf_.end(), c, c + n);
+    pos_ += uint64_t(n);
+    if (buf_.size() >= (1u << 20)) flush(), start_ = pos_;
+    if (err_) throw std::runtime_error(std::strerror(err_));
+  }
+  uint64_t tellp() override { return pos_; }
+  void seekp(uint64_t pos) override { pos_ = pos; }
+  // After the OutputFile is gone: the buffered bytes and the close; 0 or
+  // the first errno.
+  int finish() {
+    flush();
+    if (::close(fd_) != 0 && !err_) err_ = errno;
+    fd_ = -1;
+    return err_;
+  }
+
+ private:
+  void flush() {
+    for (size_t done = 0; done < buf_.size() && !err_;) {
+      const ssize_t n = ::pwrite(fd_, buf_.data() + done, buf_.size() - done, off_t(start_ + done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) err_ = n < 0 ? errno : EIO;
+      else done += size_t(n);
+    }
+    buf_.clear();
+  }
+  int fd_ = -1, err_ = 0;
+  std::vector<char> buf_;
+  uint64_t start_ = 0, pos_ = 0;  // buf_[0]'s offset in the file; where the next write goes
+};
+
+// Runs `write` on an OutputFile over a CheckedExrStream to `tmp`, then
+// checks the last bytes and the close; on any failure removes `tmp` and
+// throws naming `path`.
+void writeExrChecked(const std::string& path, const std::string& tmp, const Imf::Header& header,
+                     const std::function<void(Imf::OutputFile&)>& write) {
+  int err = 0;
+  try {
+    CheckedExrStream stream(tmp);
+    {
+      Imf::OutputFile file(stream, header);
+      write(file);
+    }  // ~OutputFile: the line-offset table (errors kept by the stream)
+    err = stream.finish();
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + e.what());
+  }
+  if (err) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + std::strerror(err));
   }
 }
 
@@ -133,8 +207,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
                                     : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (film.height() <= 32) threads = 0;
   if (Imf::globalThreadCount() != threads) Imf::setGlobalThreadCount(threads);
-  try {
-    Imf::OutputFile file(tmp.c_str(), header);
+  writeExrChecked(path, tmp, header, [&](Imf::OutputFile& file) {
     for (int y0 = 0; y0 < film.height(); y0 += band) {
       const int rows = std::min(band, film.height() - y0);
       for (size_t k = 0; k < halves.size(); ++k) {
@@ -145,10 +218,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
       file.setFrameBuffer(frameFor(y0));
       file.writePixels(rows);
     }
-  } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
-    throw Error(path + ": write failed: " + e.what());
-  }
+  });
 }
 
 // Writes `size` bytes to a new file `tmp`, checking every write and the
@@ -342,13 +412,10 @@ void writeRgbExr(const std::string& path, int width, int height, const std::vect
     for (int c = 0; c < 3; ++c)
       frame.insert(std::string(1, "RGB"[c]),
                    Imf::Slice(Imf::FLOAT, (char*)(rgb.data() + c), xs, ys));
-    try {
-      Imf::OutputFile file(tmp.c_str(), header);
+    writeExrChecked(path, tmp, header, [&](Imf::OutputFile& file) {
       file.setFrameBuffer(frame);
       file.writePixels(height);
-    } catch (const std::exception& e) {
-      throw Error(path + ": write failed: " + e.what());
-    }
+    });
   });
   out.commit();
 }
