@@ -21,6 +21,7 @@
 #include "core/image/image_io.h"
 #include "core/util/large_vector.h"
 #include "tests/gltf_builder.h"
+#include "tests/scoped_env.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -395,6 +396,68 @@ TEST(Outputs, ExrFinalFlushFailureKeepsThePreviousFile) {
   writeExr(exr, other, o);
   EXPECT_EQ(fileBytes(exr).size(), good.size());
   EXPECT_EQ(readExr(exr).planes.at("R")[5 * 4 + 3], other.at(kR, 3, 5));
+}
+
+namespace {
+
+std::vector<std::string> smallRender(const std::string& exr, const std::string& png, int seed) {
+  return {"render", sourcePath("scenes/default.gltf"), "-o", exr, "--preview", png, "--res", "48x32", "--spp", "1",
+          "--seed", std::to_string(seed), "-q"};
+}
+}  // namespace
+
+// A process killed with its temporaries written (SIGKILL, the OOM killer)
+// leaves ".NAME.tmpPID" files as large as the outputs; the next write of the
+// same output removes them (their process is gone) and leaves only its own
+// files.
+TEST(Outputs, KilledWriteTemporariesAreRemovedByTheNextWrite) {
+  const std::string dir = tempDir("outputs_killed_tmp");
+  const std::string exr = dir + "/out.exr", png = dir + "/out.png";
+  {
+    const ScopedEnv kill("OBSCURA_TEST_COMMIT", "kill");
+    const CliResult k = runCli(smallRender(exr, png, 1), dir + "/kill.txt");
+    ASSERT_EQ(k.signal, SIGKILL) << k.stderrText;
+  }
+  const std::vector<std::string> left = otherFiles(dir, {"kill.txt"});
+  ASSERT_EQ(left.size(), 2u);
+  for (const std::string& f : left) EXPECT_TRUE(f.rfind(".out.exr.tmp", 0) == 0 || f.rfind(".out.png.tmp", 0) == 0) << f;
+  const CliResult r = runCli(smallRender(exr, png, 1), dir + "/again.txt");
+  ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  EXPECT_EQ(otherFiles(dir, {"kill.txt", "again.txt", "out.exr", "out.png"}), std::vector<std::string>{});
+}
+
+// Two processes writing the same -o and --preview: each pass lands with its
+// own preview. The first is held between its two moves (its EXR in place,
+// its PNG not yet) while the second renders and commits; without a lock
+// around the moves the second's pair landed in between and the first's PNG
+// came last, beside the second's EXR.
+TEST(Outputs, ConcurrentWritersLandTheirPairsWhole) {
+  const std::string dir = tempDir("outputs_concurrent");
+  const std::string exr = dir + "/out.exr", png = dir + "/out.png";
+  // Each seed's pair, written alone.
+  for (int seed : {1, 2})
+    ASSERT_EQ(runCli(smallRender(dir + "/ref" + std::to_string(seed) + ".exr", dir + "/ref" + std::to_string(seed) + ".png", seed),
+                     dir + "/ref.txt").exitCode, 0);
+  ASSERT_NE(fileBytes(dir + "/ref1.png"), fileBytes(dir + "/ref2.png"));
+  CliResult first, second;
+  pid_t a = 0;
+  {
+    const ScopedEnv pause("OBSCURA_TEST_COMMIT", "pause:3");
+    a = startCli(smallRender(exr, png, 1), dir + "/a.txt", first);
+  }
+  // The first has moved its EXR and is held before its PNG.
+  for (int i = 0; i < 600 && !std::filesystem::exists(exr); ++i) usleep(10000);
+  ASSERT_TRUE(std::filesystem::exists(exr));
+  EXPECT_FALSE(std::filesystem::exists(png));
+  const CliResult b = runCli(smallRender(exr, png, 2), dir + "/b.txt");
+  finishCli(a, dir + "/a.txt", first);
+  ASSERT_EQ(first.exitCode, 0) << first.stderrText;
+  ASSERT_EQ(b.exitCode, 0) << b.stderrText;
+  // The second committed last, both files.
+  const std::string landed = fileBytes(png);
+  EXPECT_TRUE(landed == fileBytes(dir + "/ref2.png"))
+      << (landed == fileBytes(dir + "/ref1.png") ? "the first process's PNG beside the second's EXR" : "a PNG of neither");
+  EXPECT_EQ(readExr(exr).planes.at("R"), readExr(dir + "/ref2.exr").planes.at("R"));
 }
 
 // An output that is a file the scene names - an external buffer, an image

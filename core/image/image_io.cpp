@@ -17,6 +17,9 @@
 #include <OpenEXR/ImfThreading.h>
 #include <stb_image_write.h>
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
@@ -25,8 +28,12 @@
 #include <cmath>
 #include <cerrno>
 #include <cstdio>
+#include <chrono>
+#include <cstdlib>
 #include <cstring>
+#include <set>
 #include <stdexcept>
+#include <thread>
 #include <ctime>
 #include <filesystem>
 
@@ -45,6 +52,82 @@ std::string siblingPath(const std::string& path, const char* tag) {
   const std::string name = "." + p.filename().string() + tag + std::to_string(getpid());
   return (p.parent_path() / name).string();
 }
+
+// Removes the temporaries and backups of `path` (".NAME.tmpPID",
+// ".NAME.bakPID") whose process no longer runs on this host: left by a
+// process killed while writing or committing (SIGKILL, an OOM kill, a power
+// cut), each as large as the output. A PID that runs again in an unrelated
+// process keeps its file until that process ends; a writer on another host
+// sharing the directory could lose its temporary to this (its commit then
+// fails naming the file, nothing is lost silently): docs/production.md
+// "Outputs".
+void removeStaleTemporaries(const std::string& path) {
+  const fs::path p(path);
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  const std::string stem = "." + p.filename().string();
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.size() <= stem.size() + 4 || name.compare(0, stem.size(), stem) != 0) continue;
+    const std::string tag = name.substr(stem.size(), 4), digits = name.substr(stem.size() + 4);
+    if ((tag != ".tmp" && tag != ".bak") || digits.size() > 10 || digits.find_first_not_of("0123456789") != std::string::npos)
+      continue;
+    const long pid = std::stol(digits);
+    if (pid <= 0 || pid == long(getpid()) || ::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code ignored;
+    fs::remove(it->path(), ignored);
+  }
+}
+
+// OBSCURA_TEST_COMMIT (tests only): "kill" makes OutputSet::commit send the
+// process SIGKILL before its first rename (the temporaries written, as a kill
+// during the write leaves them); "pause:SECONDS" sleeps after the first
+// rename (a commit caught half done).
+struct CommitHook {
+  bool kill = false;
+  double pause = 0;
+};
+CommitHook commitHook() {
+  CommitHook h;
+  if (const char* v = std::getenv("OBSCURA_TEST_COMMIT"); v && *v) {
+    if (std::strcmp(v, "kill") == 0) h.kill = true;
+    else if (std::strncmp(v, "pause:", 6) == 0) h.pause = std::strtod(v + 6, nullptr);
+  }
+  return h;
+}
+
+// Exclusive flock()s on the directories of a commit's destinations, taken
+// in one order (by device and inode) and held while the files are moved:
+// two processes writing the same pass and preview each land both files, one
+// set after the other, never one process's EXR beside the other's PNG. A
+// file system without flock on directories goes without (each move is
+// still atomic).
+class DirectoryLocks {
+ public:
+  explicit DirectoryLocks(const std::vector<std::string>& dests) {
+    std::set<std::pair<std::pair<dev_t, ino_t>, std::string>> dirs;
+    for (const std::string& d : dests) {
+      const fs::path p = fs::path(d).parent_path().empty() ? fs::path(".") : fs::path(d).parent_path();
+      struct stat st {};
+      if (::stat(p.c_str(), &st) == 0) dirs.insert({{st.st_dev, st.st_ino}, p.string()});
+    }
+    for (const auto& [id, dir] : dirs) {
+      const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+      if (fd < 0) continue;
+      while (::flock(fd, LOCK_EX) != 0 && errno == EINTR) {
+      }
+      fds_.push_back(fd);
+    }
+  }
+  ~DirectoryLocks() {
+    for (int fd : fds_) ::close(fd);  // releases the lock
+  }
+  DirectoryLocks(const DirectoryLocks&) = delete;
+  DirectoryLocks& operator=(const DirectoryLocks&) = delete;
+
+ private:
+  std::vector<int> fds_;
+};
 
 constexpr std::pair<ExrCompression, Imf::Compression> kCompressions[] = {
     {ExrCompression::None, Imf::NO_COMPRESSION}, {ExrCompression::Rle, Imf::RLE_COMPRESSION},
@@ -318,18 +401,21 @@ OutputSet::~OutputSet() {
 }
 
 void OutputSet::addExr(const std::string& path, const Film& film, const ExrOptions& options) {
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   writeExrFile(path, s.tmp, film, options);
   staged_.push_back(std::move(s));
 }
 
 void OutputSet::addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   writePngFile(path, s.tmp, width, height, rgb);
   staged_.push_back(std::move(s));
 }
 
 void OutputSet::addText(const std::string& path, const std::string& bytes) {
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   writeBytesFile(path, s.tmp, bytes.data(), bytes.size());
   staged_.push_back(std::move(s));
@@ -337,6 +423,7 @@ void OutputSet::addText(const std::string& path, const std::string& bytes) {
 
 void OutputSet::addFile(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
   checkWritable(path);
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   try {
     write(s.tmp);
@@ -353,6 +440,11 @@ void OutputSet::addPreviewPng(const std::string& path, const Film& film) {
 }
 
 void OutputSet::commit() {
+  const CommitHook hook = commitHook();
+  if (hook.kill) ::kill(getpid(), SIGKILL);
+  std::vector<std::string> dests;
+  for (const Staged& s : staged_) dests.push_back(s.dest);
+  const DirectoryLocks locks(dests);
   // Keep each destination's current file under a second name (a hard link:
   // no copy) so a later failed move can put it back.
   std::vector<std::string> backups(staged_.size());
@@ -371,7 +463,10 @@ void OutputSet::commit() {
   for (size_t i = 0; i < staged_.size(); ++i) {
     std::error_code ec;
     fs::rename(staged_[i].tmp, staged_[i].dest, ec);
-    if (!ec) continue;
+    if (!ec) {
+      if (i == 0 && hook.pause > 0) std::this_thread::sleep_for(std::chrono::duration<double>(hook.pause));
+      continue;
+    }
     // Undo the moves already made: restore the old file or remove the new one.
     for (size_t j = 0; j < i; ++j) {
       std::error_code ignored;
