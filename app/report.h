@@ -43,6 +43,11 @@ struct CompareReport {
   const PassImage* reference = nullptr;
   std::vector<double> targets;  // RMSE targets, largest first
   std::vector<ReportCell> cells;
+  // Rows results.csv keeps from earlier runs that are no cell of this one
+  // (other configs or spps): listed in results.json's "keptRows" and in a
+  // note line, not drawn or ranked (they may be measured against another
+  // reference or view).
+  std::vector<ReportCell> kept;
 };
 
 // Indices of the cells on the Pareto front of (time, RMSE): no other cell is
