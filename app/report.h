@@ -52,6 +52,11 @@ struct CompareReport {
   double flipPpd = kFlipDefaultPpd;
   double passScale = 1.0;  // what the passes in passes/ are multiplied by before they are measured
   std::vector<ReportCell> cells;
+  // Rows results.csv keeps from earlier runs that are no cell of this one
+  // (other configs or spps): listed in results.json's "keptRows" and in a
+  // note line, not drawn or ranked (they may be measured against another
+  // reference or view).
+  std::vector<ReportCell> kept;
 };
 
 // Indices of the cells on the Pareto front of (time, RMSE): no other cell is
