@@ -27,13 +27,16 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "app/exr_header.h"
 #include "app/options.h"
 #include "app/interrupt.h"
+#include "app/render_setup.h"
 #include "app/report.h"
 #include <obscura/error.h>
+#include "core/load/gltf_document.h"
 #include "core/load/gltf_loader.h"
 #include "core/image/metrics.h"
 #include "core/render/plugin_loader.h"
@@ -366,6 +369,31 @@ ComparePlan planCompare(const CompareArgs& a) {
   if (fs::exists(p.dir) && !fs::is_directory(p.dir)) throw Error(a.output + ": exists and is not a directory");
   if (!p.dir.parent_path().empty() && !fs::is_directory(p.dir.parent_path()))
     throw Error(a.output + ": cannot create: directory '" + p.dir.parent_path().string() + "' does not exist");
+  // The files compare writes in DIR may not be files the renders read (the
+  // scene, the files it names, the maps): checked before any work, as
+  // render's -o (docs/compare.md).
+  {
+    std::vector<std::pair<std::string, std::string>> inputs = {{"the scene", a.scene}, {"--displace", a.displace},
+                                                               {"--environment", a.env.environment}};
+    if (!hasExtension(a.scene, ".obj"))
+      for (auto& [field, path] : gltfExternalFiles(a.scene)) inputs.push_back({a.scene + " " + field, std::move(path)});
+    std::error_code ec;
+    const fs::path dir = fs::weakly_canonical(p.dir, ec);
+    for (const auto& [what, path] : inputs) {
+      if (path.empty()) continue;
+      const fs::path file = fs::weakly_canonical(path, ec);
+      const fs::path rel = file.lexically_relative(dir);
+      if (rel.empty() || *rel.begin() == "..") continue;
+      const std::string top = rel.begin()->string();
+      const bool written = std::distance(rel.begin(), rel.end()) > 1
+                               ? (top == "passes" || top == "cache" || top == "heatmaps" || top == "previews")
+                               : (top == "results.csv" || top == "results.json" || top == "summary.md" ||
+                                  top == "error_vs_time.svg" || top == "contact_sheet.svg" || top == "contact_sheet.png");
+      if (written)
+        throw Error("-o " + a.output + ": compare writes " + (p.dir / rel).string() + ", which is " + what + " " + path +
+                    "; refusing to overwrite an input");
+    }
+  }
   if (!a.reference.empty()) p.givenReference = p.lit ? readPass(a.reference, "shaded.") : readPass(a.reference);
   return p;
 }
@@ -432,9 +460,12 @@ class CompareRun {
   std::optional<Reference> reference() const;
   // --- stage 3: every cell, each saved to results.csv as it finishes. Returns
   // false when interrupted; `cells` then holds the finished ones.
-  bool measureCells(const Reference& ref, std::vector<Cell>& cells) const;
+  // `kept`: the rows of an earlier run's results.csv that are no cell of
+  // this run (another config, or an spp not in --spp), written back with
+  // this run's rows.
+  bool measureCells(const Reference& ref, std::vector<Cell>& cells, std::vector<Cell>& kept) const;
   // --- stage 4: the report files and the summary on stdout.
-  void report(const Reference& ref, const std::vector<Cell>& cells) const;
+  void report(const Reference& ref, const std::vector<Cell>& cells, const std::vector<Cell>& kept) const;
 
  private:
   // The settings of one render: the plan's, the cell's spp and seed, and the
@@ -598,12 +629,30 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
   return c;
 }
 
-bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) const {
+bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells, std::vector<Cell>& kept) const {
   const std::string csvPath = (plan_.dir / "results.csv").string();
   const std::map<std::string, Cell> previous = readPreviousCells(csvPath);
+  const auto cellKey = [&](const CompareConfig& cfg, int spp) {
+    Hash64 ck;
+    ck.add(ref.key).add(viewHash_.hex()).add(cfg.canonical).add(std::to_string(spp)).add(std::to_string(a_.seed));
+    ck.add(std::to_string(a_.seeds)).add(OBSCURA_VERSION);
+    return ck.hex();
+  };
+  // A run with fewer configs (or spps) keeps the other rows: results.csv
+  // gathers every cell measured in DIR, and a later run with those configs
+  // finds them done. A row is replaced only by a cell of this run: the same
+  // key, or the same config text and spp measured anew (another seed,
+  // reference or view). docs/compare.md "Compare".
+  std::set<std::string> keys;
+  std::set<std::pair<std::string, int>> planned;
+  for (const CompareConfig& cfg : plan_.configs)
+    for (const int spp : plan_.spps) keys.insert(cellKey(cfg, spp)), planned.insert({cfg.text, spp});
+  for (const auto& [key, c] : previous)
+    if (!keys.count(key) && !planned.count({c.config, c.spp})) kept.push_back(c);
   const auto save = [&] {
     std::string csv = std::string(kCsvHeader) + "\n";
     for (const Cell& c : cells) csv += csvRow(c) + "\n";
+    for (const Cell& c : kept) csv += csvRow(c) + "\n";
     writeTextAtomically(csvPath, csv);
   };
   const size_t total = plan_.configs.size() * plan_.spps.size();
@@ -616,10 +665,7 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) co
     for (const auto& [k, v] : params.values()) paramText += (paramText.empty() ? "" : ",") + k + "=" + v;
     for (const int spp : plan_.spps) {
       ++done;
-      Hash64 ck;
-      ck.add(ref.key).add(viewHash_.hex()).add(cfg.canonical).add(std::to_string(spp)).add(std::to_string(a_.seed));
-      ck.add(std::to_string(a_.seeds)).add(OBSCURA_VERSION);
-      const std::string key = ck.hex();
+      const std::string key = cellKey(cfg, spp);
       if (auto it = previous.find(key); it != previous.end() && fs::exists(plan_.dir / it->second.pass) &&
                                         keepFlip(it->second)) {
         Cell c = it->second;
@@ -656,7 +702,7 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells) co
   return true;
 }
 
-void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells) const {
+void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells, const std::vector<Cell>& kept) const {
   CompareReport report;
   report.dir = a_.output;
   report.scene = a_.scene;
@@ -680,6 +726,7 @@ void CompareRun::report(const Reference& ref, const std::vector<Cell>& cells) co
   report.flipPpd = a_.flipPpd;
   report.passScale = ref.scale;
   report.cells = cells;
+  report.kept = kept;
   writeCompareReport(report);
   printCompareSummary(report, stdout);
 }
@@ -700,7 +747,7 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
   fs::create_directories(plan.dir / "cache", ec);
 
   const CompareRun run(a, plan, *scene, camera, cancel);
-  std::vector<Cell> cells;
+  std::vector<Cell> cells, kept;
   const auto interrupted = [&] {
     std::fprintf(stderr, "obscura: interrupted; %zu finished cell%s kept in %s/results.csv (run again to resume)\n",
                  cells.size(), cells.size() == 1 ? "" : "s", a.output.c_str());
@@ -710,8 +757,8 @@ int runCompare(const CompareArgs& a, const std::atomic<bool>* cancel) {
   if (!ref) return interrupted();
   if (!a.quiet && ref->noiseRmse >= 0)
     std::fprintf(stderr, "obscura: reference noise (RMSE of the reference itself): %.3g\n", ref->noiseRmse);
-  if (!run.measureCells(*ref, cells)) return interrupted();
-  run.report(*ref, cells);
+  if (!run.measureCells(*ref, cells, kept)) return interrupted();
+  run.report(*ref, cells, kept);
   return 0;
 }
 

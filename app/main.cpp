@@ -144,10 +144,11 @@ int runRender(const RenderArgs& args) {
   checkAlbedoPasses(s, setups[0].needs);
   // Every frame's outputs and scene options are checked before the file is read.
   const std::vector<FrameJob> jobs = frameJobs(args);
+  const auto inputs = renderInputs(args);  // the same for every frame
   for (const FrameJob& job : jobs) {
     RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
-    checkOutputPaths(fa.output, fa.preview, fa.scene, renderInputs(fa));
+    checkOutputPaths(fa.output, fa.preview, fa.scene, inputs);
     checkFilmMemory(fa, s, screenSpaceBound(setups, s.width, s.height), args.passes.size());
     sceneOptions(fa);
   }

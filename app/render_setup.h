@@ -100,12 +100,18 @@ bool hasExtension(const std::string& path, const std::string& ext);
 // (renderInputs); an output equal to one is refused naming both.
 void checkOutputPaths(const std::string& output, const std::string& preview, const std::string& scene,
                       const std::vector<std::pair<std::string, std::string>>& inputs = {});
+// Refuses `output` (given by `option`, e.g. "-o ") when it is the scene or
+// one of `inputs` (renderInputs), naming both.
+void checkNotAnInput(const std::string& output, const std::string& option, const std::string& scene,
+                     const std::vector<std::pair<std::string, std::string>>& inputs);
 // True when a and b name the same file (by device and inode when both
 // exist, else by their normalised paths).
 bool samePath(const std::string& a, const std::string& b);
 // The files a render reads besides the scene, as (option, path):
-// --displace, --environment, and integrator parameters whose value is an
-// existing file (-p map=..., --pass L=containment:map=...).
+// --displace, --environment, the scene's external buffers, images and
+// displacement maps ("SCENE images[0]": gltfExternalFiles), and integrator
+// parameters whose value is an existing file (-p map=..., --pass
+// L=containment:map=..., -p fit=...).
 std::vector<std::pair<std::string, std::string>> renderInputs(const RenderArgs& a);
 
 // Refuses a render whose film (and what the render keeps beside it: a
@@ -121,8 +127,8 @@ void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSp
 // What a --checkpoint file must match to be resumed (docs/production.md "Checkpoints"):
 // the header's record of the render but for what differs between runs
 // (threads, times, ray counts), the tile size and AOV switch, and the
-// files the render reads (the scene hashed; the files a .gltf names, the
-// height map and plugins by size and time).
+// content (hashed) of every file the render reads: the scene, the files it
+// names, the renderInputs and the plugins.
 Fingerprint renderFingerprint(const RenderArgs& a, const RenderSettings& s, const ExrOptions& header);
 
 // The EXR header of a finished render (docs/exr.md "The EXR pass").

@@ -551,6 +551,8 @@ void writeCompareReport(const CompareReport& r) {
   };
   j["targets"] = verdicts(r.targets, TargetMeasure::Rmse, "rmse");
   j["flipTargets"] = verdicts(r.flipTargets, TargetMeasure::Flip, "flip");
+  j["keptRows"] = nlohmann::json::array();
+  for (const ReportCell& c : r.kept) j["keptRows"].push_back({{"config", c.config}, {"spp", c.spp}, {"key", c.key}});
   j["heatmapScale"] = scale;
   writeTextAtomically(dir / "summary.md", summaryMarkdown(r));
   j["contactSheet"] = nlohmann::json::array({"reference"});
@@ -609,6 +611,20 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   for (const size_t i : paretoFront(cells)) std::fprintf(out, "  %s@%d", cells[i].config.c_str(), cells[i].spp);
   std::fprintf(out, "\nreport: %s/report.html (and results.csv, results.json, error_vs_time.svg, contact_sheet.svg, heatmaps/)\n",
                r.dir.c_str());
+  if (!r.kept.empty()) {
+    std::string which;
+    for (const ReportCell& c : r.kept) {
+      const std::string one = c.config + "@" + std::to_string(c.spp);
+      if (which.size() + one.size() > 120) {
+        which += ", ...";
+        break;
+      }
+      which += (which.empty() ? "" : ", ") + one;
+    }
+    std::fprintf(out, "note: results.csv also keeps %zu row%s of earlier runs that are not in this one (%s); "
+                 "results.json lists them under keptRows, the report above leaves them out\n",
+                 r.kept.size(), r.kept.size() == 1 ? "" : "s", which.c_str());
+  }
 }
 
 }  // namespace obscura

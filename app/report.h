@@ -86,6 +86,11 @@ struct CompareReport {
   std::vector<double> flipTargets;  // FLIP targets, largest first (may be empty)
   double flipPpd = kFlipDefaultPpd;
   std::vector<ReportCell> cells;
+  // Rows results.csv keeps from earlier runs that are no cell of this one
+  // (other configs or spps): listed in results.json's "keptRows" and in a
+  // note line, not drawn or ranked (they may be measured against another
+  // reference or view).
+  std::vector<ReportCell> kept;
 };
 
 // Indices of the cells on the Pareto front of (time, RMSE): no other cell is

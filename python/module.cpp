@@ -309,6 +309,7 @@ struct PyResult : PyImage {
   RenderStats stats;
   double bvhSeconds = 0;
   std::string scenePath;
+  std::vector<std::pair<std::string, std::string>> inputs;  // renderInputs: what write() must not overwrite
 };
 
 struct PyRead : PyImage {
@@ -479,6 +480,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   // render, one of another render once its header is known.
   std::optional<Checkpoint> checkpoint;
   if (a.checkpointGiven) {
+    checkNotAnInput(checkpointFile, "checkpoint_file ", a.scene, renderInputs(a));
     checkCheckpoint(a, s, screenSpace, checkpointFile);
     checkpoint.emplace(checkpointFile, a.checkpoint);
     s.checkpoint = &*checkpoint;
@@ -502,6 +504,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   }
   result->bvhSeconds = sc.scene->buildSeconds();
   result->scenePath = sc.path;
+  result->inputs = renderInputs(a);
   Film& f = result->film;
   result->width = f.width(), result->height = f.height();
   for (int c : f.channels()) result->names.push_back(f.name(c)), result->planes.push_back(f.plane(c));
@@ -511,7 +514,7 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
 
 void writeResult(const PyResult& r, const std::string& path, bool half, const std::string& compression,
                  const std::optional<std::string>& preview) {
-  checkOutputPaths(path, preview.value_or(""), r.scenePath);
+  checkOutputPaths(path, preview.value_or(""), r.scenePath, r.inputs);
   ExrOptions exr = r.header;
   exr.half = half;
   exr.compression = exrCompressionFromName(compression, "--compression");

@@ -18,6 +18,8 @@
 #include <filesystem>
 #include <thread>
 
+#include "tests/gltf_builder.h"
+#include "tests/scoped_env.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -53,12 +55,6 @@ std::vector<std::string> args(const std::string& out, const std::vector<std::str
   return a;
 }
 
-// Sets an environment variable for the processes started while it lives.
-struct ScopedEnv {
-  std::string name;
-  ScopedEnv(std::string n, const std::string& value) : name(std::move(n)) { setenv(name.c_str(), value.c_str(), 1); }
-  ~ScopedEnv() { unsetenv(name.c_str()); }
-};
 
 bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
@@ -231,6 +227,48 @@ TEST(Checkpoint, OfAnotherRenderIsRefused) {
   std::vector<std::string> a = args(out2, kTransfer, {"--checkpoint", "0"});
   a.insert(a.begin() + 1, scene);
   expectRefused(runCli(a, dir + "/scene.txt"), out2 + ".checkpoint", "(scene file:");
+}
+
+// A file the scene names changed between the kill and the resume: the
+// height map of extras.obscura.displacement.map, then the external buffer.
+// The fingerprint hashed the scene file only (the buffer by size and time,
+// the map not at all), so a replaced map resumed into an image half of the
+// old surface, half of the new. Each is refused naming the file; with both
+// restored the render resumes and ends equal to one never stopped.
+TEST(Checkpoint, ResumeWithAChangedInputFileIsRefused) {
+  const std::string dir = tempDir("ckpt_inputs");
+  const std::string map = writeRipples(dir);
+  GltfBuilder g;
+  const int mesh = g.quadMesh(1.0f, -1, true);
+  g.doc["meshes"][size_t(mesh)]["extras"] = {
+      {"obscura", {{"subdivision", {{"level", 2}}}, {"displacement", {{"map", fs::path(map).filename().string()}, {"scale", 0.2}}}}}};
+  g.scene({g.node({{"mesh", mesh}})});
+  const std::string scene = g.writeGltf(dir, "disp");
+  const std::string bin = dir + "/disp.bin";
+  const auto withScene = [&](std::vector<std::string> a) {
+    a.insert(a.begin() + 1, scene);
+    return a;
+  };
+  const std::string ref = dir + "/ref.exr", out = dir + "/out.exr", ckpt = out + ".checkpoint";
+  ASSERT_EQ(runCli(withScene(args(ref, kTransfer)), dir + "/ref.txt").exitCode, 0);
+  {
+    const ScopedEnv kill("OBSCURA_TEST_CHECKPOINT_KILL", "5");
+    ASSERT_EQ(runCli(withScene(args(out, kTransfer, {"--checkpoint", "0", "--threads", "1"})), dir + "/kill.txt").signal, SIGKILL);
+  }
+  const std::vector<unsigned char> mapBytes = readBytes(map), binBytes = readBytes(bin);
+  const std::vector<std::string> resume = withScene(args(out, kTransfer, {"--checkpoint", "0"}));
+  writeHeightMap(map, 16, 16, [](double u, double v) { return u * v; });
+  expectRefused(runCli(resume, dir + "/map.txt"), ckpt, "(" + scene + " meshes[0].extras.obscura.displacement.map " + map + ": '");
+  writeBytes(map, mapBytes.data(), mapBytes.size());
+  std::vector<unsigned char> moved = binBytes;
+  moved[0] ^= 1;  // the first position's lowest bit: the same size, another file
+  writeBytes(bin, moved.data(), moved.size());
+  expectRefused(runCli(resume, dir + "/bin.txt"), ckpt, "(" + scene + " buffers[0] " + bin + ": '");
+  writeBytes(bin, binBytes.data(), binBytes.size());
+  const CliResult done = runCli(resume, dir + "/resume.txt");
+  ASSERT_EQ(done.exitCode, 0) << done.stderrText;
+  EXPECT_FALSE(fs::exists(ckpt));
+  expectSameImage(out, ref);
 }
 
 TEST(Checkpoint, DamagedIsRefused) {

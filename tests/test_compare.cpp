@@ -609,6 +609,38 @@ TEST(CompareEndToEnd, OlderResultsCsvFormatsResume) {
   }
 }
 
+// A run with fewer configs than the last keeps the others' rows in
+// results.csv (it rewrote the file with its own rows only, and a later run
+// with every config had to measure them again); results.json lists them
+// under keptRows and reports this run's cells alone (docs/compare.md).
+TEST(CompareEndToEnd, FewerConfigsKeepTheOtherRows) {
+  const std::string dir = tempDir("compare_fewer_configs");
+  const std::vector<std::string> both = {"compare", "-o", dir + "/out", "--res", "16x12", "--reference-spp", "8",
+                                         "--spp", "2", "-q", "-c", "ao", "-c", "ao:distance=0.5"};
+  ASSERT_EQ(runCli(both, dir + "/err1.txt").exitCode, 0);
+  const auto first = readCsvRows(dir + "/out/results.csv");
+  ASSERT_EQ(first.size(), 2u);
+  std::vector<std::string> one(both.begin(), both.end() - 2);
+  const CliResult r2 = runCli(one, dir + "/err2.txt");
+  ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+  const auto second = readCsvRows(dir + "/out/results.csv");
+  ASSERT_EQ(second.size(), 2u);
+  std::map<std::string, std::map<std::string, std::string>> byConfig;
+  for (const auto& row : first) byConfig[row.at("config")] = row;
+  for (const auto& row : second) EXPECT_EQ(row, byConfig.at(row.at("config")));
+  std::ifstream in(dir + "/out/results.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["cells"].size(), 1u);
+  EXPECT_EQ(j["cells"][0]["config"], "ao");
+  ASSERT_EQ(j["keptRows"].size(), 1u);
+  EXPECT_EQ(j["keptRows"][0]["config"], "ao:distance=0.5");
+  EXPECT_EQ(j["keptRows"][0]["key"], byConfig.at("ao:distance=0.5").at("key"));
+  // Both configs again: both cells are found done, none is measured anew.
+  const CliResult r3 = runVerbose(both, dir + "/err3.txt");
+  ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
+  EXPECT_EQ(keptCells(r3.stderrText), 2u) << r3.stderrText;
+}
+
 // Ctrl-C: the run stops with exit code 130, says so, and results.csv holds
 // the cells that finished (complete rows only); running again keeps them.
 TEST(CompareEndToEnd, InterruptKeepsFinishedCellsAndResumes) {

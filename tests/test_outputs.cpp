@@ -20,6 +20,8 @@
 #include <obscura/error.h>
 #include "core/image/image_io.h"
 #include "core/util/large_vector.h"
+#include "tests/gltf_builder.h"
+#include "tests/scoped_env.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -351,6 +353,158 @@ TEST(Outputs, OutputEqualToAnInputIsRefused) {
   }
   for (const auto& [f, bytes] : before) EXPECT_EQ(fileBytes(f), bytes) << f;
   EXPECT_FALSE(std::filesystem::exists(dir + "/full.png"));
+}
+
+// A disk that fills at the EXR's last bytes (here a file-size limit one
+// byte short of the file) is an error naming the file, and the previous EXR
+// stays as it was with no temporary left. OpenEXR's own stream flushed its
+// last buffer, and wrote the line-offset table, in ~OutputFile, where errors
+// are swallowed: the cut file was renamed over the good one, "written".
+TEST(Outputs, ExrFinalFlushFailureKeepsThePreviousFile) {
+  const std::string dir = tempDir("outputs_exr_final_flush");
+  const std::string exr = dir + "/pass.exr";
+  // A small file (RGBA, 4 pixels wide, uncompressed: the same size for any
+  // pixels): every write fits a stream buffer, so the bytes reach the disk
+  // only when the file is flushed and closed at the end.
+  ExrOptions o;
+  o.compression = ExrCompression::None;
+  writeExr(exr, rampFilm(4, 48, false), o);
+  const std::string good = fileBytes(exr);
+  Film other = rampFilm(4, 48, false);
+  for (int c : other.channels()) other.at(c, 3, 5) += 1.0f;
+  // In this process (OpenEXR's thread pool does not survive a fork): the
+  // soft limit lowered for the one write, then restored.
+  rlimit saved{};
+  ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &saved), 0);
+  const auto oldHandler = signal(SIGXFSZ, SIG_IGN);
+  rlimit cut = saved;
+  cut.rlim_cur = rlim_t(good.size() - 1);
+  ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &cut), 0);
+  std::string message = "(none: the cut EXR was reported written)";
+  try {
+    writeExr(exr, other, o);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  setrlimit(RLIMIT_FSIZE, &saved);
+  signal(SIGXFSZ, oldHandler);
+  EXPECT_NE(message.find(exr + ": write failed: File too large"), std::string::npos) << message;
+  EXPECT_TRUE(fileBytes(exr) == good) << "the previous EXR was replaced (" << fileBytes(exr).size() << " of " << good.size()
+                                      << " bytes)";
+  EXPECT_EQ(otherFiles(dir, {"pass.exr"}), std::vector<std::string>{});
+  // Without the limit the same write lands, whole.
+  writeExr(exr, other, o);
+  EXPECT_EQ(fileBytes(exr).size(), good.size());
+  EXPECT_EQ(readExr(exr).planes.at("R")[5 * 4 + 3], other.at(kR, 3, 5));
+}
+
+namespace {
+
+std::vector<std::string> smallRender(const std::string& exr, const std::string& png, int seed) {
+  return {"render", sourcePath("scenes/default.gltf"), "-o", exr, "--preview", png, "--res", "48x32", "--spp", "1",
+          "--seed", std::to_string(seed), "-q"};
+}
+}  // namespace
+
+// A process killed with its temporaries written (SIGKILL, the OOM killer)
+// leaves ".NAME.tmpPID" files as large as the outputs; the next write of the
+// same output removes them (their process is gone) and leaves only its own
+// files.
+TEST(Outputs, KilledWriteTemporariesAreRemovedByTheNextWrite) {
+  const std::string dir = tempDir("outputs_killed_tmp");
+  const std::string exr = dir + "/out.exr", png = dir + "/out.png";
+  {
+    const ScopedEnv kill("OBSCURA_TEST_COMMIT", "kill");
+    const CliResult k = runCli(smallRender(exr, png, 1), dir + "/kill.txt");
+    ASSERT_EQ(k.signal, SIGKILL) << k.stderrText;
+  }
+  const std::vector<std::string> left = otherFiles(dir, {"kill.txt"});
+  ASSERT_EQ(left.size(), 2u);
+  for (const std::string& f : left) EXPECT_TRUE(f.rfind(".out.exr.tmp", 0) == 0 || f.rfind(".out.png.tmp", 0) == 0) << f;
+  const CliResult r = runCli(smallRender(exr, png, 1), dir + "/again.txt");
+  ASSERT_EQ(r.exitCode, 0) << r.stderrText;
+  EXPECT_EQ(otherFiles(dir, {"kill.txt", "again.txt", "out.exr", "out.png"}), std::vector<std::string>{});
+}
+
+// Two processes writing the same -o and --preview: each pass lands with its
+// own preview. The first is held between its two moves (its EXR in place,
+// its PNG not yet) while the second renders and commits; without a lock
+// around the moves the second's pair landed in between and the first's PNG
+// came last, beside the second's EXR.
+TEST(Outputs, ConcurrentWritersLandTheirPairsWhole) {
+  const std::string dir = tempDir("outputs_concurrent");
+  const std::string exr = dir + "/out.exr", png = dir + "/out.png";
+  // Each seed's pair, written alone.
+  for (int seed : {1, 2})
+    ASSERT_EQ(runCli(smallRender(dir + "/ref" + std::to_string(seed) + ".exr", dir + "/ref" + std::to_string(seed) + ".png", seed),
+                     dir + "/ref.txt").exitCode, 0);
+  ASSERT_NE(fileBytes(dir + "/ref1.png"), fileBytes(dir + "/ref2.png"));
+  CliResult first, second;
+  pid_t a = 0;
+  {
+    const ScopedEnv pause("OBSCURA_TEST_COMMIT", "pause:3");
+    a = startCli(smallRender(exr, png, 1), dir + "/a.txt", first);
+  }
+  // The first has moved its EXR and is held before its PNG.
+  for (int i = 0; i < 600 && !std::filesystem::exists(exr); ++i) usleep(10000);
+  ASSERT_TRUE(std::filesystem::exists(exr));
+  EXPECT_FALSE(std::filesystem::exists(png));
+  const CliResult b = runCli(smallRender(exr, png, 2), dir + "/b.txt");
+  finishCli(a, dir + "/a.txt", first);
+  ASSERT_EQ(first.exitCode, 0) << first.stderrText;
+  ASSERT_EQ(b.exitCode, 0) << b.stderrText;
+  // The second committed last, both files.
+  const std::string landed = fileBytes(png);
+  EXPECT_TRUE(landed == fileBytes(dir + "/ref2.png"))
+      << (landed == fileBytes(dir + "/ref1.png") ? "the first process's PNG beside the second's EXR" : "a PNG of neither");
+  EXPECT_EQ(readExr(exr).planes.at("R"), readExr(dir + "/ref2.exr").planes.at("R"));
+}
+
+// An output that is a file the scene names - an external buffer, an image
+// (a texture or cut-out), a height map of extras.obscura.displacement.map,
+// in a .gltf or a .glb - is refused before any work like the other inputs,
+// naming the scene and the field; so is a compare directory whose report
+// files would replace one. These outputs used to be written over the input.
+TEST(Outputs, OutputEqualToAFileTheSceneNamesIsRefused) {
+  const std::string dir = tempDir("outputs_scene_files");
+  const std::vector<float> rgb(8 * 4 * 3, 0.5f);
+  writeRgbExr(dir + "/h.exr", 8, 4, rgb, {});
+  std::filesystem::create_directories(dir + "/report");
+  const std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};  // never decoded here
+  writeBytes(dir + "/tex.png", png.data(), png.size());
+  writeBytes(dir + "/report/contact_sheet.png", png.data(), png.size());
+  GltfBuilder g;
+  const int mesh = g.quadMesh(1.0f, -1, true);
+  g.doc["meshes"][size_t(mesh)]["extras"] = {{"obscura", {{"subdivision", {{"level", 1}}}, {"displacement", {{"map", "h.exr"}}}}}};
+  g.doc["images"] = json::array({{{"uri", "tex.png"}}, {{"uri", "report/contact_sheet.png"}}});
+  g.scene({g.node({{"mesh", mesh}})});
+  const std::string gltf = g.writeGltf(dir, "s"), glb = g.writeGlb(dir, "b");
+  const std::string bin = dir + "/s.bin", tex = dir + "/tex.png", h = dir + "/h.exr", sheet = dir + "/report/contact_sheet.png";
+  std::map<std::string, std::string> before;
+  for (const std::string& f : {gltf, glb, bin, tex, h, sheet}) before[f] = fileBytes(f);
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {{"render", gltf, "-o", bin}, "-o " + bin + ": is the same file as " + gltf + " buffers[0] " + bin},
+      {{"render", gltf, "-o", dir + "/p.exr", "--preview", tex}, "--preview " + tex + ": is the same file as " + gltf + " images[0] " + tex},
+      {{"render", gltf, "-o", h}, "-o " + h + ": is the same file as " + gltf + " meshes[0].extras.obscura.displacement.map " + h},
+      {{"render", glb, "-o", tex}, "-o " + tex + ": is the same file as " + glb + " images[0] " + tex},
+      {{"compare", gltf, "-o", dir + "/report", "-c", "ao"},
+       "-o " + dir + "/report: compare writes " + dir + "/report/contact_sheet.png, which is " + gltf + " images[1] " + sheet},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    std::vector<std::string> args = c.args;
+    args.push_back("-q");
+    const CliResult r = runCli(args, dir + "/err" + std::to_string(k++) + ".txt");
+    EXPECT_EQ(r.exitCode, 1) << c.says << ": " << r.stderrText;
+    EXPECT_NE(r.stderrText.find(c.says), std::string::npos) << r.stderrText;
+    EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
+  for (const auto& [f, bytes] : before) EXPECT_EQ(fileBytes(f), bytes) << f;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/p.exr"));
 }
 
 // Bands of 64 scanlines: a film of several bands and a ragged last band

@@ -9,6 +9,7 @@
 #include <OpenEXR/ImfChromaticitiesAttribute.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfIntAttribute.h>
 #include <OpenEXR/ImfFloatAttribute.h>
@@ -18,6 +19,9 @@
 #include <OpenEXR/ImfThreading.h>
 #include <stb_image_write.h>
 #include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
@@ -27,7 +31,12 @@
 #include <cmath>
 #include <cerrno>
 #include <cstdio>
+#include <chrono>
+#include <cstdlib>
 #include <cstring>
+#include <set>
+#include <stdexcept>
+#include <thread>
 #include <ctime>
 #include <filesystem>
 
@@ -46,6 +55,82 @@ std::string siblingPath(const std::string& path, const char* tag) {
   const std::string name = "." + p.filename().string() + tag + std::to_string(getpid());
   return (p.parent_path() / name).string();
 }
+
+// Removes the temporaries and backups of `path` (".NAME.tmpPID",
+// ".NAME.bakPID") whose process no longer runs on this host: left by a
+// process killed while writing or committing (SIGKILL, an OOM kill, a power
+// cut), each as large as the output. A PID that runs again in an unrelated
+// process keeps its file until that process ends; a writer on another host
+// sharing the directory could lose its temporary to this (its commit then
+// fails naming the file, nothing is lost silently): docs/production.md
+// "Outputs".
+void removeStaleTemporaries(const std::string& path) {
+  const fs::path p(path);
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  const std::string stem = "." + p.filename().string();
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.size() <= stem.size() + 4 || name.compare(0, stem.size(), stem) != 0) continue;
+    const std::string tag = name.substr(stem.size(), 4), digits = name.substr(stem.size() + 4);
+    if ((tag != ".tmp" && tag != ".bak") || digits.size() > 10 || digits.find_first_not_of("0123456789") != std::string::npos)
+      continue;
+    const long pid = std::stol(digits);
+    if (pid <= 0 || pid == long(getpid()) || ::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code ignored;
+    fs::remove(it->path(), ignored);
+  }
+}
+
+// OBSCURA_TEST_COMMIT (tests only): "kill" makes OutputSet::commit send the
+// process SIGKILL before its first rename (the temporaries written, as a kill
+// during the write leaves them); "pause:SECONDS" sleeps after the first
+// rename (a commit caught half done).
+struct CommitHook {
+  bool kill = false;
+  double pause = 0;
+};
+CommitHook commitHook() {
+  CommitHook h;
+  if (const char* v = std::getenv("OBSCURA_TEST_COMMIT"); v && *v) {
+    if (std::strcmp(v, "kill") == 0) h.kill = true;
+    else if (std::strncmp(v, "pause:", 6) == 0) h.pause = std::strtod(v + 6, nullptr);
+  }
+  return h;
+}
+
+// Exclusive flock()s on the directories of a commit's destinations, taken
+// in one order (by device and inode) and held while the files are moved:
+// two processes writing the same pass and preview each land both files, one
+// set after the other, never one process's EXR beside the other's PNG. A
+// file system without flock on directories goes without (each move is
+// still atomic).
+class DirectoryLocks {
+ public:
+  explicit DirectoryLocks(const std::vector<std::string>& dests) {
+    std::set<std::pair<std::pair<dev_t, ino_t>, std::string>> dirs;
+    for (const std::string& d : dests) {
+      const fs::path p = fs::path(d).parent_path().empty() ? fs::path(".") : fs::path(d).parent_path();
+      struct stat st {};
+      if (::stat(p.c_str(), &st) == 0) dirs.insert({{st.st_dev, st.st_ino}, p.string()});
+    }
+    for (const auto& [id, dir] : dirs) {
+      const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+      if (fd < 0) continue;
+      while (::flock(fd, LOCK_EX) != 0 && errno == EINTR) {
+      }
+      fds_.push_back(fd);
+    }
+  }
+  ~DirectoryLocks() {
+    for (int fd : fds_) ::close(fd);  // releases the lock
+  }
+  DirectoryLocks(const DirectoryLocks&) = delete;
+  DirectoryLocks& operator=(const DirectoryLocks&) = delete;
+
+ private:
+  std::vector<int> fds_;
+};
 
 constexpr std::pair<ExrCompression, Imf::Compression> kCompressions[] = {
     {ExrCompression::None, Imf::NO_COMPRESSION}, {ExrCompression::Rle, Imf::RLE_COMPRESSION},
@@ -80,6 +165,78 @@ void insertHeaderAttributes(Imf::Header& header, const std::vector<HeaderAttribu
         header.insert(a.name, Imf::M44fAttribute(Imath::M44f(m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7], m[8], m[9],
                                                               m[10], m[11], m[12], m[13], m[14], m[15])));
     }
+  }
+}
+
+// The EXR's bytes to a new file, every write checked, the last ones too.
+// OpenEXR's own file stream (an std::ofstream) is flushed and closed by
+// ~OutputFile, which also writes the line-offset table there and swallows
+// any error: a disk that filled at that point left a truncated EXR that was
+// renamed over the good one, exit 0. Here the writes go through a buffer of
+// our own; an error there (even inside ~OutputFile) is kept and finish()
+// reports it, after the last bytes and the close.
+class CheckedExrStream : public Imf::OStream {
+ public:
+  explicit CheckedExrStream(const std::string& tmp) : Imf::OStream(tmp.c_str()) {
+    fd_ = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw std::runtime_error(std::strerror(errno));
+  }
+  ~CheckedExrStream() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  void write(const char c[], int n) override {
+    if (pos_ != start_ + buf_.size()) flush(), start_ = pos_;
+    buf_.insert(buf_.end(), c, c + n);
+    pos_ += uint64_t(n);
+    if (buf_.size() >= (1u << 20)) flush(), start_ = pos_;
+    if (err_) throw std::runtime_error(std::strerror(err_));
+  }
+  uint64_t tellp() override { return pos_; }
+  void seekp(uint64_t pos) override { pos_ = pos; }
+  // After the OutputFile is gone: the buffered bytes and the close; 0 or
+  // the first errno.
+  int finish() {
+    flush();
+    if (::close(fd_) != 0 && !err_) err_ = errno;
+    fd_ = -1;
+    return err_;
+  }
+
+ private:
+  void flush() {
+    for (size_t done = 0; done < buf_.size() && !err_;) {
+      const ssize_t n = ::pwrite(fd_, buf_.data() + done, buf_.size() - done, off_t(start_ + done));
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) err_ = n < 0 ? errno : EIO;
+      else done += size_t(n);
+    }
+    buf_.clear();
+  }
+  int fd_ = -1, err_ = 0;
+  std::vector<char> buf_;
+  uint64_t start_ = 0, pos_ = 0;  // buf_[0]'s offset in the file; where the next write goes
+};
+
+// Runs `write` on an OutputFile over a CheckedExrStream to `tmp`, then
+// checks the last bytes and the close; on any failure removes `tmp` and
+// throws naming `path`.
+void writeExrChecked(const std::string& path, const std::string& tmp, const Imf::Header& header,
+                     const std::function<void(Imf::OutputFile&)>& write) {
+  int err = 0;
+  try {
+    CheckedExrStream stream(tmp);
+    {
+      Imf::OutputFile file(stream, header);
+      write(file);
+    }  // ~OutputFile: the line-offset table (errors kept by the stream)
+    err = stream.finish();
+  } catch (const std::exception& e) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + e.what());
+  }
+  if (err) {
+    std::remove(tmp.c_str());
+    throw Error(path + ": write failed: " + std::strerror(err));
   }
 }
 
@@ -136,8 +293,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
                                     : int(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   if (film.height() <= 32) threads = 0;
   if (Imf::globalThreadCount() != threads) Imf::setGlobalThreadCount(threads);
-  try {
-    Imf::OutputFile file(tmp.c_str(), header);
+  writeExrChecked(path, tmp, header, [&](Imf::OutputFile& file) {
     for (int y0 = 0; y0 < film.height(); y0 += band) {
       const int rows = std::min(band, film.height() - y0);
       for (size_t k = 0; k < halves.size(); ++k) {
@@ -148,10 +304,7 @@ void writeExrFile(const std::string& path, const std::string& tmp, const Film& f
       file.setFrameBuffer(frameFor(y0));
       file.writePixels(rows);
     }
-  } catch (const std::exception& e) {
-    std::remove(tmp.c_str());
-    throw Error(path + ": write failed: " + e.what());
-  }
+  });
 }
 
 // Writes `size` bytes to a new file `tmp`, checking every write and the
@@ -301,18 +454,21 @@ OutputSet::~OutputSet() {
 }
 
 void OutputSet::addExr(const std::string& path, const Film& film, const ExrOptions& options) {
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   writeExrFile(path, s.tmp, film, options);
   staged_.push_back(std::move(s));
 }
 
 void OutputSet::addPngRgb8(const std::string& path, int width, int height, const unsigned char* rgb) {
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   writePngFile(path, s.tmp, width, height, rgb);
   staged_.push_back(std::move(s));
 }
 
 void OutputSet::addText(const std::string& path, const std::string& bytes) {
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   writeBytesFile(path, s.tmp, bytes.data(), bytes.size());
   staged_.push_back(std::move(s));
@@ -320,6 +476,7 @@ void OutputSet::addText(const std::string& path, const std::string& bytes) {
 
 void OutputSet::addFile(const std::string& path, const std::function<void(const std::string& tmp)>& write) {
   checkWritable(path);
+  removeStaleTemporaries(path);
   Staged s{path, siblingPath(path, ".tmp")};
   try {
     write(s.tmp);
@@ -336,6 +493,11 @@ void OutputSet::addPreviewPng(const std::string& path, const Film& film) {
 }
 
 void OutputSet::commit() {
+  const CommitHook hook = commitHook();
+  if (hook.kill) ::kill(getpid(), SIGKILL);
+  std::vector<std::string> dests;
+  for (const Staged& s : staged_) dests.push_back(s.dest);
+  const DirectoryLocks locks(dests);
   // Keep each destination's current file under a second name (a hard link:
   // no copy) so a later failed move can put it back.
   std::vector<std::string> backups(staged_.size());
@@ -354,7 +516,10 @@ void OutputSet::commit() {
   for (size_t i = 0; i < staged_.size(); ++i) {
     std::error_code ec;
     fs::rename(staged_[i].tmp, staged_[i].dest, ec);
-    if (!ec) continue;
+    if (!ec) {
+      if (i == 0 && hook.pause > 0) std::this_thread::sleep_for(std::chrono::duration<double>(hook.pause));
+      continue;
+    }
     // Undo the moves already made: restore the old file or remove the new one.
     for (size_t j = 0; j < i; ++j) {
       std::error_code ignored;
@@ -395,13 +560,10 @@ void writeRgbExr(const std::string& path, int width, int height, const std::vect
     for (int c = 0; c < 3; ++c)
       frame.insert(std::string(1, "RGB"[c]),
                    Imf::Slice(Imf::FLOAT, (char*)(rgb.data() + c), xs, ys));
-    try {
-      Imf::OutputFile file(tmp.c_str(), header);
+    writeExrChecked(path, tmp, header, [&](Imf::OutputFile& file) {
       file.setFrameBuffer(frame);
       file.writePixels(height);
-    } catch (const std::exception& e) {
-      throw Error(path + ": write failed: " + e.what());
-    }
+    });
   });
   out.commit();
 }

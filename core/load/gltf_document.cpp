@@ -340,6 +340,24 @@ size_t malformedEscape(const std::string& uri) {
   return std::string::npos;
 }
 
+bool isGlb(const std::vector<unsigned char>& bytes) { return bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0; }
+
+// The JSON text: the whole file, or a .glb's first chunk (header: magic,
+// version, length; chunk: length, type "JSON", data). A container tinygltf
+// will refuse anyway is left to it ("").
+std::string jsonText(const std::vector<unsigned char>& bytes) {
+  std::string text;
+  if (!isGlb(bytes)) {
+    text.assign(bytes.begin(), bytes.end());
+  } else if (bytes.size() >= 20) {
+    uint32_t length = 0, type = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    std::memcpy(&type, bytes.data() + 16, 4);
+    if (type == 0x4E4F534A && length <= bytes.size() - 20) text.assign(bytes.begin() + 20, bytes.begin() + 20 + length);
+  }
+  return text;
+}
+
 // The uri as a file name: percent-escapes decoded, as tinygltf reads it.
 std::string decodeUri(const std::string& uri) {
   std::string out;
@@ -428,20 +446,8 @@ void GltfDocument::read() {
     in.seekg(0);
     bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
-  const bool binary = bytes.size() >= 4 && std::memcmp(bytes.data(), "glTF", 4) == 0;
-
-  // The JSON text: the whole file, or a .glb's first chunk (header: magic,
-  // version, length; chunk: length, type "JSON", data). A container tinygltf
-  // will refuse anyway is left to it.
-  std::string text;
-  if (!binary) {
-    text.assign(bytes.begin(), bytes.end());
-  } else if (bytes.size() >= 20) {
-    uint32_t length = 0, type = 0;
-    std::memcpy(&length, bytes.data() + 12, 4);
-    std::memcpy(&type, bytes.data() + 16, 4);
-    if (type == 0x4E4F534A && length <= bytes.size() - 20) text.assign(bytes.begin() + 20, bytes.begin() + 20 + length);
-  }
+  const bool binary = isGlb(bytes);
+  std::string text = jsonText(bytes);
   // Refused before any parser sees it: the parsers recurse per level
   // (docs/scenes.md "What the loader refuses"). A .glb's JSON chunk is scanned whatever its
   // declared type or length (tinygltf decides those later).
@@ -1084,6 +1090,65 @@ std::vector<GltfDocument::Primitive> GltfDocument::decodeMesh(int meshIndex) con
     out.push_back(std::move(d));
   }
   return out;
+}
+
+std::vector<std::pair<std::string, std::string>> gltfExternalFiles(const std::string& path) {
+  std::vector<std::pair<std::string, std::string>> files;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return files;
+  // A .glb's header and JSON chunk only (its binary chunk may be large).
+  std::vector<unsigned char> bytes(20);
+  in.read(reinterpret_cast<char*>(bytes.data()), 20);
+  bytes.resize(size_t(in.gcount()));
+  if (isGlb(bytes) && bytes.size() == 20) {
+    uint32_t length = 0;
+    std::memcpy(&length, bytes.data() + 12, 4);
+    std::error_code ec;
+    const uintmax_t size = fs::file_size(path, ec);
+    if (ec || uintmax_t(length) > size - 20) return files;  // a chunk past the end: the loader refuses it
+    bytes.resize(20 + size_t(length));
+    in.read(reinterpret_cast<char*>(bytes.data() + 20), std::streamsize(length));
+    bytes.resize(20 + size_t(in.gcount()));
+  } else {
+    bytes.insert(bytes.end(), std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string text = jsonText(bytes);
+  // Too deep for the parser: the loader refuses the file (GltfDocument::read).
+  if (jsonDepth(reinterpret_cast<const unsigned char*>(text.data()), text.size()).first > kMaxJsonDepth) return files;
+  const json root = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (!root.is_object()) return files;
+  const fs::path base = fs::path(path).parent_path();
+  const auto place = [&](const std::string& name) { return fs::path(name).is_absolute() || base.empty() ? name : (base / name).string(); };
+  for (const char* array : {"buffers", "images"}) {
+    auto it = root.find(array);
+    if (it == root.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      if (!(*it)[i].is_object()) continue;
+      auto uri = (*it)[i].find("uri");
+      if (uri == (*it)[i].end() || !uri->is_string() || uri->get<std::string>().rfind("data:", 0) == 0) continue;
+      files.emplace_back(std::string(array) + "[" + std::to_string(i) + "]", place(decodeUri(uri->get<std::string>())));
+    }
+  }
+  // extras.obscura.displacement.map of nodes and meshes: a path as written,
+  // relative to the file (core/load/gltf_loader.cpp parseDisplacement).
+  for (const char* array : {"nodes", "meshes"}) {
+    auto it = root.find(array);
+    if (it == root.end() || !it->is_array()) continue;
+    for (size_t i = 0; i < it->size(); ++i) {
+      const json* v = &(*it)[i];
+      for (const char* key : {"extras", "obscura", "displacement", "map"}) {
+        if (!v->is_object() || !v->contains(key)) {
+          v = nullptr;
+          break;
+        }
+        v = &(*v)[key];
+      }
+      if (v && v->is_string() && !v->get<std::string>().empty())
+        files.emplace_back(std::string(array) + "[" + std::to_string(i) + "].extras.obscura.displacement.map",
+                           place(v->get<std::string>()));
+    }
+  }
+  return files;
 }
 
 }  // namespace obscura

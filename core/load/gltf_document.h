@@ -19,6 +19,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/load/animation.h"
@@ -175,5 +176,14 @@ class GltfDocument {
   std::vector<AnimationInfo> animationInfo_;
   mutable std::map<int, std::vector<Primitive>> meshes_;
 };
+
+// The files `path` (.gltf or .glb) names besides itself, as (field, path):
+// buffers[i] and images[i] with a uri that is not data: (textures and
+// cut-outs), and nodes[i]/meshes[i].extras.obscura.displacement.map, each
+// resolved against the file's folder. Read without tinygltf and without
+// checking more than needs be: for refusing outputs over them and for a
+// checkpoint's fingerprint, before or after loading. Empty for a file
+// that cannot be read or parsed (loading it says why).
+std::vector<std::pair<std::string, std::string>> gltfExternalFiles(const std::string& path);
 
 }  // namespace obscura

@@ -1,8 +1,8 @@
 // FNV-1a, 64 bit: stable keys for settings and content (compare's cache
 // names and resumption, the environment's content hash). Not for security.
-// (The checkpoint's checksum and the scene-file hash in its fingerprint keep
-// their own loops: they start from another basis, and files on disk hold
-// their values.)
+// (The checkpoint's checksum keeps its own loop: it starts from another
+// basis, and files on disk hold its values. The fingerprint's file hashes,
+// app/render_setup.cpp fileHash, take 8-byte words for speed.)
 #pragma once
 
 #include <cstddef>

@@ -422,3 +422,44 @@ def test_environment_keywords_equal_cli(scene, tmp_path):
     assert "lighting.R" in result.channel_names
     assert result.header["obscura:environment"] == sky
     assert result.header["obscura:environmentRotation"] == "30"
+
+
+def test_write_refuses_outputs_like_the_cli(tmp_path):
+    # Result.write and checkpoint_file go through the CLI's output checks: an
+    # output equal to the scene or to a file it names (here its external
+    # buffer) is refused before anything is written, as are a name too long
+    # for the temporary beside it and an extension that is not the format.
+    # They used to check the scene alone.
+    data = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+    (tmp_path / "tri.bin").write_bytes(data)
+    gltf = tmp_path / "tri.gltf"
+    gltf.write_text(json.dumps({
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "buffers": [{"byteLength": len(data), "uri": "tri.bin"}],
+        "bufferViews": [{"buffer": 0, "byteLength": len(data)}],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}]}))
+    scene_bytes = gltf.read_bytes()
+    result = obscura.render(obscura.Scene(str(gltf)), "ao", spp=1, res=(8, 8))
+    binary = str(tmp_path / "tri.bin")
+    good = str(tmp_path / "ok.exr")
+    cases = [
+        (dict(path=binary), ["-o", binary]),
+        (dict(path=good, preview=binary), ["-o", good, "--preview", binary]),
+        (dict(path=str(gltf)), ["-o", str(gltf)]),
+        (dict(path=str(tmp_path / ("n" * 246 + ".exr"))), ["-o", str(tmp_path / ("n" * 246 + ".exr"))]),
+        (dict(path=str(tmp_path / "x.tif")), ["-o", str(tmp_path / "x.tif")]),
+    ]
+    for kwargs, flags in cases:
+        with pytest.raises(obscura.Error) as e:
+            result.write(**kwargs)
+        assert str(e.value) == cli_error("render", str(gltf), "-q", "--res", "8x8", "--spp", "1", *flags)
+    assert "is the same file as " + str(gltf) + " buffers[0] " + binary in cli_error(
+        "render", str(gltf), "-q", "-o", binary)
+    with pytest.raises(obscura.Error, match=r"checkpoint_file .*tri.bin: is the same file as .*buffers\[0\]"):
+        obscura.render(obscura.Scene(str(gltf)), "ao", spp=1, res=(8, 8), checkpoint=0, checkpoint_file=binary)
+    assert (tmp_path / "tri.bin").read_bytes() == data
+    assert gltf.read_bytes() == scene_bytes
+    assert not (tmp_path / "ok.exr").exists()
+    assert sorted(os.listdir(tmp_path)) == ["tri.bin", "tri.gltf"]
