@@ -221,9 +221,6 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
       }
       if (fields >= 23) c.flip = std::stod(f[20]), c.flipHdr = std::stod(f[21]), c.flipPpd = std::stod(f[22]);
       if (fields >= 29) c.seedMse = splitSeeds(f[23]), c.seedSeconds = splitSeeds(f[24]);
-      // A row without one value per seed (an older file) cannot give the
-      // intervals: the cell is measured again.
-      if (c.seeds >= 2 && (c.seedMse.size() != size_t(c.seeds) || c.seedSeconds.size() != size_t(c.seeds))) continue;
       cells[c.key] = c;
     } catch (const std::exception&) {
       // a damaged row is recomputed
@@ -509,6 +506,13 @@ class CompareRun {
   // exactly; with more seeds FLIP is their mean and the cell is rendered
   // again.
   bool keepFlip(const Cell& c) const { return sameFlipPpd(c.flipPpd) || c.seeds == 1; }
+  // Whether it can be kept as far as the intervals go: a row without one
+  // value per seed (an older file) cannot give them, and the cell is
+  // measured again (a row of another config is still written back as it
+  // is: measureCells' `kept`).
+  static bool keepSeeds(const Cell& c) {
+    return c.seeds < 2 || (c.seedMse.size() == size_t(c.seeds) && c.seedSeconds.size() == size_t(c.seeds));
+  }
   // One cell: renders its seeds and measures them; nullopt when interrupted.
   std::optional<Cell> measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d, const ParamSet& params,
                                   int spp, const Reference& ref, Cell c) const;
@@ -667,7 +671,7 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells, st
       ++done;
       const std::string key = cellKey(cfg, spp);
       if (auto it = previous.find(key); it != previous.end() && fs::exists(plan_.dir / it->second.pass) &&
-                                        keepFlip(it->second)) {
+                                        keepFlip(it->second) && keepSeeds(it->second)) {
         Cell c = it->second;
         c.config = cfg.text;
         if (!sameFlipPpd(c.flipPpd)) {  // one seed: its pass is all FLIP needs

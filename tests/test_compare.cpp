@@ -535,8 +535,9 @@ TEST(CompareEndToEnd, FlipColumnsHeatMapsAndTargets) {
 // results.csv of the earlier formats (docs/compare.md): the current file is
 // resumed whole; main's 23-column file of the FLIP columns (before the
 // per-seed values) keeps a one-seed cell with its FLIP and measures a
-// two-seed cell again, whose intervals then come back; V2's 20 columns keep
-// a one-seed cell, its FLIP taken from its pass.
+// two-seed cell again, whose intervals then come back, while a run without
+// a config writes that config's old rows back as they were; V2's 20
+// columns keep a one-seed cell, its FLIP taken from its pass.
 TEST(CompareEndToEnd, OlderResultsCsvFormatsResume) {
   const std::string dir = tempDir("compare_old_csv");
   // The file cut to its first n columns, header too (quotes respected).
@@ -555,41 +556,51 @@ TEST(CompareEndToEnd, OlderResultsCsvFormatsResume) {
     in.close();
     std::ofstream(path) << text;
   };
+  // Rows by "config@spp".
+  const auto byCell = [](const std::vector<std::map<std::string, std::string>>& rows) {
+    std::map<std::string, std::map<std::string, std::string>> m;
+    for (const auto& row : rows) m[row.at("config") + "@" + row.at("spp")] = row;
+    return m;
+  };
   for (const int seeds : {1, 2}) {
     const std::string out = dir + "/seeds" + std::to_string(seeds), csv = out + "/results.csv";
     const std::vector<std::string> args = {"compare", "-o", out, "--res", "32x18", "--reference-spp", "16", "--spp",
-                                           "2,8", "--seeds", std::to_string(seeds), "-q", "-c", "ao"};
+                                           "2,8", "--seeds", std::to_string(seeds), "-q", "-c", "ao",
+                                           "-c", "ao:distance=0.5"};
+    const std::vector<std::string> aoOnly(args.begin(), args.end() - 2);
     const CliResult r1 = runCli(args, dir + "/err1.txt");
     ASSERT_EQ(r1.exitCode, 0) << r1.stderrText;
-    const auto before = readCsvRows(csv);
-    ASSERT_EQ(before.size(), 2u);
-    ASSERT_EQ(before[0].size(), 29u);
-    for (const auto& row : before)
+    const auto before = byCell(readCsvRows(csv));
+    ASSERT_EQ(before.size(), 4u);
+    for (const auto& [cell, row] : before) {
+      EXPECT_EQ(row.size(), 29u);
       EXPECT_EQ(size_t(std::count(row.at("seed_mse").begin(), row.at("seed_mse").end(), ';')), size_t(seeds - 1));
+    }
 
     const CliResult r2 = runVerbose(args, dir + "/err2.txt");
     ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
-    EXPECT_EQ(keptCells(r2.stderrText), 2u) << r2.stderrText;
-    EXPECT_EQ(readCsvRows(csv), before);
+    EXPECT_EQ(keptCells(r2.stderrText), 4u) << r2.stderrText;
+    EXPECT_EQ(byCell(readCsvRows(csv)), before);
 
     cutTo(csv, 23);
-    const CliResult r3 = runVerbose(args, dir + "/err3.txt");
+    const CliResult r3 = runVerbose(aoOnly, dir + "/err3.txt");
     ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
-    const auto after = readCsvRows(csv);
-    ASSERT_EQ(after.size(), 2u);
-    EXPECT_EQ(after[0].size(), 29u);
-    for (size_t k = 0; k < after.size(); ++k) {
-      if (seeds == 1) {  // kept, as the file had it
-        EXPECT_EQ(after[k].at("flip"), before[k].at("flip"));
-        EXPECT_EQ(after[k].at("rmse"), before[k].at("rmse"));
-        EXPECT_EQ(after[k].at("seed_mse"), "");
-        EXPECT_EQ(after[k].at("rmse_lo"), "");
+    const auto after = byCell(readCsvRows(csv));
+    ASSERT_EQ(after.size(), 4u);
+    for (const auto& [cell, row] : after) {
+      EXPECT_EQ(row.size(), 29u);
+      const auto& old = before.at(cell);
+      if (seeds == 1 || cell.rfind("ao@", 0) != 0) {  // kept, or written back, as the file had it
+        EXPECT_EQ(row.at("flip"), old.at("flip")) << cell;
+        EXPECT_EQ(row.at("rmse"), old.at("rmse")) << cell;
+        EXPECT_EQ(row.at("seed_mse"), "") << cell;
+        EXPECT_EQ(row.at("rmse_lo"), "") << cell;
       } else {  // measured again: one value per seed and the intervals
-        EXPECT_EQ(std::count(after[k].at("seed_mse").begin(), after[k].at("seed_mse").end(), ';'), 1);
-        EXPECT_EQ(std::count(after[k].at("seed_time_s").begin(), after[k].at("seed_time_s").end(), ';'), 1);
-        EXPECT_FALSE(after[k].at("rmse_lo").empty());
-        EXPECT_LE(std::stod(after[k].at("rmse_lo")), std::stod(after[k].at("rmse")));
-        EXPECT_GE(std::stod(after[k].at("rmse_hi")), std::stod(after[k].at("rmse")));
+        EXPECT_EQ(std::count(row.at("seed_mse").begin(), row.at("seed_mse").end(), ';'), 1) << cell;
+        EXPECT_EQ(std::count(row.at("seed_time_s").begin(), row.at("seed_time_s").end(), ';'), 1) << cell;
+        ASSERT_FALSE(row.at("rmse_lo").empty()) << cell;
+        EXPECT_LE(std::stod(row.at("rmse_lo")), std::stod(row.at("rmse"))) << cell;
+        EXPECT_GE(std::stod(row.at("rmse_hi")), std::stod(row.at("rmse"))) << cell;
       }
     }
     EXPECT_EQ(keptCells(r3.stderrText), seeds == 1 ? 2u : 0u) << r3.stderrText;
@@ -598,13 +609,13 @@ TEST(CompareEndToEnd, OlderResultsCsvFormatsResume) {
     cutTo(csv, 20);
     const CliResult r4 = runVerbose(args, dir + "/err4.txt");
     ASSERT_EQ(r4.exitCode, 0) << r4.stderrText;
-    EXPECT_EQ(keptCells(r4.stderrText), 2u) << r4.stderrText;
-    const auto v2 = readCsvRows(csv);
-    ASSERT_EQ(v2.size(), 2u);
-    for (size_t k = 0; k < v2.size(); ++k) {
-      const double flip = std::stod(before[k].at("flip"));
-      EXPECT_NEAR(std::stod(v2[k].at("flip")), flip, 1e-7 * flip);
-      EXPECT_NEAR(std::stod(v2[k].at("flip_ppd")), kFlipDefaultPpd, 1e-6);
+    EXPECT_EQ(keptCells(r4.stderrText), 4u) << r4.stderrText;
+    const auto v2 = byCell(readCsvRows(csv));
+    ASSERT_EQ(v2.size(), 4u);
+    for (const auto& [cell, row] : v2) {
+      const double flip = std::stod(before.at(cell).at("flip"));
+      EXPECT_NEAR(std::stod(row.at("flip")), flip, 1e-7 * flip) << cell;
+      EXPECT_NEAR(std::stod(row.at("flip_ppd")), kFlipDefaultPpd, 1e-6) << cell;
     }
   }
 }
