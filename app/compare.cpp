@@ -383,9 +383,11 @@ ComparePlan planCompare(const CompareArgs& a) {
       if (rel.empty() || *rel.begin() == "..") continue;
       const std::string top = rel.begin()->string();
       const bool written = std::distance(rel.begin(), rel.end()) > 1
-                               ? (top == "passes" || top == "cache" || top == "heatmaps" || top == "previews")
+                               ? (top == "passes" || top == "cache" || top == "heatmaps" || top == "previews" ||
+                                  top == "report_data")
                                : (top == "results.csv" || top == "results.json" || top == "summary.md" ||
-                                  top == "error_vs_time.svg" || top == "contact_sheet.svg" || top == "contact_sheet.png");
+                                  top == "error_vs_time.svg" || top == "contact_sheet.svg" || top == "contact_sheet.png" ||
+                                  top == "report.html");
       if (written)
         throw Error("-o " + a.output + ": compare writes " + (p.dir / rel).string() + ", which is " + what + " " + path +
                     "; refusing to overwrite an input");
