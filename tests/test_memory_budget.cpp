@@ -89,6 +89,23 @@ void expectRefusal(const CliResult& r, const std::vector<std::string>& parts) {
   for (const std::string& p : parts) EXPECT_NE(r.stderrText.find(p), std::string::npos) << p << "\n" << r.stderrText;
 }
 
+// DIR/texture.glb: a textured quad and a camera, its base-colour texture a
+// PNG header claiming `size`^2 texels (65 bytes: decoding it would fail, so
+// a refusal must come from the estimate, before).
+std::string textureGlb(const std::string& dir, uint32_t size) {
+  GltfBuilder g;
+  const std::vector<unsigned char> png = pngHeader(size, size);
+  g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
+  g.push("textures", {{"source", 0}});
+  g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+  g.node({{"mesh", g.quadMesh(1, 0, true)}});
+  g.push("cameras", perspective("", 0.8, 0.01));
+  g.node({{"camera", 0}, {"translation", {0, 0, 3}}});
+  g.scene({0, 1});
+  const std::string glb = g.writeGlb(dir, "texture");
+  return glb;
+}
+
 TEST(MemoryBudget, TextureSizeComesFromTheHeaderAlone) {
   // decode() keeps one word per texel of an 8-bit image and stb's RGBA
   // buffer (4 bytes a texel) while it runs.
@@ -102,16 +119,7 @@ TEST(MemoryBudget, TextureSizeComesFromTheHeaderAlone) {
 
 TEST(MemoryBudget, RefusesAGlbDeclaringAHugeTextureBeforeDecoding) {
   const std::string dir = tempDir("budget_texture");
-  GltfBuilder g;
-  const std::vector<unsigned char> png = pngHeader(16384, 16384);
-  g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
-  g.push("textures", {{"source", 0}});
-  g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
-  g.node({{"mesh", g.quadMesh(1, 0, true)}});
-  g.push("cameras", perspective("", 0.8, 0.01));
-  g.node({{"camera", 0}, {"translation", {0, 0, 3}}});
-  g.scene({0, 1});
-  const std::string glb = g.writeGlb(dir, "texture");
+  const std::string glb = textureGlb(dir, 16384);
   // 16384^2 texels at 4 bytes kept and 4 decoding: 2.0 GiB, over 1 GiB.
   const LimitedCliResult r = runCliLimited(
       {"render", glb, "-o", dir + "/out.exr", "--res", "8x8", "--spp", "1", "-q", "--max-memory", "1"}, dir + "/err.txt",
@@ -191,16 +199,7 @@ TEST(MemoryBudget, HeldMemoryCountsInLaterChecks) {
 // the scene is refused beside the film, before the texture is decoded.
 TEST(MemoryBudget, RenderRefusesTheSceneBesideItsFilm) {
   const std::string dir = tempDir("budget_film_and_scene");
-  GltfBuilder g;
-  const std::vector<unsigned char> png = pngHeader(8192, 8192);  // 256 MiB kept, 256 MiB decoding
-  g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
-  g.push("textures", {{"source", 0}});
-  g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
-  g.node({{"mesh", g.quadMesh(1, 0, true)}});
-  g.push("cameras", perspective("", 0.8, 0.01));
-  g.node({{"camera", 0}, {"translation", {0, 0, 3}}});
-  g.scene({0, 1});
-  const std::string glb = g.writeGlb(dir, "texture");
+  const std::string glb = textureGlb(dir, 8192);  // 256 MiB kept, 256 MiB decoding
   // The film of 4500 x 4500 without AOVs: its size from the renderer's own
   // accounting (image_io.h), chosen so that film and textures straddle 0.75 GiB.
   const uint64_t film = filmBytes(4500, 4500, false), textures = 512ull << 20, budget = 3 * kGiB / 4;
