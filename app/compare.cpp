@@ -322,6 +322,7 @@ struct ComparePlan {
   fs::path dir;
   std::optional<PassImage> givenReference;
   bool lit = false;  // --environment: shaded.* relative to the reference's mean radiance
+  MemoryHold films;  // the films below, held against --max-memory while the plan lives (beside the scene)
 };
 
 ComparePlan planCompare(const CompareArgs& a) {
@@ -352,11 +353,11 @@ ComparePlan planCompare(const CompareArgs& a) {
   p.base.progress = !a.quiet;
   // What compare holds at once besides the scene: a render's film, the
   // reference, and a cell's pass with the film made of it (RGBA planes
-  // each): refused up front, as render's checkFilmMemory does.
+  // each): refused up front and held, as render's holdFilmMemory does.
   {
     const uint64_t pixels = uint64_t(p.base.width) * uint64_t(p.base.height);
     const uint64_t need = filmBytes(p.base.width, p.base.height, p.base.aovs) + 3 * pixels * 4 * sizeof(float);
-    requireMemory(need, "--res " + a.res + ": the films");
+    p.films = MemoryHold(need, "--res " + a.res + ": the films");
     if (const uint64_t avail = availableMemoryBytes(); avail > 0 && need > avail)
       throw Error("--res " + a.res + ": the films need " + formatBytes(need) + ", but only " + formatBytes(avail) +
                   " of memory is available");

@@ -22,7 +22,8 @@ namespace obscura {
 namespace {
 
 // The layers of the render (app/fit.h).
-constexpr const char* kAlpha = "alpha.R";
+// "visibility", not "alpha": Nuke reserves that layer name (docs/exr.md).
+constexpr const char* kAlpha = "visibility.R";
 constexpr const char* kE0 = "e0.R";
 constexpr const char* kE1 = "e1.R";
 
@@ -92,7 +93,7 @@ int runFit(const FitArgs& a, const std::atomic<bool>* cancel) {
   r.res = a.res, r.spp = a.spp, r.seed = a.seed, r.threads = a.threads, r.camera = a.camera, r.quiet = a.quiet;
   r.noAovs = true;
   const std::string rays = ",rays=" + std::to_string(a.rays);
-  r.passes = {"alpha=ao:weighting=uniform" + rays, "e0=gi:max-depth=0" + rays, "e1=gi:max-depth=1" + rays};
+  r.passes = {"visibility=ao:weighting=uniform" + rays, "e0=gi:max-depth=0" + rays, "e1=gi:max-depth=1" + rays};
   const std::vector<PassSetup> setups = passSetups(r);
   RenderSettings s = renderSettings(r);
   std::vector<RenderPass> passes;

@@ -149,7 +149,7 @@ int runRender(const RenderArgs& args) {
     RenderArgs fa = args;
     fa.frame = job.frame, fa.output = job.output, fa.preview = job.preview;
     checkOutputPaths(fa.output, fa.preview, fa.scene, inputs);
-    checkFilmMemory(fa, s, screenSpaceBound(setups, s.width, s.height), args.passes.size());
+    holdFilmMemory(fa, s, screenSpaceBound(setups, s.width, s.height), args.passes.size());
     sceneOptions(fa);
   }
   if (jobs.size() == 1) interrupt::setMessage("obscura: interrupted; " + jobs[0].output + " was not written");
@@ -181,6 +181,9 @@ int runRender(const RenderArgs& args) {
       std::fprintf(stderr, "obscura: note: %s.checkpoint exists but --checkpoint was not given; rendering from the start\n",
                    a.output.c_str());
     }
+    // The film is held against --max-memory while the scene is built and
+    // rendered, so the scene's estimate is refused beside it.
+    const MemoryHold filmMemory = holdFilmMemory(a, s, screenSpaceBound(setups, s.width, s.height), args.passes.size());
     Camera camera;
     std::unique_ptr<Scene> scene = loadSceneAndCamera(a, source, a.camera, s.width, s.height, camera);
 

@@ -300,7 +300,7 @@ RenderSettings renderSettings(const RenderArgs& args) {
   return s;
 }
 
-void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBound screenSpace, size_t layers) {
+MemoryHold holdFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBound screenSpace, size_t layers) {
   // The film's planes, plus the preview's bytes; the EXR is written from the
   // planes a band at a time, so it needs no second copy.
   // A screen-space integrator also keeps whole-image state (a G-buffer
@@ -330,6 +330,7 @@ void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBo
                   double(avail) / (1 << 30));
     throw Error("--res " + a.res + ": " + msg);
   }
+  return MemoryHold(need, "--res " + a.res + ": the film");
 }
 
 void checkCheckpoint(const RenderArgs& a, const RenderSettings& s, bool screenSpace, const std::string& file) {

@@ -4,6 +4,8 @@
 // options give the same settings, the same messages and the same file.
 #pragma once
 
+#include "core/util/memory_budget.h"
+
 #include <memory>
 #include <optional>
 #include <string>
@@ -117,9 +119,11 @@ std::vector<std::pair<std::string, std::string>> renderInputs(const RenderArgs& 
 // Refuses a render whose film (and what the render keeps beside it: a
 // screen-space pass's G-buffer, Cryptomatte, adaptive sums, the denoiser's
 // planes, the preview's bytes) would need more memory than the system has
-// available. `layers`: the --pass layers; `screenSpace`:
+// available or than the --max-memory budget leaves, and holds it against the
+// budget while the result lives (the scene's estimate is then checked beside
+// it: docs/cli.md "Memory"). `layers`: the --pass layers; `screenSpace`:
 // screenSpaceBound. Names --res.
-void checkFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBound screenSpace, size_t layers);
+MemoryHold holdFilmMemory(const RenderArgs& a, const RenderSettings& s, ScreenSpaceBound screenSpace, size_t layers);
 
 // --checkpoint SECONDS (a.checkpoint) and the passes it allows, for the
 // checkpoint file `file`; throws naming --checkpoint.

@@ -461,7 +461,9 @@ std::shared_ptr<PyResult> renderScene(const PyScene& sc, const py::object& integ
   RenderSettings s = renderSettings(a);
   const bool screenSpace = anyScreenSpace(setups);
   checkRegionPasses(s, screenSpace);
-  checkFilmMemory(a, s, screenSpaceBound(setups, s.width, s.height), a.passes.size());
+  // Held against --max-memory for the render: renders on several Python
+  // threads share the process's budget.
+  const MemoryHold film = holdFilmMemory(a, s, screenSpaceBound(setups, s.width, s.height), a.passes.size());
   Camera camera;
   if (sc.args.subdivEdge > 0) {
     // Refined for the load's camera and resolution (docs/scenes.md "Subdivision").

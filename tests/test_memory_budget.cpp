@@ -17,7 +17,12 @@
 #include <string>
 #include <vector>
 
+#include <obscura/error.h>
+
+#include "core/image/image_io.h"
 #include "core/image/texture_size.h"
+#include "core/util/memory_budget.h"
+#include "core/util/option_names.h"
 #include "tests/gltf_builder.h"
 #include "tests/limited_cli.h"
 #include "tests/support.h"
@@ -84,6 +89,23 @@ void expectRefusal(const CliResult& r, const std::vector<std::string>& parts) {
   for (const std::string& p : parts) EXPECT_NE(r.stderrText.find(p), std::string::npos) << p << "\n" << r.stderrText;
 }
 
+// DIR/texture.glb: a textured quad and a camera, its base-colour texture a
+// PNG header claiming `size`^2 texels (65 bytes: decoding it would fail, so
+// a refusal must come from the estimate, before).
+std::string textureGlb(const std::string& dir, uint32_t size) {
+  GltfBuilder g;
+  const std::vector<unsigned char> png = pngHeader(size, size);
+  g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
+  g.push("textures", {{"source", 0}});
+  g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
+  g.node({{"mesh", g.quadMesh(1, 0, true)}});
+  g.push("cameras", perspective("", 0.8, 0.01));
+  g.node({{"camera", 0}, {"translation", {0, 0, 3}}});
+  g.scene({0, 1});
+  const std::string glb = g.writeGlb(dir, "texture");
+  return glb;
+}
+
 TEST(MemoryBudget, TextureSizeComesFromTheHeaderAlone) {
   // decode() keeps one word per texel of an 8-bit image and stb's RGBA
   // buffer (4 bytes a texel) while it runs.
@@ -97,16 +119,7 @@ TEST(MemoryBudget, TextureSizeComesFromTheHeaderAlone) {
 
 TEST(MemoryBudget, RefusesAGlbDeclaringAHugeTextureBeforeDecoding) {
   const std::string dir = tempDir("budget_texture");
-  GltfBuilder g;
-  const std::vector<unsigned char> png = pngHeader(16384, 16384);
-  g.push("images", {{"bufferView", g.bufferView(png.data(), png.size())}, {"mimeType", "image/png"}});
-  g.push("textures", {{"source", 0}});
-  g.push("materials", {{"pbrMetallicRoughness", {{"baseColorTexture", {{"index", 0}}}}}});
-  g.node({{"mesh", g.quadMesh(1, 0, true)}});
-  g.push("cameras", perspective("", 0.8, 0.01));
-  g.node({{"camera", 0}, {"translation", {0, 0, 3}}});
-  g.scene({0, 1});
-  const std::string glb = g.writeGlb(dir, "texture");
+  const std::string glb = textureGlb(dir, 16384);
   // 16384^2 texels at 4 bytes kept and 4 decoding: 2.0 GiB, over 1 GiB.
   const LimitedCliResult r = runCliLimited(
       {"render", glb, "-o", dir + "/out.exr", "--res", "8x8", "--spp", "1", "-q", "--max-memory", "1"}, dir + "/err.txt",
@@ -155,6 +168,50 @@ TEST(MemoryBudget, CompareRefusesItsFilmsBeforeLoadingTheScene) {
                     dir + "/err.txt", kAddressSpace);
   expectRefusal(r, {"--res 9000x9000: the films: needs ", "over the --max-memory budget of 1.0 GiB"});
   EXPECT_FALSE(std::filesystem::exists(dir + "/cmp"));
+}
+
+// --max-memory bounds the whole process: what is held (a film) counts in
+// every later check, and is released with its hold.
+TEST(MemoryBudget, HeldMemoryCountsInLaterChecks) {
+  const uint64_t before = memoryBudget();
+  setMemoryBudget(kGiB);
+  {
+    const MemoryHold film(600ull << 20, "film");
+    EXPECT_EQ(memoryHeld(), 600ull << 20);
+    EXPECT_NO_THROW(requireMemory(424ull << 20, "scene"));  // 600 + 424 MiB = the budget
+    try {
+      requireMemory(425ull << 20, "scene");
+      ADD_FAILURE() << "600 + 425 MiB passed a 1 GiB budget";
+    } catch (const Error& e) {
+      // The option's name as the front end spells it (core/util/option_names).
+      EXPECT_EQ(std::string(e.what()), "scene: needs 425.0 MiB beside the 600.0 MiB this process already holds, over the " +
+                                           settingName(Setting::MaxMemory) + " budget of 1.0 GiB");
+    }
+    EXPECT_THROW(MemoryHold(kGiB, "second film"), Error);  // a refused hold holds nothing
+    EXPECT_EQ(memoryHeld(), 600ull << 20);
+  }
+  EXPECT_EQ(memoryHeld(), 0u);
+  EXPECT_NO_THROW(requireMemory(kGiB, "scene"));
+  setMemoryBudget(before);
+}
+
+// A render's film and its scene each fit the budget, together they do not:
+// the scene is refused beside the film, before the texture is decoded.
+TEST(MemoryBudget, RenderRefusesTheSceneBesideItsFilm) {
+  const std::string dir = tempDir("budget_film_and_scene");
+  const std::string glb = textureGlb(dir, 8192);  // 256 MiB kept, 256 MiB decoding
+  // The film of 4500 x 4500 without AOVs: its size from the renderer's own
+  // accounting (image_io.h), chosen so that film and textures straddle 0.75 GiB.
+  const uint64_t film = filmBytes(4500, 4500, false), textures = 512ull << 20, budget = 3 * kGiB / 4;
+  ASSERT_LT(film, budget);
+  ASSERT_LT(textures, budget);
+  ASSERT_GT(film + textures, budget);
+  const LimitedCliResult r = runCliLimited({"render", glb, "-o", dir + "/out.exr", "--res", "4500x4500", "--spp", "1",
+                                            "--no-aovs", "-q", "--max-memory", "0.75"},
+                                           dir + "/err.txt", kAddressSpace);
+  expectRefusal(r, {glb + ": needs an estimated ", "textures 512.0 MiB", " beside the " + formatBytes(film) +
+                    " this process already holds, over the --max-memory budget of 768.0 MiB"});
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out.exr"));
 }
 
 TEST(MemoryBudget, MergeRefusesAnEditedDisplayWindowBeforeAllocating) {

@@ -33,9 +33,31 @@ struct MemoryEstimate {
 };
 
 // Throws obscura::Error "`what`: needs N, over the --max-memory budget of B"
-// when `bytes` exceeds memoryBudget(). `what` names the file or option
-// and what needs the memory.
+// when `bytes`, with what the process already holds (MemoryHold), exceeds
+// memoryBudget(). `what` names the file or option and what needs the memory.
 void requireMemory(uint64_t bytes, const std::string& what);
 void requireMemory(const MemoryEstimate& e, const std::string& what);
+
+// What the process holds for the whole of a piece of work (a render's film
+// while its scene is built and rendered, compare's films): checked by
+// requireMemory when made, then counted by every later check until it is
+// destroyed, so the budget bounds their sum - the whole process, also when
+// Python threads render at once - and not each part alone.
+class MemoryHold {
+ public:
+  MemoryHold() = default;
+  MemoryHold(uint64_t bytes, const std::string& what);
+  MemoryHold(MemoryHold&& o) noexcept : bytes_(o.bytes_) { o.bytes_ = 0; }
+  MemoryHold& operator=(MemoryHold&& o) noexcept;
+  MemoryHold(const MemoryHold&) = delete;
+  MemoryHold& operator=(const MemoryHold&) = delete;
+  ~MemoryHold();
+
+ private:
+  uint64_t bytes_ = 0;
+};
+
+// The bytes every MemoryHold alive holds.
+uint64_t memoryHeld();
 
 }  // namespace obscura

@@ -189,7 +189,7 @@ def test_degenerate_scene_with_automatic_camera_is_an_error(tmp_path):
     path.write_text("v 1 2 3\nv 1 2 3\nv 1 2 3\nf 1 2 3\n")
     with pytest.raises(obscura.Error) as e:
         obscura.render(obscura.Scene(str(path)), "ao", spp=1, res=(8, 8))
-    assert "the scene's bounds have no extent" in str(e.value)
+    assert "the scene is 0 across" in str(e.value)
     assert str(e.value) == cli_error("render", str(path), "-o", str(tmp_path / "x.exr"), "-q",
                                      "--spp", "1", "--res", "8x8")
 
