@@ -108,11 +108,36 @@ const char* kCsvHeaderV1 = "key,config,integrator,params,spp,seeds,time_s,rays,r
 const char* kCsvHeaderV2 =
     "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
     "mean_spp,denoise_s";
-// The FLIP columns (docs/compare.md "FLIP") after those; cells of the older
-// files have no FLIP yet (flipPpd 0).
-const char* kCsvHeader =
+// The FLIP columns (docs/compare.md "FLIP") after those: the files written
+// before the per-seed values (cells of the older files have no FLIP yet,
+// flipPpd 0).
+const char* kCsvHeaderV3 =
     "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
     "mean_spp,denoise_s,flip,flip_hdr,flip_ppd";
+// The current columns: V3's, then each seed's MSE and time (';'-separated:
+// the intervals of docs/compare.md "Uncertainty" are computed from them),
+// then the intervals themselves (empty with one seed).
+const char* kCsvHeader =
+    "key,config,integrator,params,spp,seeds,time_s,rays,rmse,rel_mse,mae,p99,bias2,variance,pass,target,min_spp,denoise,"
+    "mean_spp,denoise_s,flip,flip_hdr,flip_ppd,seed_mse,seed_time_s,rmse_lo,rmse_hi,time_lo,time_hi";
+
+std::string joinSeeds(const std::vector<double>& v) {
+  std::string s;
+  for (const double x : v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.17g", x);  // round-trips: a resumed cell's intervals are the same
+    s += (s.empty() ? "" : ";") + std::string(buf);
+  }
+  return s;
+}
+
+std::vector<double> splitSeeds(const std::string& s) {
+  std::vector<double> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ';')) v.push_back(std::stod(item));
+  return v;
+}
 
 std::string csvQuote(const std::string& s) {
   std::string q = "\"";
@@ -126,6 +151,13 @@ std::string fmt(double v) {
   return buf;
 }
 
+// rmse_lo,rmse_hi,time_lo,time_hi, or four empty fields without intervals.
+std::string intervalColumns(const Cell& c) {
+  if (!c.hasIntervals()) return ",,,";
+  const CellIntervals ci = cellIntervals(c);
+  return fmt(ci.rmse.lo) + "," + fmt(ci.rmse.hi) + "," + fmt(ci.seconds.lo) + "," + fmt(ci.seconds.hi);
+}
+
 std::string csvRow(const Cell& c) {
   return c.key + "," + csvQuote(c.config) + "," + c.integrator + "," + csvQuote(c.params) + "," + std::to_string(c.spp) +
          "," + std::to_string(c.seeds) + "," + fmt(c.seconds) + "," + std::to_string(c.rays) + "," + fmt(c.error.rmse) +
@@ -133,7 +165,8 @@ std::string csvRow(const Cell& c) {
          (c.bv ? fmt(c.bv->bias2) : "") + "," + (c.bv ? fmt(c.bv->variance) : "") + "," + csvQuote(c.pass) + "," +
          (c.targetError > 0 ? fmt(c.targetError) : "") + "," + (c.minSpp > 0 ? std::to_string(c.minSpp) : "") + "," +
          (c.denoise ? "on" : "off") + "," + fmt(c.meanSpp) + "," + fmt(c.denoiseSeconds) + "," + fmt(c.flip) + "," +
-         fmt(c.flipHdr) + "," + fmt(c.flipPpd);
+         fmt(c.flipHdr) + "," + fmt(c.flipPpd) + "," + joinSeeds(c.seedMse) + "," + joinSeeds(c.seedSeconds) + "," +
+         intervalColumns(c);
 }
 
 // Splits one CSV line (quoted fields with "" escapes).
@@ -163,8 +196,10 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
   std::map<std::string, Cell> cells;
   std::ifstream in(path);
   std::string line;
-  if (!in || !std::getline(in, line) || (line != kCsvHeader && line != kCsvHeaderV2 && line != kCsvHeaderV1)) return cells;
-  const size_t fields = line == kCsvHeader ? 23 : line == kCsvHeaderV2 ? 20 : 15;
+  if (!in || !std::getline(in, line) ||
+      (line != kCsvHeader && line != kCsvHeaderV3 && line != kCsvHeaderV2 && line != kCsvHeaderV1))
+    return cells;
+  const size_t fields = line == kCsvHeader ? 29 : line == kCsvHeaderV3 ? 23 : line == kCsvHeaderV2 ? 20 : 15;
   while (std::getline(in, line)) {
     const std::vector<std::string> f = csvFields(line);
     if (f.size() != fields) continue;
@@ -185,6 +220,7 @@ std::map<std::string, Cell> readPreviousCells(const std::string& path) {
         c.meanSpp = std::stod(f[18]), c.denoiseSeconds = std::stod(f[19]);
       }
       if (fields >= 23) c.flip = std::stod(f[20]), c.flipHdr = std::stod(f[21]), c.flipPpd = std::stod(f[22]);
+      if (fields >= 29) c.seedMse = splitSeeds(f[23]), c.seedSeconds = splitSeeds(f[24]);
       cells[c.key] = c;
     } catch (const std::exception&) {
       // a damaged row is recomputed
@@ -348,9 +384,11 @@ ComparePlan planCompare(const CompareArgs& a) {
       if (rel.empty() || *rel.begin() == "..") continue;
       const std::string top = rel.begin()->string();
       const bool written = std::distance(rel.begin(), rel.end()) > 1
-                               ? (top == "passes" || top == "cache" || top == "heatmaps" || top == "previews")
+                               ? (top == "passes" || top == "cache" || top == "heatmaps" || top == "previews" ||
+                                  top == "report_data")
                                : (top == "results.csv" || top == "results.json" || top == "summary.md" ||
-                                  top == "error_vs_time.svg" || top == "contact_sheet.svg" || top == "contact_sheet.png");
+                                  top == "error_vs_time.svg" || top == "contact_sheet.svg" || top == "contact_sheet.png" ||
+                                  top == "report.html");
       if (written)
         throw Error("-o " + a.output + ": compare writes " + (p.dir / rel).string() + ", which is " + what + " " + path +
                     "; refusing to overwrite an input");
@@ -471,6 +509,13 @@ class CompareRun {
   // exactly; with more seeds FLIP is their mean and the cell is rendered
   // again.
   bool keepFlip(const Cell& c) const { return sameFlipPpd(c.flipPpd) || c.seeds == 1; }
+  // Whether it can be kept as far as the intervals go: a row without one
+  // value per seed (an older file) cannot give them, and the cell is
+  // measured again (a row of another config is still written back as it
+  // is: measureCells' `kept`).
+  static bool keepSeeds(const Cell& c) {
+    return c.seeds < 2 || (c.seedMse.size() == size_t(c.seeds) && c.seedSeconds.size() == size_t(c.seeds));
+  }
   // One cell: renders its seeds and measures them; nullopt when interrupted.
   std::optional<Cell> measureCell(const CompareConfig& cfg, const IntegratorDescriptor& d, const ParamSet& params,
                                   int spp, const Reference& ref, Cell c) const;
@@ -567,12 +612,14 @@ std::optional<Cell> CompareRun::measureCell(const CompareConfig& cfg, const Inte
     scaleRgb(*img, ref.scale);
     const ErrorMetrics e = errorMetrics(*img, ref.image);
     mse += e.rmse * e.rmse, rel += e.relMse, mae += e.mae, p99 += e.p99;
+    c.seedMse.push_back(e.rmse * e.rmse);
     c.error.values = e.values;
     const FlipError f = flipError(*img, ref.image, a_.flipPpd);
     flip += f.ldr, flipHdr += f.hdr;
     // The time to this pass: the render loop and the denoiser after it
     // (RenderStats keeps them apart; a denoised cell pays both).
     seconds.push_back(stats.seconds + stats.denoiseSeconds);
+    c.seedSeconds.push_back(seconds.back());
     denoiseSeconds.push_back(stats.denoiseSeconds);
     meanSpp += stats.meanSpp > 0 ? stats.meanSpp : double(spp);
     renders.push_back(std::move(*img));
@@ -627,7 +674,7 @@ bool CompareRun::measureCells(const Reference& ref, std::vector<Cell>& cells, st
       ++done;
       const std::string key = cellKey(cfg, spp);
       if (auto it = previous.find(key); it != previous.end() && fs::exists(plan_.dir / it->second.pass) &&
-                                        keepFlip(it->second)) {
+                                        keepFlip(it->second) && keepSeeds(it->second)) {
         Cell c = it->second;
         c.config = cfg.text;
         if (!sameFlipPpd(c.flipPpd)) {  // one seed: its pass is all FLIP needs

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include <obscura/error.h>
+#include "app/report_html.h"
 #include "core/image/image_io.h"
 
 namespace obscura {
@@ -51,9 +52,6 @@ std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, doub
   return best;
 }
 
-namespace {
-
-
 std::string xmlEscape(const std::string& s) {
   std::string o;
   for (const char c : s) {
@@ -65,6 +63,45 @@ std::string xmlEscape(const std::string& s) {
   }
   return o;
 }
+
+// A perceptually ordered dark-to-bright map (magma-like control points),
+// evenly spaced over [0, 1].
+const double kHeatStops[6][3] = {{0, 0, 4}, {59, 15, 112}, {140, 41, 129}, {222, 73, 104}, {254, 159, 109}, {252, 253, 191}};
+
+CellIntervals cellIntervals(const ReportCell& c) {
+  return {rmseInterval(c.seedMse), timeRange(c.seedSeconds), medianRangeConfidence(int(c.seedSeconds.size()))};
+}
+
+TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target, TargetMeasure measure) {
+  TargetVerdict v;
+  v.target = target;
+  v.winner = fastestReaching(cells, target, measure);
+  if (!v.winner) return v;
+  const ReportCell& w = cells[*v.winner];
+  const auto error = [&](const ReportCell& c) { return measure == TargetMeasure::Rmse ? c.error.rmse : c.flip; };
+  // The runner-up is another config: the same config at another spp is the
+  // same choice, only at another sample count.
+  for (size_t i = 0; i < cells.size(); ++i)
+    if (cells[i].config != w.config && error(cells[i]) <= target &&
+        (!v.runnerUp || cells[i].seconds < cells[*v.runnerUp].seconds))
+      v.runnerUp = i;
+  // Only RMSE has an interval (FLIP keeps no per-seed values).
+  if (measure == TargetMeasure::Rmse && w.hasIntervals()) v.winnerSurely = cellIntervals(w).rmse.hi <= target;
+  if (v.runnerUp && w.hasIntervals() && cells[*v.runnerUp].hasIntervals())
+    v.time = welchTest(w.seedSeconds, cells[*v.runnerUp].seedSeconds);
+  return v;
+}
+
+std::string TargetVerdict::status() const {
+  if (!winner) return "not reached";
+  if (!runnerUp) return "no runner-up";
+  if (!time) return "one seed";
+  return time->distinguishable ? "distinguishable" : "tie";
+}
+
+namespace {
+
+
 
 std::string num(double v, int digits = 3) {
   char buf[32];
@@ -112,6 +149,11 @@ std::string errorVersusTimeSvg(const CompareReport& r) {
   for (const ReportCell& c : cells) {
     const double t = std::max(c.seconds, 1e-6), e = std::max(c.error.rmse, 1e-9);
     tLo = std::min(tLo, t), tHi = std::max(tHi, t), eLo = std::min(eLo, e), eHi = std::max(eHi, e);
+    if (c.hasIntervals()) {  // the error bars fit too
+      const CellIntervals ci = cellIntervals(c);
+      tLo = std::min(tLo, std::max(ci.seconds.lo, 1e-6)), tHi = std::max(tHi, ci.seconds.hi);
+      eLo = std::min(eLo, std::max(ci.rmse.lo, e / 10)), eHi = std::max(eHi, ci.rmse.hi);
+    }
   }
   if (r.referenceNoise > 0) eLo = std::min(eLo, r.referenceNoise), eHi = std::max(eHi, r.referenceNoise);
   // Pad to at least a factor of 2 and by 15% (in log) on each side.
@@ -159,10 +201,25 @@ std::string errorVersusTimeSvg(const CompareReport& r) {
       pts += num(X(std::max(cells[i].seconds, 1e-6)), 6) + "," + num(Y(std::max(cells[i].error.rmse, 1e-9)), 6) + " ";
     s << "<polyline points=\"" << pts << "\" fill=\"none\" stroke=\"" << colour << "\" stroke-width=\"2\"/>\n";
     for (const size_t i : groups[g].second) {
-      const double x = X(std::max(cells[i].seconds, 1e-6)), y = Y(std::max(cells[i].error.rmse, 1e-9));
-      s << "<circle cx=\"" << x << "\" cy=\"" << y << "\" r=\"3.5\" fill=\"" << colour << "\"><title>"
-        << xmlEscape(cells[i].config) << " @ " << cells[i].spp << " spp: " << num(cells[i].seconds) << " s, RMSE "
-        << num(cells[i].error.rmse) << "</title></circle><text x=\"" << x + 5 << "\" y=\"" << y - 5
+      const ReportCell& c = cells[i];
+      const double x = X(std::max(c.seconds, 1e-6)), y = Y(std::max(c.error.rmse, 1e-9));
+      std::string ci;
+      if (c.hasIntervals()) {
+        // Error bars: the RMSE's t-interval (vertical; a lower end of 0 is
+        // drawn at a tenth of the point: the axis is logarithmic) and the
+        // time's range over the seeds (horizontal).
+        const CellIntervals iv = cellIntervals(c);
+        const double y0 = Y(std::max(iv.rmse.lo, std::max(c.error.rmse, 1e-9) / 10)), y1 = Y(std::max(iv.rmse.hi, 1e-9));
+        const double x0 = X(std::max(iv.seconds.lo, 1e-6)), x1 = X(std::max(iv.seconds.hi, 1e-6));
+        s << "<path class=\"errbar\" d=\"M" << x << "," << y0 << "V" << y1 << "M" << x - 3 << "," << y0 << "h6M" << x - 3
+          << "," << y1 << "h6M" << x0 << "," << y << "H" << x1 << "M" << x0 << "," << y - 3 << "v6M" << x1 << "," << y - 3
+          << "v6\" stroke=\"" << colour << "\" stroke-width=\"1\" fill=\"none\" opacity=\"0.7\"/>\n";
+        ci = " (95% CI " + num(iv.rmse.lo) + "-" + num(iv.rmse.hi) + "), time range " + num(iv.seconds.lo) + "-" +
+             num(iv.seconds.hi) + " s";
+      }
+      s << "<circle class=\"pt\" data-cell=\"" << i << "\" cx=\"" << x << "\" cy=\"" << y << "\" r=\"3.5\" fill=\"" << colour
+        << "\"><title>" << xmlEscape(c.config) << " @ " << c.spp << " spp: " << num(c.seconds) << " s, RMSE "
+        << num(c.error.rmse) << xmlEscape(ci) << "</title></circle><text x=\"" << x + 5 << "\" y=\"" << y - 5
         << "\" font-size=\"9\" fill=\"" << colour << "\">" << cells[i].spp << "</text>\n";
     }
     const double ly = T + 10 + 18 * double(g);
@@ -180,14 +237,17 @@ std::string errorVersusTimeSvg(const CompareReport& r) {
     << "\" stroke=\"black\" stroke-dasharray=\"6,4\"/><text x=\"" << W - R + 44 << "\" y=\"" << ly + 4
     << "\">Pareto front</text>\n";
   s << "<text x=\"" << W - R + 14 << "\" y=\"" << ly + 22 << "\" font-size=\"10\" fill=\"#555\">numbers at points: spp</text>\n";
+  bool bars = false;
+  for (const ReportCell& c : cells) bars = bars || c.hasIntervals();
+  if (bars)
+    s << "<text x=\"" << W - R + 14 << "\" y=\"" << ly + 36 << "\" font-size=\"10\" fill=\"#555\">bars: RMSE 95% t-interval,</text>"
+      << "<text x=\"" << W - R + 14 << "\" y=\"" << ly + 48 << "\" font-size=\"10\" fill=\"#555\">time min-max over seeds</text>\n";
   s << "</svg>\n";
   return s.str();
 }
 
-// A perceptually ordered dark-to-bright map (magma-like control points).
 void heatColour(double x, unsigned char* rgb) {
-  static const double stops[][3] = {{0, 0, 4},      {59, 15, 112},  {140, 41, 129},
-                                    {222, 73, 104}, {254, 159, 109}, {252, 253, 191}};
+  const auto& stops = kHeatStops;
   x = std::clamp(std::isfinite(x) ? x : 1.0, 0.0, 1.0) * 5.0;
   const int i = std::min(int(x), 4);
   const double f = x - i;
@@ -212,21 +272,49 @@ std::string cellSpp(const ReportCell& c) {
   return t;
 }
 
+// The verdict's confidence in words (summary.md, stdout, results.json;
+// docs/compare.md "Uncertainty"). `quote` wraps config names (` in Markdown).
+std::string verdictText(const TargetVerdict& v, const std::vector<ReportCell>& cells, const char* quote) {
+  if (!v.winner) return "";
+  const auto name = [&](size_t i) { return quote + cells[i].config + quote + " @ " + std::to_string(cells[i].spp); };
+  std::string t;
+  if (!v.runnerUp) {
+    t = "no runner-up: no other config reaches it";
+  } else if (!v.time) {
+    t = "runner-up " + name(*v.runnerUp) + " (" + num(cells[*v.runnerUp].seconds) +
+        " s); one seed: no confidence (--seeds 2 or more)";
+  } else {
+    const WelchResult& w = *v.time;
+    t = std::string(w.distinguishable ? "distinguishable" : "tie") + ": runner-up " + name(*v.runnerUp) + " is " +
+        num(w.difference) + " s slower on average (95% CI " + num(w.interval.lo) + " to " + num(w.interval.hi) +
+        " s, Welch t-test over seeds)";
+  }
+  if (v.winnerSurely)
+    t += *v.winnerSurely ? "; the winner's RMSE 95% CI is below the target"
+                         : "; the winner's RMSE 95% CI reaches above the target";
+  return t;
+}
+
+// "0.012 [0.010, 0.014]": a value and its interval.
+std::string withInterval(double v, const Interval& i) { return num(v) + " [" + num(i.lo) + ", " + num(i.hi) + "]"; }
+
 // The summary as Markdown (for docs/trade.md and reports): the table, the
 // targets and the Pareto front.
 std::string summaryMarkdown(const CompareReport& r) {
   const std::vector<ReportCell>& cells = r.cells;
-  bool bv = false;
-  for (const ReportCell& c : cells) bv = bv || c.bv.has_value();
+  bool bv = false, ci = false;
+  for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), ci = ci || c.hasIntervals();
   std::ostringstream s;
-  s << "| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 | FLIP | HDR-FLIP |"
-    << (bv ? " bias² | variance |" : "") << "\n";
+  s << "| config | spp | mean spp | time s" << (ci ? " [min, max]" : "") << " | denoise s | Mrays | RMSE"
+    << (ci ? " [95% CI]" : "") << " | relMSE | MAE | p99 | FLIP | HDR-FLIP |" << (bv ? " bias² | variance |" : "") << "\n";
   s << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|" << (bv ? "---:|---:|" : "") << "\n";
   for (const ReportCell& c : cells) {
-    s << "| `" << c.config << "` | " << c.spp << " | " << num(c.meanSpp) << " | " << num(c.seconds) << " | "
+    const std::optional<CellIntervals> iv = c.hasIntervals() ? std::optional(cellIntervals(c)) : std::nullopt;
+    s << "| `" << c.config << "` | " << c.spp << " | " << num(c.meanSpp) << " | "
+      << (iv ? withInterval(c.seconds, iv->seconds) : num(c.seconds)) << " | "
       << (c.denoise ? num(c.denoiseSeconds) : "") << " | " << num(double(c.rays) * 1e-6) << " | "
-      << num(c.error.rmse) << " | " << num(c.error.relMse) << " | " << num(c.error.mae) << " | " << num(c.error.p99) << " | "
-      << num(c.flip) << " | " << num(c.flipHdr) << " |";
+      << (iv ? withInterval(c.error.rmse, iv->rmse) : num(c.error.rmse)) << " | " << num(c.error.relMse) << " | "
+      << num(c.error.mae) << " | " << num(c.error.p99) << " | " << num(c.flip) << " | " << num(c.flipHdr) << " |";
     if (bv) s << " " << (c.bv ? num(c.bv->bias2) : "") << " | " << (c.bv ? num(c.bv->variance) : "") << " |";
     s << "\n";
   }
@@ -234,14 +322,18 @@ std::string summaryMarkdown(const CompareReport& r) {
   if (!r.lighting.empty()) s << "Lighting: " << r.lighting << ".\n\n";
   if (r.referenceNoise >= 0) s << "Reference noise (RMSE of the gi reference itself): " << num(r.referenceNoise) << ".\n\n";
   s << "Time includes the denoiser for `denoise=on` configs; spp is a `target=` config's most per pixel.\n\n";
+  if (ci)
+    s << "Intervals over the seeds: RMSE a 95% Student-t interval of the per-seed MSE (ends square-rooted), time the "
+         "fastest and slowest run (docs/compare.md \"Uncertainty\").\n\n";
   const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* what) {
-    s << "| " << what << " target | fastest config reaching it |\n|---:|---|\n";
+    s << "| " << what << " target | fastest config reaching it | confidence |\n|---:|---|---|\n";
     for (const double t : targets) {
-      const auto best = fastestReaching(cells, t, measure);
+      const TargetVerdict v = targetVerdict(cells, t, measure);
+      const auto best = v.winner;
       s << "| " << num(t) << " | " << (best ? "`" + cells[*best].config + "` @ " + cellSpp(cells[*best]) + ", " +
                                                   num(cells[*best].seconds) + " s"
                                             : std::string("not reached"))
-        << " |\n";
+        << " | " << verdictText(v, cells, "`") << " |\n";
     }
   };
   verdicts(r.targets, TargetMeasure::Rmse, "RMSE");
@@ -282,6 +374,9 @@ void writeCompareReport(const CompareReport& r) {
   for (const auto& g : groups) {
     const size_t i = g.second.back();
     finest.push_back({i, readPass((dir / cells[i].pass).string())});
+    // In the units the errors are measured in (the reference is already):
+    // under an environment map the passes are divided by its mean radiance.
+    scaleRgb(finest.back().second, r.passScale);
     scale = std::max(scale, cells[i].error.p99);
   }
   if (!(scale > 0)) scale = 1e-6;
@@ -395,6 +490,11 @@ void writeCompareReport(const CompareReport& r) {
                   {"variance", "mean per-value variance across seeds (of one render)"},
                   {"time", "render loop wall time plus the denoiser's (denoise=on), median over seeds"},
                   {"meanSpp", "camera samples per pixel on average, mean over seeds (below spp only with a target)"},
+                  {"rmseInterval", "95% Student-t interval of the mean per-seed MSE, ends square-rooted (seeds >= 2)"},
+                  {"secondsInterval", "fastest and slowest run over the seeds; holds the median with probability "
+                                      "secondsIntervalConfidence = 1 - 2^(1 - seeds)"},
+                  {"verdict", "distinguishable | tie: Welch's t-test (95%) of the per-seed times of the runner-up "
+                              "(the fastest other config reaching the target) minus the winner's"},
                   {"flip", "LDR-FLIP (Andersson et al. 2020) of the pass as displayed (R,G,B over black, clamped to [0,1]), "
                            "mean over compared pixels, mean over seeds"},
                   {"flipHdr", "HDR-FLIP (Andersson et al. 2021) of the linear pass, exposures from the reference, mean over "
@@ -411,22 +511,40 @@ void writeCompareReport(const CompareReport& r) {
     if (c.targetError > 0) e["targetError"] = c.targetError;
     if (c.minSpp > 0) e["minSpp"] = c.minSpp;
     if (c.bv) e["bias2"] = c.bv->bias2, e["variance"] = c.bv->variance;
+    if (!c.seedMse.empty()) e["seedMse"] = c.seedMse, e["seedSeconds"] = c.seedSeconds;
+    if (c.hasIntervals()) {
+      const CellIntervals iv = cellIntervals(c);
+      e["rmseInterval"] = {iv.rmse.lo, iv.rmse.hi};
+      e["secondsInterval"] = {iv.seconds.lo, iv.seconds.hi};
+      e["secondsIntervalConfidence"] = iv.secondsConfidence;
+    }
     e["flip"] = c.flip, e["flipHdr"] = c.flipHdr;
     e["flipHeatmap"] = flipMaps[k].first, e["flipHdrHeatmap"] = flipMaps[k].second;
     j["cells"].push_back(e);
   }
   j["paretoFront"] = nlohmann::json::array();
   for (const size_t i : paretoFront(cells)) j["paretoFront"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
-  // The verdicts: per target, the fastest cell reaching it (null: none).
+  // The verdicts: per target, the fastest cell reaching it (null: none),
+  // the runner-up and the confidence (docs/compare.md "Uncertainty").
   const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* key) {
     nlohmann::json list = nlohmann::json::array();
     for (const double t : targets) {
-      const auto best = fastestReaching(cells, t, measure);
+      const TargetVerdict v = targetVerdict(cells, t, measure);
+      const auto best = v.winner;
       nlohmann::json e = {{key, t}};
       if (best)
         e["fastest"] = {{"config", cells[*best].config}, {"spp", cells[*best].spp}, {"meanSpp", cells[*best].meanSpp},
                         {"seconds", cells[*best].seconds}};
       else e["fastest"] = nullptr;
+      e["verdict"] = v.status();
+      if (best) e["verdictText"] = verdictText(v, cells, "");
+      if (v.runnerUp)
+        e["runnerUp"] = {{"config", cells[*v.runnerUp].config}, {"spp", cells[*v.runnerUp].spp},
+                         {"seconds", cells[*v.runnerUp].seconds}};
+      if (v.time)
+        e["timeDifference"] = {{"seconds", v.time->difference}, {"interval", {v.time->interval.lo, v.time->interval.hi}},
+                               {"dof", std::isfinite(v.time->dof) ? nlohmann::json(v.time->dof) : nlohmann::json(nullptr)}};
+      if (v.winnerSurely) e["winnerRmseIntervalBelowTarget"] = *v.winnerSurely;
       list.push_back(e);
     }
     return list;
@@ -440,6 +558,7 @@ void writeCompareReport(const CompareReport& r) {
   j["contactSheet"] = nlohmann::json::array({"reference"});
   for (const auto& [i, img] : finest) j["contactSheet"].push_back({{"config", cells[i].config}, {"spp", cells[i].spp}});
   writeTextAtomically(dir / "results.json", j.dump(2) + "\n");
+  writeReportHtml(r, j.dump(), errorVersusTimeSvg(r));
 }
 
 void printCompareSummary(const CompareReport& r, FILE* out) {
@@ -448,15 +567,24 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   size_t width = 6;
   for (const ReportCell& c : cells) bv = bv || c.bv.has_value(), width = std::max(width, c.config.size());
   if (!r.lighting.empty()) std::fprintf(out, "lighting: %s\n", r.lighting.c_str());
+  bool ci = false;
+  for (const ReportCell& c : cells) ci = ci || c.hasIntervals();
   std::fprintf(out, "%-*s %7s %8s %9s %8s %9s %9s %9s %9s %9s %9s", int(width), "config", "spp", "mean spp", "time s",
                "Mrays", "RMSE", "relMSE", "MAE", "p99", "FLIP", "HDR-FLIP");
   if (bv) std::fprintf(out, " %9s %9s", "bias^2", "variance");
+  if (ci) std::fprintf(out, "  %-21s %-21s", "RMSE 95% CI", "time min-max s");
   std::fprintf(out, "\n");
   for (const ReportCell& c : cells) {
     std::fprintf(out, "%-*s %7d %8.4g %9.3f %8.2f %9.3g %9.3g %9.3g %9.3g %9.3g %9.3g", int(width), c.config.c_str(), c.spp,
                  c.meanSpp, c.seconds, double(c.rays) * 1e-6, c.error.rmse, c.error.relMse, c.error.mae, c.error.p99, c.flip,
                  c.flipHdr);
     if (c.bv) std::fprintf(out, " %9.3g %9.3g", c.bv->bias2, c.bv->variance);
+    else if (bv) std::fprintf(out, " %9s %9s", "", "");
+    if (c.hasIntervals()) {
+      const CellIntervals iv = cellIntervals(c);
+      std::fprintf(out, "  %-21s %-21s", (num(iv.rmse.lo) + " - " + num(iv.rmse.hi)).c_str(),
+                   (num(iv.seconds.lo) + " - " + num(iv.seconds.hi)).c_str());
+    }
     std::fprintf(out, "\n");
   }
   if (r.referenceNoise >= 0)
@@ -464,10 +592,11 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
                  r.referenceNoise);
   const auto verdicts = [&](const std::vector<double>& targets, TargetMeasure measure, const char* what) {
     for (const double t : targets) {
-      const auto best = fastestReaching(cells, t, measure);
+      const TargetVerdict v = targetVerdict(cells, t, measure);
+      const auto best = v.winner;
       if (best)
-        std::fprintf(out, "  %s <= %-8.3g %s @ %s (%.3f s)\n", what, t, cells[*best].config.c_str(),
-                     cellSpp(cells[*best]).c_str(), cells[*best].seconds);
+        std::fprintf(out, "  %s <= %-8.3g %s @ %s (%.3f s)\n             %s\n", what, t, cells[*best].config.c_str(),
+                     cellSpp(cells[*best]).c_str(), cells[*best].seconds, verdictText(v, cells, "").c_str());
       else
         std::fprintf(out, "  %s <= %-8.3g not reached by any config\n", what, t);
     }
@@ -480,7 +609,7 @@ void printCompareSummary(const CompareReport& r, FILE* out) {
   }
   std::fprintf(out, "\nPareto front (faster and more accurate than every other):");
   for (const size_t i : paretoFront(cells)) std::fprintf(out, "  %s@%d", cells[i].config.c_str(), cells[i].spp);
-  std::fprintf(out, "\nreport: %s/{results.csv, results.json, error_vs_time.svg, contact_sheet.svg, heatmaps/}\n",
+  std::fprintf(out, "\nreport: %s/report.html (and results.csv, results.json, error_vs_time.svg, contact_sheet.svg, heatmaps/)\n",
                r.dir.c_str());
   if (!r.kept.empty()) {
     std::string which;

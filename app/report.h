@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "app/confidence.h"
 #include "core/image/flip.h"
 #include "core/image/metrics.h"
 
@@ -40,17 +41,50 @@ struct ReportCell {
   double flip = 0, flipHdr = 0, flipPpd = 0;
   std::optional<BiasVariance> bv;
   std::string pass;  // EXR relative to the report directory
+  // One value per seed (empty for a cell of a results.csv from before they
+  // were kept): the MSE of each render and its time. With two or more they
+  // give the intervals (app/confidence.h, docs/compare.md "Uncertainty").
+  std::vector<double> seedMse, seedSeconds;
+  bool hasIntervals() const { return seedMse.size() >= 2 && seedSeconds.size() >= 2; }
 };
+
+// The interval of a cell's RMSE and time (hasIntervals() must hold).
+struct CellIntervals {
+  Interval rmse, seconds;
+  double secondsConfidence = 0;  // medianRangeConfidence(seeds)
+};
+CellIntervals cellIntervals(const ReportCell& c);
+
+// The error a target is of: RMSE or (LDR-)FLIP.
+enum class TargetMeasure { Rmse, Flip };
+
+// The verdict for one RMSE or FLIP target: the fastest cell reaching it
+// (point estimates), the fastest cell of another config reaching it (the
+// runner-up), and with intervals on both, Welch's test of their times
+// (docs/compare.md "Uncertainty"): distinguishable, or a tie. Only an RMSE
+// target says whether the winner's interval is below it.
+struct TargetVerdict {
+  double target = 0;
+  std::optional<size_t> winner, runnerUp;
+  std::optional<WelchResult> time;      // runner-up minus winner, seconds
+  std::optional<bool> winnerSurely;     // the winner's RMSE interval is below the target
+  // "distinguishable", "tie", "no runner-up", "one seed" or "not reached".
+  std::string status() const;
+};
+TargetVerdict targetVerdict(const std::vector<ReportCell>& cells, double target,
+                            TargetMeasure measure = TargetMeasure::Rmse);
 
 struct CompareReport {
   std::string dir, scene, camera, resolution, referencePath;
   std::string lighting;  // the light and what the errors measure, one line
+  // What a pass is multiplied by before it is compared (1 under a uniform
+  // sky; 1 / the reference's mean radiance under an environment map).
+  double passScale = 1;
   double referenceNoise = -1;  // RMSE of the reference itself; < 0: unknown
   const PassImage* reference = nullptr;
   std::vector<double> targets;  // RMSE targets, largest first
   std::vector<double> flipTargets;  // FLIP targets, largest first (may be empty)
   double flipPpd = kFlipDefaultPpd;
-  double passScale = 1.0;  // what the passes in passes/ are multiplied by before they are measured
   std::vector<ReportCell> cells;
   // Rows results.csv keeps from earlier runs that are no cell of this one
   // (other configs or spps): listed in results.json's "keptRows" and in a
@@ -62,8 +96,6 @@ struct CompareReport {
 // Indices of the cells on the Pareto front of (time, RMSE): no other cell is
 // both faster and at least as accurate. Sorted by time.
 std::vector<size_t> paretoFront(const std::vector<ReportCell>& cells);
-// The error a target is of: RMSE or (LDR-)FLIP.
-enum class TargetMeasure { Rmse, Flip };
 // For a target, the fastest cell whose error is at most it, if any.
 std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, double target,
                                       TargetMeasure measure = TargetMeasure::Rmse);
@@ -72,8 +104,15 @@ std::optional<size_t> fastestReaching(const std::vector<ReportCell>& cells, doub
 // never see half a file. Throws obscura::Error naming the path.
 void writeTextAtomically(const std::filesystem::path& path, const std::string& text);
 
+// Text with < > & " escaped for XML and HTML (text and attribute values).
+std::string xmlEscape(const std::string& s);
+
 // A name safe in a file name: [A-Za-z0-9.=-] kept, the rest '_'.
 std::string safeFileName(const std::string& s);
+
+// The heat maps' colour map: six RGB (0-255) control points evenly spaced
+// over [0, 1], linearly interpolated (heatmaps/*.png and report.html).
+extern const double kHeatStops[6][3];
 
 // Writes every file of the report into report.dir; throws obscura::Error.
 void writeCompareReport(const CompareReport& report);

@@ -582,12 +582,21 @@ py::list readResults(const std::string& dir) {
       const std::string text = py::cast<std::string>(v);
       py::object value = py::str(text);
       const std::string key = py::cast<std::string>(k);
-      if (!text.empty() && key != "key" && key != "config" && key != "integrator" && key != "params" && key != "pass") {
+      if (key == "seed_mse" || key == "seed_time_s") {  // one value per seed, ';'-separated: a list
+        py::list values;
+        for (size_t b = 0; b < text.size();) {
+          const size_t e = std::min(text.find(';', b), text.size());
+          values.append(py::float_(std::strtod(text.substr(b, e - b).c_str(), nullptr)));
+          b = e + 1;
+        }
+        value = values;
+      } else if (!text.empty() && key != "key" && key != "config" && key != "integrator" && key != "params" && key != "pass") {
         char* end = nullptr;
         const double x = std::strtod(text.c_str(), &end);
         if (*end == '\0') value = text.find_first_not_of("-0123456789") == std::string::npos ? py::object(py::int_(std::stoll(text)))
                                                                                                 : py::object(py::float_(x));
-      } else if (text.empty() && (key == "bias2" || key == "variance")) {
+      } else if (text.empty() && (key == "bias2" || key == "variance" || key == "rmse_lo" || key == "rmse_hi" ||
+                                  key == "time_lo" || key == "time_hi")) {  // one seed: no split, no interval
         value = py::none();
       }
       d[k] = value;

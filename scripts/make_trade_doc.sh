@@ -191,15 +191,18 @@ screen_space = lambda c: c["integrator"] in ("vo", "ssat")
 
 # mean spp: what a target= config's pixels took on average (spp is their
 # most); denoise s: the filter's share of the time (time includes it).
+# With --seeds >= 2 compare gives each time and RMSE an interval (docs/compare.md "Uncertainty").
 # FLIP, HDR-FLIP: the perceptual errors (docs/compare.md "FLIP").
-print("| config | spp | mean spp | time s | denoise s | Mrays | RMSE | relMSE | MAE | p99 | FLIP | HDR-FLIP | bias² | variance |")
+def withci(c, key, ci):
+    return num(c[key]) + (" [%s, %s]" % (num(c[ci][0]), num(c[ci][1])) if ci in c else "")
+print("| config | spp | mean spp | time s [min, max] | denoise s | Mrays | RMSE [95% CI] | relMSE | MAE | p99 | FLIP | HDR-FLIP | bias² | variance |")
 print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 for c in cells:
     bv = (num(c["bias2"]), num(c["variance"])) if "bias2" in c else ("", "")
     flip = (num(c["flip"]), num(c["flipHdr"])) if "flip" in c else ("", "")
     print("| `%s` | %d | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
-        c["config"], c["spp"], num(c.get("meanSpp", c["spp"])), num(c["seconds"]),
-        num(c["denoiseSeconds"]) if c.get("denoise") else "", num(c["rays"] * 1e-6), num(c["rmse"]),
+        c["config"], c["spp"], num(c.get("meanSpp", c["spp"])), withci(c, "seconds", "secondsInterval"),
+        num(c["denoiseSeconds"]) if c.get("denoise") else "", num(c["rays"] * 1e-6), withci(c, "rmse", "rmseInterval"),
         num(c["relMse"]), num(c["mae"]), num(c["p99"]), *flip, *bv))
 print()
 noise = traced["reference"].get("noiseRmse")
@@ -207,17 +210,59 @@ if noise is not None:
     print("Reference noise (RMSE of the gi reference itself): %s. Screen-space R = %s." % (num(noise), r))
     print()
 
-print("| RMSE target | fastest cell reaching it |")
-print("|---:|---|")
+# The verdict over both runs, as compare makes it within one (docs/compare.md
+# "Uncertainty"): the runner-up is the fastest other config reaching the
+# target, and Welch's t-test of their per-seed times says whether it is
+# distinguishable from the winner at 95% or ties. The t quantile here is the
+# density integrated numerically (Simpson), not compare's incomplete beta.
+import math
+def t_cdf(x, dof):
+    if x < 0:
+        return 1 - t_cdf(-x, dof)
+    c = math.exp(math.lgamma((dof + 1) / 2) - math.lgamma(dof / 2)) / math.sqrt(dof * math.pi)
+    f = lambda u: c * (1 + u * u / dof) ** (-(dof + 1) / 2)
+    n = 2000
+    h = x / n
+    return 0.5 + h / 3 * sum((1 if i in (0, n) else 4 if i % 2 else 2) * f(i * h) for i in range(n + 1))
+def t_quantile(p, dof):
+    lo, hi = 0.0, 1.0
+    while t_cdf(hi, dof) < p:
+        hi *= 2
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if t_cdf(mid, dof) < p else (lo, mid)
+    return (lo + hi) / 2
+def verdict(w, r):
+    if r is None:
+        return "no runner-up"
+    a, b = w.get("seedSeconds", []), r.get("seedSeconds", [])
+    name = "`%s` @ %d" % (r["config"], r["spp"])
+    if len(a) < 2 or len(b) < 2:
+        return "runner-up %s; one seed" % name
+    mean = lambda x: sum(x) / len(x)
+    var = lambda x: sum((v - mean(x)) ** 2 for v in x) / (len(x) - 1) / len(x)
+    d, se2 = mean(b) - mean(a), var(a) + var(b)
+    if se2 == 0:
+        lo = hi = d
+    else:
+        dof = se2 ** 2 / (var(a) ** 2 / (len(a) - 1) + var(b) ** 2 / (len(b) - 1))
+        half = t_quantile(0.975, dof) * math.sqrt(se2)
+        lo, hi = d - half, d + half
+    word = "distinguishable" if lo > 0 or hi < 0 else "tie"
+    return "%s: runner-up %s, %s s slower (95%% CI %s to %s)" % (word, name, num(d), num(lo), num(hi))
+print("| RMSE target | fastest cell reaching it | confidence (Welch's t-test of the runner-up's time, 95%) |")
+print("|---:|---|---|")
 def fastest(pool, t):
     ok = [c for c in pool if c["rmse"] <= t]
     if not ok:
-        return "not reached"
+        return "not reached", ""
     b = min(ok, key=lambda c: c["seconds"])
+    others = [c for c in ok if c["config"] != b["config"]]
+    r = min(others, key=lambda c: c["seconds"]) if others else None
     mean = " (mean %s)" % num(b["meanSpp"]) if "targetError" in b else ""
-    return "`%s` @ %d spp%s, %s s" % (b["config"], b["spp"], mean, num(b["seconds"]))
+    return "`%s` @ %d spp%s, %s s" % (b["config"], b["spp"], mean, num(b["seconds"])), verdict(b, r)
 for t in (x["rmse"] for x in traced["targets"]):
-    print("| %s | %s |" % (num(t), fastest(cells, t)))
+    print("| %s | %s | %s |" % ((num(t),) + fastest(cells, t)))
 print()
 b = min((c for c in cells if screen_space(c)), key=lambda c: c["rmse"])
 print("Lowest RMSE of a screen-space (`vo`, `ssat`) cell: %s, `%s` @ %d spp, %s s." % (num(b["rmse"]), b["config"],

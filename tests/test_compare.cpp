@@ -431,9 +431,9 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
   EXPECT_NE(std::string(summary.begin(), summary.end()).find("not reached"), std::string::npos);
 
   // A results.csv of the format before these columns (its first 15; the
-  // five settings columns and the three FLIP columns cut) is still read: the
-  // plain cells are kept (their FLIP taken from their one-seed pass), the
-  // others recomputed.
+  // five settings columns, the three FLIP columns and the six per-seed and
+  // interval columns cut) is still read: the plain cells are kept (their
+  // FLIP taken from their one-seed pass), the others recomputed.
   {
     std::ifstream csv(dir + "/out/results.csv");
     std::string header, line, old;
@@ -442,7 +442,9 @@ TEST(CompareEndToEnd, TargetAndDenoiseConfigs) {
     while (std::getline(csv, line))
       if (line.find("target=") == std::string::npos && line.find("denoise=") == std::string::npos) {
         size_t cut = line.size();
-        for (int k = 0; k < 8; ++k) cut = line.rfind(',', cut - 1);
+        // Every column after the first 15 (the quoted fields before them hold no ',' here).
+        const size_t later = size_t(std::count(header.begin(), header.end(), ',')) - 14;
+        for (size_t k = 0; k < later; ++k) cut = line.rfind(',', cut - 1);
         old += line.substr(0, cut) + "\n";
       }
     std::ofstream(dir + "/out/results.csv") << old;
@@ -527,6 +529,94 @@ TEST(CompareEndToEnd, FlipColumnsHeatMapsAndTargets) {
     EXPECT_NE(r.exitCode, 0);
     EXPECT_NE(r.stderrText.find(option), std::string::npos) << r.stderrText;
     EXPECT_EQ(std::count(r.stderrText.begin(), r.stderrText.end(), '\n'), 1) << r.stderrText;
+  }
+}
+
+// results.csv of the earlier formats (docs/compare.md): the current file is
+// resumed whole; main's 23-column file of the FLIP columns (before the
+// per-seed values) keeps a one-seed cell with its FLIP and measures a
+// two-seed cell again, whose intervals then come back, while a run without
+// a config writes that config's old rows back as they were; V2's 20
+// columns keep a one-seed cell, its FLIP taken from its pass.
+TEST(CompareEndToEnd, OlderResultsCsvFormatsResume) {
+  const std::string dir = tempDir("compare_old_csv");
+  // The file cut to its first n columns, header too (quotes respected).
+  const auto cutTo = [](const std::string& path, size_t n) {
+    std::ifstream in(path);
+    std::string text, line;
+    while (std::getline(in, line)) {
+      size_t fields = 1, i = 0;
+      bool quoted = false;
+      for (; i < line.size(); ++i) {
+        if (line[i] == '"') quoted = !quoted;
+        else if (line[i] == ',' && !quoted && ++fields > n) break;
+      }
+      text += line.substr(0, i) + "\n";
+    }
+    in.close();
+    std::ofstream(path) << text;
+  };
+  // Rows by "config@spp".
+  const auto byCell = [](const std::vector<std::map<std::string, std::string>>& rows) {
+    std::map<std::string, std::map<std::string, std::string>> m;
+    for (const auto& row : rows) m[row.at("config") + "@" + row.at("spp")] = row;
+    return m;
+  };
+  for (const int seeds : {1, 2}) {
+    const std::string out = dir + "/seeds" + std::to_string(seeds), csv = out + "/results.csv";
+    const std::vector<std::string> args = {"compare", "-o", out, "--res", "32x18", "--reference-spp", "16", "--spp",
+                                           "2,8", "--seeds", std::to_string(seeds), "-q", "-c", "ao",
+                                           "-c", "ao:distance=0.5"};
+    const std::vector<std::string> aoOnly(args.begin(), args.end() - 2);
+    const CliResult r1 = runCli(args, dir + "/err1.txt");
+    ASSERT_EQ(r1.exitCode, 0) << r1.stderrText;
+    const auto before = byCell(readCsvRows(csv));
+    ASSERT_EQ(before.size(), 4u);
+    for (const auto& [cell, row] : before) {
+      EXPECT_EQ(row.size(), 29u);
+      EXPECT_EQ(size_t(std::count(row.at("seed_mse").begin(), row.at("seed_mse").end(), ';')), size_t(seeds - 1));
+    }
+
+    const CliResult r2 = runVerbose(args, dir + "/err2.txt");
+    ASSERT_EQ(r2.exitCode, 0) << r2.stderrText;
+    EXPECT_EQ(keptCells(r2.stderrText), 4u) << r2.stderrText;
+    EXPECT_EQ(byCell(readCsvRows(csv)), before);
+
+    cutTo(csv, 23);
+    const CliResult r3 = runVerbose(aoOnly, dir + "/err3.txt");
+    ASSERT_EQ(r3.exitCode, 0) << r3.stderrText;
+    const auto after = byCell(readCsvRows(csv));
+    ASSERT_EQ(after.size(), 4u);
+    for (const auto& [cell, row] : after) {
+      EXPECT_EQ(row.size(), 29u);
+      const auto& old = before.at(cell);
+      if (seeds == 1 || cell.rfind("ao@", 0) != 0) {  // kept, or written back, as the file had it
+        EXPECT_EQ(row.at("flip"), old.at("flip")) << cell;
+        EXPECT_EQ(row.at("rmse"), old.at("rmse")) << cell;
+        EXPECT_EQ(row.at("seed_mse"), "") << cell;
+        EXPECT_EQ(row.at("rmse_lo"), "") << cell;
+      } else {  // measured again: one value per seed and the intervals
+        EXPECT_EQ(std::count(row.at("seed_mse").begin(), row.at("seed_mse").end(), ';'), 1) << cell;
+        EXPECT_EQ(std::count(row.at("seed_time_s").begin(), row.at("seed_time_s").end(), ';'), 1) << cell;
+        ASSERT_FALSE(row.at("rmse_lo").empty()) << cell;
+        EXPECT_LE(std::stod(row.at("rmse_lo")), std::stod(row.at("rmse"))) << cell;
+        EXPECT_GE(std::stod(row.at("rmse_hi")), std::stod(row.at("rmse"))) << cell;
+      }
+    }
+    EXPECT_EQ(keptCells(r3.stderrText), seeds == 1 ? 2u : 0u) << r3.stderrText;
+
+    if (seeds != 1) continue;
+    cutTo(csv, 20);
+    const CliResult r4 = runVerbose(args, dir + "/err4.txt");
+    ASSERT_EQ(r4.exitCode, 0) << r4.stderrText;
+    EXPECT_EQ(keptCells(r4.stderrText), 4u) << r4.stderrText;
+    const auto v2 = byCell(readCsvRows(csv));
+    ASSERT_EQ(v2.size(), 4u);
+    for (const auto& [cell, row] : v2) {
+      const double flip = std::stod(before.at(cell).at("flip"));
+      EXPECT_NEAR(std::stod(row.at("flip")), flip, 1e-7 * flip) << cell;
+      EXPECT_NEAR(std::stod(row.at("flip_ppd")), kFlipDefaultPpd, 1e-6) << cell;
+    }
   }
 }
 

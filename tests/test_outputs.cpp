@@ -470,18 +470,21 @@ TEST(Outputs, OutputEqualToAFileTheSceneNamesIsRefused) {
   const std::vector<float> rgb(8 * 4 * 3, 0.5f);
   writeRgbExr(dir + "/h.exr", 8, 4, rgb, {});
   std::filesystem::create_directories(dir + "/report");
+  std::filesystem::create_directories(dir + "/page/report_data");
   const std::vector<unsigned char> png = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};  // never decoded here
   writeBytes(dir + "/tex.png", png.data(), png.size());
   writeBytes(dir + "/report/contact_sheet.png", png.data(), png.size());
+  writeBytes(dir + "/page/report_data/t.png", png.data(), png.size());
   GltfBuilder g;
   const int mesh = g.quadMesh(1.0f, -1, true);
   g.doc["meshes"][size_t(mesh)]["extras"] = {{"obscura", {{"subdivision", {{"level", 1}}}, {"displacement", {{"map", "h.exr"}}}}}};
-  g.doc["images"] = json::array({{{"uri", "tex.png"}}, {{"uri", "report/contact_sheet.png"}}});
+  g.doc["images"] = json::array({{{"uri", "tex.png"}}, {{"uri", "report/contact_sheet.png"}}, {{"uri", "page/report_data/t.png"}}});
   g.scene({g.node({{"mesh", mesh}})});
   const std::string gltf = g.writeGltf(dir, "s"), glb = g.writeGlb(dir, "b");
   const std::string bin = dir + "/s.bin", tex = dir + "/tex.png", h = dir + "/h.exr", sheet = dir + "/report/contact_sheet.png";
+  const std::string pageData = dir + "/page/report_data/t.png";
   std::map<std::string, std::string> before;
-  for (const std::string& f : {gltf, glb, bin, tex, h, sheet}) before[f] = fileBytes(f);
+  for (const std::string& f : {gltf, glb, bin, tex, h, sheet, pageData}) before[f] = fileBytes(f);
   struct Case {
     std::vector<std::string> args;
     std::string says;
@@ -493,6 +496,8 @@ TEST(Outputs, OutputEqualToAFileTheSceneNamesIsRefused) {
       {{"render", glb, "-o", tex}, "-o " + tex + ": is the same file as " + glb + " images[0] " + tex},
       {{"compare", gltf, "-o", dir + "/report", "-c", "ao"},
        "-o " + dir + "/report: compare writes " + dir + "/report/contact_sheet.png, which is " + gltf + " images[1] " + sheet},
+      {{"compare", gltf, "-o", dir + "/page", "-c", "ao"},
+       "-o " + dir + "/page: compare writes " + dir + "/page/report_data/t.png, which is " + gltf + " images[2] " + pageData},
   };
   int k = 0;
   for (const Case& c : cases) {
