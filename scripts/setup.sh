@@ -25,9 +25,11 @@ install_missing build-essential cmake ninja-build pkg-config libembree-dev libop
   openimageio-tools libopenexr-dev libosd-dev libtbb-dev libtinygltf-dev nlohmann-json3-dev \
   libstb-dev libgtest-dev libcli11-dev libtinyobjloader-dev pybind11-dev python3-dev python3-numpy \
   python3-matplotlib python3-pytest ccache
-# The compare report page's test loads it in a real browser, headless
-# (tests/test_report_page.cpp): Debian's chromium, for `test` only.
-if [[ "$mode" == test ]]; then install_missing chromium; fi
+# The outside clients the tests drive, for `test` only: the compare report
+# page loaded in a real browser, headless (tests/test_report_page.cpp,
+# Debian's chromium), and the EXR's passes read by Blender's compositor
+# (tests/test_blender.cpp, Debian's blender 3.4). CI requires both.
+if [[ "$mode" == test ]]; then install_missing chromium blender; fi
 
 # --- 2. Build ------------------------------------------------------------------
 # The Python module (docs/python.md "Python") is built for Debian's interpreter,

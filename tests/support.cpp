@@ -42,6 +42,11 @@ bool sharedScenesRequired() {
   return env && *env && std::string(env) != "0";
 }
 
+bool clientsRequired() {
+  const char* ci = std::getenv("CI");
+  return sharedScenesRequired() || (ci && std::string(ci) == "true");
+}
+
 std::string missingSharedScene(const std::string& path) {
   if (std::filesystem::exists(path)) return "";
   return "skipped: needs the third-party scene " + path +

@@ -48,6 +48,10 @@ std::string sharedScenesDir();
 std::string sharedScene(const std::string& rel);
 // True when OBSCURA_REQUIRE_SCENES is set to a non-empty value other than 0.
 bool sharedScenesRequired();
+// Whether a test that needs an outside client (headless Chromium, Blender)
+// must fail rather than skip where it is absent: in CI (.ci/run sets
+// OBSCURA_REQUIRE_SCENES; CI=true as well), whose setup.sh installs them.
+bool clientsRequired();
 // "" if `path` exists, else the one-line reason the test cannot run.
 std::string missingSharedScene(const std::string& path);
 

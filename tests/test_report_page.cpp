@@ -31,11 +31,6 @@ std::string chromiumBinary() {
   return "";
 }
 
-bool browserRequired() {
-  const char* ci = std::getenv("CI");
-  return sharedScenesRequired() || (ci && std::string(ci) == "true");
-}
-
 std::string readAll(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream s;
@@ -89,7 +84,7 @@ TEST(CompareReportPage, EveryCellIsOnThePageInHeadlessChromium) {
     const std::string why =
         "skipped: needs Debian's chromium at /usr/bin/chromium or $OBSCURA_CHROMIUM (apt-get install chromium; "
         "scripts/setup.sh test installs it)";
-    if (browserRequired()) FAIL() << why;
+    if (clientsRequired()) FAIL() << why;
     GTEST_SKIP() << why;
   }
   const std::string dir = tempDir("compare_report_page");
