@@ -25,6 +25,7 @@
 #include "core/util/option_names.h"
 #include "tests/gltf_builder.h"
 #include "tests/limited_cli.h"
+#include "tests/png_crc.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -36,15 +37,6 @@ constexpr uint64_t kGiB = uint64_t(1) << 30;
 // allocations refused below (2 GiB and more each).
 constexpr uint64_t kAddressSpace = kGiB + kGiB / 2;
 
-uint32_t crc32(const unsigned char* p, size_t n) {
-  uint32_t c = 0xffffffffu;
-  for (size_t i = 0; i < n; ++i) {
-    c ^= p[i];
-    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
-  }
-  return ~c;
-}
-
 void chunk(std::vector<unsigned char>& png, const char* type, const std::vector<unsigned char>& data) {
   const auto be32 = [&](uint32_t v) {
     for (int s = 24; s >= 0; s -= 8) png.push_back((unsigned char)(v >> s));
@@ -53,7 +45,7 @@ void chunk(std::vector<unsigned char>& png, const char* type, const std::vector<
   const size_t at = png.size();
   png.insert(png.end(), type, type + 4);
   png.insert(png.end(), data.begin(), data.end());
-  be32(crc32(png.data() + at, png.size() - at));
+  be32(bitwiseCrc32(png.data() + at, png.size() - at));
 }
 
 // A 65-byte PNG: an IHDR claiming w x h 8-bit grey pixels, an IDAT of an

@@ -22,6 +22,7 @@
 #include "core/util/large_vector.h"
 #include "tests/gltf_builder.h"
 #include "tests/scoped_env.h"
+#include "tests/png_crc.h"
 #include "tests/support.h"
 
 namespace obscura::test {
@@ -570,17 +571,6 @@ TEST(Outputs, CliRefusesBadOutputsBeforeRendering) {
 
 
 namespace {
-
-// CRC-32 of the PNG specification computed a bit at a time (the code under
-// test uses a byte table), so the two agree only if both follow the spec.
-uint32_t bitwiseCrc32(const unsigned char* p, size_t n) {
-  uint32_t c = 0xFFFFFFFFu;
-  for (size_t i = 0; i < n; ++i) {
-    c ^= p[i];
-    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
-  }
-  return ~c;
-}
 
 uint32_t bigEndian32(const std::string& b, size_t at) {
   return uint32_t((unsigned char)b[at]) << 24 | uint32_t((unsigned char)b[at + 1]) << 16 |
